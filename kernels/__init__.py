@@ -1,0 +1,1 @@
+"""OpenCL sources of rpm-cl, shipped as package data."""

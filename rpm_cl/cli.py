@@ -1,0 +1,250 @@
+"""Command line: ``rpm-cl {info,simulate,image,reproduce,demo,bench}``.
+
+Every error the user can cause (bad input file, bad option, no OpenCL) is
+reported as one line ``rpm-cl: error: ...`` on stderr with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import asdict
+
+import numpy as np
+
+from . import __version__
+from .cl import NoOpenCLError
+
+__all__ = ["main"]
+
+
+class CLIError(Exception):
+    """A user error: printed as one line, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2 (argparse prints usage too)
+        raise CLIError(f"{self.prog}: {message}")
+
+
+def _engine(args):
+    from .cl import create_env
+    from .rpm import DeviceRPM
+
+    env = create_env(args.device)
+    try:
+        return DeviceRPM(env, args.precision), env
+    except ValueError as exc:
+        raise CLIError(str(exc)) from None
+
+
+def _snr(text):
+    if text.lower() in ("inf", "none"):
+        return None
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"S/N must be a number of dB or 'inf', got {text!r}")
+    if not np.isfinite(v):
+        return None
+    return v
+
+
+# --------------------------------------------------------------------------
+def cmd_info(args) -> int:
+    from .cl import choose_device, list_devices
+
+    devices = list_devices()
+    chosen = choose_device(args.device)
+    print(f"rpm-cl {__version__}")
+    for d in devices:
+        mark = "*" if d.spec == chosen.spec else " "
+        print(f"{mark} [{d.spec}] {d.kind:4s} {d.name} | {d.platform} | "
+              f"{d.compute_units} compute units | float64: {'yes' if d.double else 'no'}")
+    print(f"chosen: [{chosen.spec}] {chosen.name} (--device or PYOPENCL_CTX picks another)")
+    return 0
+
+
+def cmd_simulate(args) -> int:
+    from .data import save_npz
+    from .simulate import simulate_preset
+
+    data, _ = simulate_preset(args.scene, args.snr, args.seed)
+    save_npz(args.output, data)
+    print(f"wrote {args.output}: {args.scene}, signal {data.signal.shape}, "
+          f"S/N {'inf' if args.snr is None else f'{args.snr:g} dB'}")
+    return 0
+
+
+def _params(args, data):
+    from .imaging import default_params
+
+    return default_params(data, sigma_x=args.sigma_x, sigma_r=args.sigma_r,
+                          window_x=args.window_x, window_z=args.window_z)
+
+
+def cmd_image(args) -> int:
+    from .data import load_npz
+    from .imaging import run_method, save_result
+    from .metrics import summary
+
+    data = load_npz(args.input)
+    params = _params(args, data)
+    engine, env = _engine(args)
+    result = run_method(args.method, data, params, engine)
+    meta = {"version": __version__, "device": env.name, "precision": args.precision,
+            "input": args.input, "params": asdict(params)}
+    save_result(args.output, result, meta)
+    print(f"{args.method}: {len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} "
+          f"clusters -> {len(result.image.points)} points, "
+          f"{1e3 * result.timings['total']:.1f} ms; wrote {args.output}")
+    if data.truth is not None:
+        s = summary(result.rps, result.image, data.truth)
+        print(_accuracy_line(s))
+    return 0
+
+
+def _accuracy_line(s: dict) -> str:
+    def pct(n, d):
+        return f"{100.0 * n / d:.0f}% ({n}/{d})" if d else "-"
+
+    return (f"Err_range<=10mm {pct(s['rp_within_10mm'], s['rp_total'])}, "
+            f"Err_RPM<=50mm {pct(s['rpm_within_50mm'], s['rpm_total'])}, "
+            f"<=100mm {pct(s['rpm_within_100mm'], s['rpm_total'])}")
+
+
+def cmd_reproduce(args) -> int:
+    from .reproduce import format_table, reproduce, write_json
+
+    engine, env = _engine(args)
+    progress = (lambda m: print(f"  running {m}", file=sys.stderr)) if args.verbose else None
+    rows = reproduce(args.name, engine, trials=args.trials, seed=args.seed, progress=progress)
+    print(f"{args.name} on {env.name} ({args.precision}); noisy rows pooled over "
+          f"{args.trials} noise realisations")
+    print(format_table(rows))
+    if args.json:
+        write_json(args.json, rows, {"version": __version__, "device": env.name,
+                                     "precision": args.precision, "trials": args.trials,
+                                     "seed": args.seed})
+        print(f"wrote {args.json}")
+    return 0
+
+
+def cmd_demo(args) -> int:
+    from .imaging import default_params, run_method
+    from .metrics import summary
+    from .simulate import simulate_preset
+
+    engine, env = _engine(args)
+    print(f"rpm-cl {__version__} demo on {env.name}")
+    for snr in (None, 20.0):
+        data, preset = simulate_preset("paper-2d", snr, seed=args.seed)
+        params = default_params(data, **preset.defaults)
+        run_method("kspace-rpm", data, params, engine)  # warm-up (first-call costs)
+        res = run_method("kspace-rpm", data, params, engine)
+        mf = run_method("mf-rpm", data, params, engine)
+        label = "inf" if snr is None else f"{snr:g} dB"
+        print(f"\npaper-2d (3 point targets within 80 mm of range, 0.2 GHz, 21 antennas), "
+              f"S/N {label}")
+        for r in (res, mf):
+            t = ", ".join(f"{k} {1e3 * v:.2f} ms" for k, v in r.timings.items())
+            print(f"  {r.method:10s}: {len(r.rps):3d} RPs, "
+                  f"{len(set(r.rps.cluster.tolist()))} clusters, {len(r.image.points):3d} points | {t}")
+            print(f"  {'':10s}  {_accuracy_line(summary(r.rps, r.image, data.truth))}")
+        pts = res.image.points
+        for c in np.unique(res.image.cluster):
+            p = pts[res.image.cluster == c]
+            print(f"  cluster {c}: median point x={1e3 * np.median(p[:, 0]):7.1f} mm, "
+                  f"y={1e3 * np.median(p[:, 1]):6.1f} mm ({len(p)} points)")
+    truth = json.loads(data.truth.scene)["targets"]
+    print("  true targets (mm): " + ", ".join(
+        f"({1e3 * t['position'][0]:.1f}, {1e3 * t['position'][1]:.1f})" for t in truth))
+    return 0
+
+
+def cmd_bench(args) -> int:
+    from .bench import run_bench
+
+    engine, env = _engine(args)
+    print(run_bench(engine, env, repeats=args.repeats))
+    return 0
+
+
+# --------------------------------------------------------------------------
+def build_parser() -> argparse.ArgumentParser:
+    from .imaging import METHODS
+    from .reproduce import CASES
+    from .scene import PRESETS
+
+    p = _Parser(prog="rpm-cl", description="OpenCL k-space range points migration imaging")
+    p.add_argument("--version", action="version", version=f"rpm-cl {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    def device_opts(sp):
+        sp.add_argument("--device", help="OpenCL device: 'P:D' indices or a name substring "
+                        "(default: PYOPENCL_CTX, else the first CPU device)")
+        sp.add_argument("--precision", choices=("float32", "float64"), default="float32",
+                        help="kernel arithmetic (default float32)")
+
+    sp = sub.add_parser("info", help="list OpenCL platforms/devices and the one chosen")
+    sp.add_argument("--device")
+    sp.set_defaults(func=cmd_info)
+
+    sp = sub.add_parser("simulate", help="simulate a preset scene to an .npz")
+    sp.add_argument("scene", choices=sorted(PRESETS))
+    sp.add_argument("-o", "--output", required=True)
+    sp.add_argument("--snr", type=_snr, default=None, help="S/N in dB (default: noise-free)")
+    sp.add_argument("--seed", type=int, default=0)
+    sp.set_defaults(func=cmd_simulate)
+
+    sp = sub.add_parser("image", help="image an .npz (input contract in the README)")
+    sp.add_argument("input")
+    sp.add_argument("-o", "--output", required=True)
+    sp.add_argument("--method", choices=sorted(METHODS), default="kspace-rpm")
+    sp.add_argument("--sigma-x", type=float, help="sigma_x of eq. 6, m (default: aperture)")
+    sp.add_argument("--sigma-r", type=float, help="sigma_r of eq. 6, m (default 0.05)")
+    sp.add_argument("--window-x", type=float, help="k_x window period, rad/m (default 417)")
+    sp.add_argument("--window-z", type=float, help="k_z window period, rad/m")
+    device_opts(sp)
+    sp.set_defaults(func=cmd_image)
+
+    sp = sub.add_parser("reproduce", help="reproduce the paper's tables")
+    sp.add_argument("name", choices=sorted(CASES))
+    sp.add_argument("--json", help="write the rows as JSON here")
+    sp.add_argument("--trials", type=int, default=10, help="noise realisations per noisy row")
+    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("-v", "--verbose", action="store_true")
+    device_opts(sp)
+    sp.set_defaults(func=cmd_reproduce)
+
+    sp = sub.add_parser("demo", help="simulate, image and score a scene end to end")
+    sp.add_argument("--seed", type=int, default=0)
+    device_opts(sp)
+    sp.set_defaults(func=cmd_demo)
+
+    sp = sub.add_parser("bench", help="time each method and stage on the paper's scenes")
+    sp.add_argument("--repeats", type=int, default=20)
+    device_opts(sp)
+    sp.set_defaults(func=cmd_bench)
+    return p
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``rpm-cl`` command; returns the exit code."""
+    from .data import InputError
+
+    try:
+        args = build_parser().parse_args(argv)
+        return args.func(args)
+    except (CLIError, InputError, NoOpenCLError) as exc:
+        print(f"rpm-cl: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("rpm-cl: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,362 @@
+"""Radar data model: waveform, array, range profiles, truth; ``.npz`` I/O.
+
+Everything is SI: metres, hertz, seconds.  Antennas are monostatic and lie at
+``(x, 0)`` for a linear array (2-D problem) or ``(x, 0, z)`` for a planar one
+(3-D problem); targets are at ``y > 0``.
+
+Input contract (``.npz``)
+-------------------------
+``signal``
+    complex, ``(nx, nr)`` linear or ``(nx, nz, nr)`` planar: range-compressed
+    baseband profiles whose phase at a target of range ``R_t`` is
+    ``exp(-1j * 2 * k_c * R_t)``, ``k_c = 2 pi fc / c``.
+``x`` ``(nx,)`` and, planar only, ``z`` ``(nz,)``
+    uniform, strictly increasing antenna coordinates, m.
+``range`` ``(nr,)``
+    uniform, strictly increasing range axis, m.
+``fc``, ``bandwidth``
+    scalars, Hz.
+``truth_*`` (optional)
+    the true geometry, see :class:`Truth`.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = [
+    "C0",
+    "InputError",
+    "Waveform",
+    "Array",
+    "Truth",
+    "RadarData",
+    "load_npz",
+    "save_npz",
+    "atomic_savez",
+    "atomic_write_text",
+]
+
+#: Speed of light in vacuum, m/s (the propagation speed in air used throughout).
+C0 = 299_792_458.0
+
+
+class InputError(ValueError):
+    """Malformed input; the message names the field and the problem."""
+
+
+def _finite_scalar(name: str, value, positive: bool = True) -> float:
+    try:
+        v = float(np.asarray(value).reshape(()))
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a real scalar, got {value!r}") from None
+    if not np.isfinite(v):
+        raise InputError(f"{name} must be finite, got {v}")
+    if positive and v <= 0:
+        raise InputError(f"{name} must be > 0, got {v}")
+    return v
+
+
+def _uniform_axis(name: str, values, min_len: int = 1) -> np.ndarray:
+    a = np.asarray(values)
+    if a.ndim != 1:
+        raise InputError(f"{name} must be 1-D, got shape {a.shape}")
+    if a.size < min_len:
+        raise InputError(f"{name} must have at least {min_len} values, got {a.size}")
+    if not np.issubdtype(a.dtype, np.number) or np.iscomplexobj(a):
+        raise InputError(f"{name} must be real numbers, got dtype {a.dtype}")
+    a = a.astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name} contains NaN or Inf")
+    if a.size >= 2:
+        step = np.diff(a)
+        if np.any(step <= 0):
+            raise InputError(f"{name} must be strictly increasing")
+        if np.max(np.abs(step - step.mean())) > 1e-6 * abs(step.mean()) + 1e-12:
+            raise InputError(f"{name} must be uniformly spaced (steps vary from "
+                             f"{step.min():.6g} to {step.max():.6g} m)")
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Waveform:
+    """Pulse-modulated transmit signal.
+
+    Attributes
+    ----------
+    fc : float
+        Centre frequency, Hz.
+    bandwidth : float
+        Bandwidth B, Hz; the nominal range resolution is ``c / (2 B)``.
+    """
+
+    fc: float
+    bandwidth: float
+
+    def __post_init__(self):
+        fc = _finite_scalar("fc", self.fc)
+        bw = _finite_scalar("bandwidth", self.bandwidth)
+        if bw >= 2 * fc:
+            raise InputError(f"bandwidth ({bw:g} Hz) must be below 2*fc ({2 * fc:g} Hz)")
+        object.__setattr__(self, "fc", fc)
+        object.__setattr__(self, "bandwidth", bw)
+
+    @property
+    def wavelength(self) -> float:
+        """Centre wavelength, m."""
+        return C0 / self.fc
+
+    @property
+    def kc(self) -> float:
+        """Centre wavenumber ``2 pi fc / c``, rad/m."""
+        return 2 * np.pi * self.fc / C0
+
+    @property
+    def range_resolution(self) -> float:
+        """Nominal range resolution ``c / (2 B)``, m."""
+        return C0 / (2 * self.bandwidth)
+
+
+@dataclass(frozen=True)
+class Array:
+    """Monostatic antenna array on the y = 0 line or plane.
+
+    Attributes
+    ----------
+    x : ndarray, shape (nx,)
+        Uniform, strictly increasing x coordinates, m.
+    z : ndarray, shape (nz,), or None
+        Uniform, strictly increasing z coordinates for a planar array, m.
+    """
+
+    x: np.ndarray
+    z: np.ndarray | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "x", _uniform_axis("x", self.x, 2))
+        if self.z is not None:
+            object.__setattr__(self, "z", _uniform_axis("z", self.z, 2))
+
+    @property
+    def planar(self) -> bool:
+        return self.z is not None
+
+    @property
+    def dim(self) -> int:
+        """Dimension of the imaging problem: 2 (linear) or 3 (planar)."""
+        return 3 if self.planar else 2
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return (self.x.size,) if self.z is None else (self.x.size, self.z.size)
+
+    @property
+    def n(self) -> int:
+        """Number of antennas."""
+        return int(np.prod(self.shape))
+
+    @property
+    def dx(self) -> float:
+        return float(self.x[1] - self.x[0])
+
+    @property
+    def dz(self) -> float | None:
+        return None if self.z is None else float(self.z[1] - self.z[0])
+
+    def positions(self) -> np.ndarray:
+        """Antenna positions, shape (n, dim), m, in ``signal``'s C order.
+
+        2-D: ``(x, y=0)``; 3-D: ``(x, y=0, z)``.
+        """
+        if self.z is None:
+            return np.stack([self.x, np.zeros_like(self.x)], axis=1)
+        xx, zz = np.meshgrid(self.x, self.z, indexing="ij")
+        return np.stack([xx.ravel(), np.zeros(xx.size), zz.ravel()], axis=1)
+
+
+@dataclass(frozen=True)
+class Truth:
+    """True geometry of a simulated scene (for the metrics).
+
+    Attributes
+    ----------
+    rp_antenna : ndarray of int, shape (K,)
+        Flat antenna index (C order of the array) of each true RP.
+    rp_range : ndarray, shape (K,)
+        True range of each specular echo, m.
+    boundary : ndarray, shape (P, dim)
+        Dense samples of the true target boundary (the points themselves for
+        point targets), m.
+    scene : str
+        JSON description of the scene.
+    """
+
+    rp_antenna: np.ndarray
+    rp_range: np.ndarray
+    boundary: np.ndarray
+    scene: str = "{}"
+
+    def __post_init__(self):
+        object.__setattr__(self, "rp_antenna", np.asarray(self.rp_antenna, np.int64).ravel())
+        object.__setattr__(self, "rp_range", np.asarray(self.rp_range, np.float64).ravel())
+        b = np.asarray(self.boundary, np.float64)
+        if b.ndim != 2 or b.shape[1] not in (2, 3):
+            raise InputError(f"truth_boundary must have shape (P, 2|3), got {b.shape}")
+        object.__setattr__(self, "boundary", b)
+        if self.rp_antenna.shape != self.rp_range.shape:
+            raise InputError("truth_rp_antenna and truth_rp_range differ in length")
+
+
+@dataclass(frozen=True)
+class RadarData:
+    """Range-compressed radar data, validated at construction.
+
+    Attributes
+    ----------
+    signal : ndarray, complex, shape (nx, nr) or (nx, nz, nr)
+        Baseband range profiles s(X[, Z], R); phase ``exp(-2j k_c R_t)`` at a
+        target of range ``R_t``.
+    array : Array
+    range : ndarray, shape (nr,)
+        Uniform range axis, m.
+    waveform : Waveform
+    truth : Truth, optional
+    """
+
+    signal: np.ndarray
+    array: Array
+    range: np.ndarray
+    waveform: Waveform
+    truth: Truth | None = field(default=None)
+
+    def __post_init__(self):
+        s = np.asarray(self.signal)
+        if not np.issubdtype(s.dtype, np.number):
+            raise InputError(f"signal must be numeric (complex), got dtype {s.dtype}")
+        rng = _uniform_axis("range", self.range, 2)
+        want = self.array.shape + (rng.size,)
+        if s.shape != want:
+            raise InputError(f"signal must have shape {want} (array {self.array.shape} x "
+                             f"range {rng.size}), got {s.shape}")
+        if not np.all(np.isfinite(s)):
+            raise InputError("signal contains NaN or Inf")
+        if rng[0] < 0:
+            raise InputError(f"range must be >= 0, starts at {rng[0]:g} m")
+        s = s.astype(np.complex128 if s.dtype != np.complex64 else np.complex64, copy=False)
+        object.__setattr__(self, "signal", s)
+        object.__setattr__(self, "range", rng)
+
+    @property
+    def dr(self) -> float:
+        """Range sample spacing, m."""
+        return float(self.range[1] - self.range[0])
+
+
+def _read(npz, key, name):
+    if key not in npz.files:
+        raise InputError(f"{name}: missing key {key!r}")
+    return npz[key]
+
+
+def load_npz(path) -> RadarData:
+    """Read and validate an ``.npz`` following the input contract.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, missing key, bad shape, dtype or values.
+    """
+    path = os.fspath(path)
+    try:
+        npz = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except Exception as exc:  # zipfile.BadZipFile, ValueError, OSError, EOFError ...
+        raise InputError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
+    with npz:
+        try:
+            z = npz["z"] if "z" in npz.files else None
+            array = Array(_read(npz, "x", path), z)
+            waveform = Waveform(_read(npz, "fc", path), _read(npz, "bandwidth", path))
+            truth = None
+            if "truth_boundary" in npz.files:
+                scene = str(npz["truth_scene"]) if "truth_scene" in npz.files else "{}"
+                truth = Truth(_read(npz, "truth_rp_antenna", path),
+                              _read(npz, "truth_rp_range", path), npz["truth_boundary"], scene)
+            return RadarData(_read(npz, "signal", path), array, _read(npz, "range", path),
+                             waveform, truth)
+        except InputError as exc:
+            msg = str(exc)
+            raise InputError(msg if msg.startswith(path) else f"{path}: {msg}") from None
+        except Exception as exc:  # truncated member inside a valid zip, bad pickle ...
+            raise InputError(f"{path}: cannot read ({type(exc).__name__}: {exc})") from None
+
+
+def _atomic_write(path, write) -> None:
+    """Call ``write(fh)`` on a temporary file beside ``path``, then rename it.
+
+    An interrupted run never leaves a half-written ``path`` behind.
+
+    Raises
+    ------
+    InputError
+        The folder does not exist or cannot be written.
+    """
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise InputError(f"{path}: output folder {folder} does not exist")
+    if os.path.isdir(path):
+        raise InputError(f"{path}: is a folder, not a file")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write ({exc.strerror})") from None
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write(fh)
+        os.replace(tmp, path)
+    except BaseException as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if isinstance(exc, OSError):
+            raise InputError(f"{path}: cannot write ({exc})") from None
+        raise
+
+
+def atomic_savez(path, **arrays) -> None:
+    """Write an ``.npz`` atomically (see :func:`_atomic_write`)."""
+    _atomic_write(path, lambda fh: np.savez(fh, **arrays))
+
+
+def atomic_write_text(path, text: str) -> None:
+    """Write a UTF-8 text file atomically (see :func:`_atomic_write`)."""
+    _atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
+
+
+def save_npz(path, data: RadarData) -> None:
+    """Write ``data`` (and its truth, if any) following the input contract."""
+    out = {
+        "signal": data.signal,
+        "x": data.array.x,
+        "range": data.range,
+        "fc": np.float64(data.waveform.fc),
+        "bandwidth": np.float64(data.waveform.bandwidth),
+    }
+    if data.array.z is not None:
+        out["z"] = data.array.z
+    if data.truth is not None:
+        out.update(
+            truth_rp_antenna=data.truth.rp_antenna,
+            truth_rp_range=data.truth.rp_range,
+            truth_boundary=data.truth.boundary,
+            truth_scene=np.array(data.truth.scene),
+        )
+    atomic_savez(path, **out)

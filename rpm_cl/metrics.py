@@ -1,0 +1,86 @@
+"""Accuracy as the paper reports it (Tables I-V).
+
+- Err_range: per RP, the distance between its range and the nearest true
+  range at the same antenna (the paper's "minimum distance between the true and
+  estimated ranges for each RP").
+- Err_RPM: per image point, the distance to the nearest sample of the densely
+  sampled true boundary.
+- Cumulative fractions: the share of RPs / points with error <= a threshold.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .data import Truth
+
+__all__ = ["err_range", "err_rpm", "cumulative", "summary"]
+
+
+def err_range(antenna, rng, truth: Truth) -> np.ndarray:
+    """Err_range of each RP, m (inf where its antenna has no true echo).
+
+    Parameters
+    ----------
+    antenna : ndarray of int, shape (K,)
+        Flat antenna index of each RP.
+    rng : ndarray, shape (K,)
+        RP ranges, m.
+    truth : Truth
+    """
+    antenna = np.asarray(antenna)
+    rng = np.asarray(rng, np.float64)
+    out = np.full(rng.shape, np.inf)
+    if rng.size == 0 or truth.rp_range.size == 0:
+        return out
+    order = np.argsort(truth.rp_antenna, kind="stable")
+    t_ant, t_rng = truth.rp_antenna[order], truth.rp_range[order]
+    lo = np.searchsorted(t_ant, antenna, "left")
+    hi = np.searchsorted(t_ant, antenna, "right")
+    longest = int(np.max(hi - lo))
+    for off in range(longest):  # a few true echoes per antenna at most
+        k = lo + off
+        ok = k < hi
+        d = np.abs(rng - t_rng[np.minimum(k, t_rng.size - 1)])
+        out = np.where(ok, np.minimum(out, d), out)
+    return out
+
+
+def err_rpm(points, truth: Truth) -> np.ndarray:
+    """Err_RPM of each image point, m.
+
+    Parameters
+    ----------
+    points : ndarray, shape (M, dim)
+    truth : Truth
+    """
+    points = np.asarray(points, np.float64)
+    if points.size == 0:
+        return np.zeros(0)
+    d, _ = cKDTree(truth.boundary).query(points)
+    return d
+
+
+def cumulative(errors, threshold: float) -> tuple[int, int]:
+    """(number with error <= threshold, total)."""
+    errors = np.asarray(errors)
+    return int(np.sum(errors <= threshold)), int(errors.size)
+
+
+def summary(rps, image, truth: Truth) -> dict:
+    """The paper's figures for one result.
+
+    Returns
+    -------
+    dict
+        ``rp_total``, ``rp_within_10mm``, ``rpm_total``, ``rpm_within_10mm``,
+        ``rpm_within_50mm``, ``rpm_within_100mm``.
+    """
+    e_r = err_range(rps.antenna, rps.range, truth)
+    e_p = err_rpm(image.points, truth)
+    out = {"rp_total": int(e_r.size), "rp_within_10mm": cumulative(e_r, 0.010)[0],
+           "rpm_total": int(e_p.size)}
+    for mm in (10, 50, 100):
+        out[f"rpm_within_{mm}mm"] = cumulative(e_p, mm / 1000.0)[0]
+    return out

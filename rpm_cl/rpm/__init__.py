@@ -1,0 +1,6 @@
+"""Range points migration: float64 references, OpenCL wrappers, the driver."""
+
+from . import reference
+from .device import DeviceRPM
+
+__all__ = ["reference", "DeviceRPM"]

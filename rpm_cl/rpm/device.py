@@ -1,0 +1,145 @@
+"""Host wrappers of the RPM OpenCL kernels.
+
+:class:`DeviceRPM` methods have exactly the signatures of the float64
+references in :mod:`rpm_cl.rpm.reference`, and return NumPy arrays in the
+kernel precision (``float32`` by default, ``float64`` where the device allows).
+Programs are built once per (context, file, options) and kernels fetched once,
+when the object is made.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..cl import CLEnv, get_kernels
+
+__all__ = ["DeviceRPM"]
+
+
+def _round_up(n: int, m: int = 64) -> int:
+    return max(m, ((n + m - 1) // m) * m)
+
+
+class DeviceRPM:
+    """RPM kernels on one OpenCL device.
+
+    Parameters
+    ----------
+    env : CLEnv
+        The OpenCL environment (context, queue, device).
+    precision : {"float32", "float64"}
+        Kernel arithmetic; float64 needs a device with ``double_fp_config``.
+    """
+
+    def __init__(self, env: CLEnv, precision: str = "float32"):
+        if precision not in ("float32", "float64"):
+            raise ValueError(f"precision must be 'float32' or 'float64', got {precision!r}")
+        if precision == "float64" and not env.has_double:
+            raise ValueError(f"device {env.name} has no float64 support; use precision='float32'")
+        self.env = env
+        self.precision = precision
+        self.dtype = np.dtype(np.float32 if precision == "float32" else np.float64)
+        base = {"REAL": "float" if precision == "float32" else "double"}
+        if precision == "float64":
+            base["REAL_IS_DOUBLE"] = 1
+        k2 = get_kernels(env, "circles.cl", ["intersect_circles"], base)
+        self._k = dict(k2)
+        for dim in (2, 3):
+            ks = get_kernels(env, "score.cl", ["score_candidates", "argmax_candidates"],
+                             {**base, "DIM": dim})
+            self._k[f"score{dim}"] = ks["score_candidates"]
+            self._k[f"argmax{dim}"] = ks["argmax_candidates"]
+
+    # -- small helpers -----------------------------------------------------
+    def _buf(self, array, dtype=None):
+        import pyopencl as cl
+
+        a = np.ascontiguousarray(array, dtype=dtype or self.dtype)
+        if a.size == 0:
+            a = np.zeros(1, a.dtype)
+        return cl.Buffer(self.env.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
+                         hostbuf=a)
+
+    def _out(self, shape, dtype=None):
+        import pyopencl as cl
+
+        nbytes = max(1, int(np.prod(shape))) * np.dtype(dtype or self.dtype).itemsize
+        return cl.Buffer(self.env.context, cl.mem_flags.READ_WRITE, nbytes)
+
+    def _read(self, buf, shape, dtype=None):
+        import pyopencl as cl
+
+        out = np.empty(shape, dtype or self.dtype)
+        if out.size:
+            cl.enqueue_copy(self.env.queue, out, buf)
+        return out
+
+    def _run(self, kernel, nitems, *args):
+        if nitems > 0:
+            kernel(self.env.queue, (_round_up(nitems),), None, *args)
+
+    # -- kernels on device buffers ----------------------------------------
+    def _intersect(self, x, r, amp, cstart, ccount, maxc, sigma_x):
+        n = int(np.size(x))
+        # Subtract a common origin on the host in float64 so that float32
+        # kernels see small coordinates; the outputs are in each main
+        # antenna's frame, so they do not depend on it.
+        x = np.asarray(x, np.float64)
+        x0 = float(np.mean(x)) if n else 0.0
+        cand = self._out((2, n, maxc))
+        w = self._out((n, maxc))
+        valid = self._out((n, maxc), np.int8)
+        self._run(self._k["intersect_circles"], n * maxc,
+                  self._buf(x - x0), self._buf(r), self._buf(amp),
+                  self._buf(cstart, np.int32), self._buf(ccount, np.int32),
+                  np.int32(n), np.int32(maxc), self.dtype.type(1.0 / (2.0 * sigma_x**2)),
+                  cand, w, valid)
+        return cand, w, valid
+
+    def _score(self, dim, n, maxc, cand, w, valid, sigma_r):
+        score = self._out((n, maxc))
+        self._run(self._k[f"score{dim}"], n * maxc, cand, w, valid,
+                  np.int32(n), np.int32(maxc), self.dtype.type(1.0 / (2.0 * sigma_r**2)), score)
+        return score
+
+    def _argmax(self, dim, n, maxc, score, cand):
+        best = self._out((n,), np.int32)
+        best_score = self._out((n,))
+        point = self._out((dim, n))
+        self._run(self._k[f"argmax{dim}"], n, score, cand, np.int32(n), np.int32(maxc),
+                  best, best_score, point)
+        return (self._read(best, (n,), np.int32), self._read(best_score, (n,)),
+                self._read(point, (dim, n)))
+
+    # -- public twins of rpm_cl.rpm.reference -------------------------------
+    def intersect_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x):
+        """Device twin of :func:`rpm_cl.rpm.reference.intersect_circles`."""
+        n, maxc = int(np.size(x)), int(maxc)
+        cand, w, valid = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x)
+        return (self._read(cand, (2, n, maxc)), self._read(w, (n, maxc)),
+                self._read(valid, (n, maxc), np.int8))
+
+    def score_candidates(self, cand, w, valid, sigma_r):
+        """Device twin of :func:`rpm_cl.rpm.reference.score_candidates`."""
+        cand = np.asarray(cand)
+        dim, n, maxc = cand.shape
+        score = self._score(dim, n, maxc, self._buf(cand), self._buf(w),
+                            self._buf(valid, np.int8), sigma_r)
+        return self._read(score, (n, maxc))
+
+    def argmax_candidates(self, score, cand):
+        """Device twin of :func:`rpm_cl.rpm.reference.argmax_candidates`."""
+        cand = np.asarray(cand)
+        dim, n, maxc = cand.shape
+        return self._argmax(dim, n, maxc, self._buf(score), self._buf(cand))
+
+    def rpm_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x, sigma_r):
+        """Device twin of :func:`rpm_cl.rpm.reference.rpm_circles`.
+
+        The three kernels run back to back on the device; only the per-main-RP
+        results are read back.
+        """
+        n, maxc = int(np.size(x)), int(maxc)
+        cand, w, valid = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x)
+        score = self._score(2, n, maxc, cand, w, valid, sigma_r)
+        return self._argmax(2, n, maxc, score, cand)
