@@ -26,7 +26,8 @@ power), applied to the *received* signal before matched filtering:
 
 - the received signal is sampled at ``receiver_fs``; by default the rate of
   the range axis's time grid, ``fs = c / (2 dr)`` (a time sample per range
-  gate, as a time-domain simulator on that grid would have), over a window
+  gate, as a time-domain simulator on that grid would have; never below
+  ``2 B``), over a window
   long enough for the range axis plus 8 resolution cells.  The noise is white
   over that band, so the matched filter (band ``2 B``) keeps a fraction
   ``2 B / fs`` of it: the S/N *after* matched filtering is higher by
@@ -176,7 +177,8 @@ def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_a
         Noise source (required when ``snr_db`` is given).
     receiver_fs : float, optional
         Complex sample rate of the received signal, Hz, over which the noise is
-        white; default ``c / (2 dr)`` of ``range_axis``.  Must be >= 2 B.
+        white; default ``max(c / (2 dr), 2 B)`` for the spacing ``dr`` of
+        ``range_axis``.  Must be >= 2 B.
 
     Returns
     -------
@@ -185,7 +187,8 @@ def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_a
     range_axis = np.asarray(range_axis, np.float64)
     f, p, window = _receiver_grid(waveform, float(range_axis[-1]))
     if receiver_fs is None:
-        receiver_fs = C0 / (2.0 * float(range_axis[1] - range_axis[0]))
+        receiver_fs = max(C0 / (2.0 * float(range_axis[1] - range_axis[0])),
+                          2.0 * waveform.bandwidth)
     if not (np.isfinite(receiver_fs) and receiver_fs >= 2 * waveform.bandwidth * (1 - 1e-9)):
         raise InputError(f"receiver_fs must be >= 2*bandwidth, got {receiver_fs:g} Hz")
     n_rx = receiver_fs * window  # receiver samples in the window (unitary DFT size)

@@ -1,0 +1,40 @@
+"""Shared fixtures: one OpenCL context per test session.
+
+PoCL compiles each program with LLVM (about a second), so programs are built
+once here and reused by every test.
+"""
+
+import numpy as np
+import pytest
+
+
+@pytest.fixture(scope="session")
+def cl_env():
+    from rpm_cl.cl import create_env
+
+    return create_env()
+
+
+@pytest.fixture(scope="session")
+def dev32(cl_env):
+    from rpm_cl.rpm import DeviceRPM
+
+    return DeviceRPM(cl_env, "float32")
+
+
+@pytest.fixture(scope="session")
+def dev64(cl_env):
+    from rpm_cl.rpm import DeviceRPM
+
+    if not cl_env.has_double:
+        pytest.skip("device has no float64")
+    return DeviceRPM(cl_env, "float64")
+
+
+@pytest.fixture
+def rng(request):
+    """A fresh generator per test, seeded from the test's name (reproducible,
+    different for every test)."""
+    import zlib
+
+    return np.random.default_rng(zlib.crc32(request.node.nodeid.encode()))

@@ -1,0 +1,142 @@
+"""The rpm-cl command: round trips, and bad input -> one line, exit code 2."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from rpm_cl.cli import main
+
+
+@pytest.fixture(scope="module")
+def sim_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("sim") / "paper.npz"
+    assert main(["simulate", "paper-2d", "-o", str(path), "--snr", "20", "--seed", "1"]) == 0
+    return path
+
+
+def run_err(capsys, argv):
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    return code, err
+
+
+def test_simulate_then_image_round_trip(sim_file, tmp_path, capsys):
+    out = tmp_path / "img.npz"
+    assert main(["image", str(sim_file), "-o", str(out)]) == 0
+    assert "Err_range<=10mm" in capsys.readouterr().out
+    with np.load(out) as f:
+        pts = f["points"]
+        assert pts.ndim == 2 and pts.shape[1] == 2 and len(pts) > 30
+        for key in ("cluster", "score", "rp_x", "rp_range", "rp_amp", "rp_cluster"):
+            assert key in f.files
+        assert f["cluster"].shape == (len(pts),)
+        meta = json.loads(str(f["meta"]))
+        assert meta["method"] == "kspace-rpm" and "total" in meta["timings"]
+        assert np.all(pts[:, 1] > 0)
+    assert main(["image", str(sim_file), "-o", str(out), "--method", "mf-rpm"]) == 0
+
+
+def test_info_lists_devices(capsys):
+    assert main(["info"]) == 0
+    out = capsys.readouterr().out
+    assert "chosen:" in out and "*" in out
+
+
+def test_reproduce_json_schema(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    assert main(["reproduce", "paper-2d", "--json", str(out), "--trials", "1"]) == 0
+    rows = json.loads(out.read_text())["rows"]
+    want = {"case", "method", "snr_db", "rp_total", "rp_within_10mm", "rpm_total",
+            "rpm_within_50mm", "rpm_within_100mm", "seconds"}
+    assert all(want <= set(r) for r in rows)
+    cases = {(r["case"], r["method"], r["snr_db"]) for r in rows}
+    for snr in (None, 20.0, 10.0, 0.0):
+        assert ("points-5mm", "kspace-rpm", snr) in cases
+    assert ("sparse-20mm", "kspace-rpm", None) in cases
+
+
+def write_npz(path, **arrays):
+    np.savez(path, **arrays)
+    return str(path)
+
+
+def good_arrays():
+    return dict(signal=np.ones((4, 8), complex), x=np.arange(4) * 5e-3,
+                range=np.arange(8) * 0.01, fc=20e9, bandwidth=0.2e9)
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"signal": None}, "missing key 'signal'"),
+    ({"x": np.array([0, 1, 3, 4.0]) * 1e-3}, "uniformly spaced"),
+    ({"x": np.array([3, 2, 1, 0.0])}, "strictly increasing"),
+    ({"range": np.arange(7) * 0.01}, "signal must have shape"),
+    ({"signal": np.full((4, 8), np.nan, complex)}, "NaN or Inf"),
+    ({"fc": -1.0}, "fc must be > 0"),
+    ({"bandwidth": 0.0}, "bandwidth must be > 0"),
+    ({"signal": np.array(["a"] * 32).reshape(4, 8)}, "numeric"),
+    ({"x": np.zeros(0)}, "at least 2"),
+])
+def test_bad_input_one_line_exit_2(tmp_path, capsys, change, words):
+    arrays = good_arrays()
+    for k, v in change.items():
+        if v is None:
+            arrays.pop(k)
+        else:
+            arrays[k] = v
+    path = write_npz(tmp_path / "bad.npz", **arrays)
+    out = tmp_path / "out.npz"
+    code, err = run_err(capsys, ["image", path, "-o", str(out)])
+    assert code == 2
+    assert err.count("\n") == 0 and err.startswith("rpm-cl: error:") and words in err, err
+    assert not out.exists()
+
+
+def test_unreadable_truncated_missing_files(tmp_path, capsys, sim_file):
+    trunc = tmp_path / "trunc.npz"
+    trunc.write_bytes(sim_file.read_bytes()[: os.path.getsize(sim_file) // 2])
+    junk = tmp_path / "junk.npz"
+    junk.write_text("not a zip")
+    for path in (trunc, junk, tmp_path / "missing.npz"):
+        code, err = run_err(capsys, ["image", str(path), "-o", str(tmp_path / "o.npz")])
+        assert code == 2 and err.count("\n") == 0 and str(path) in err, err
+
+
+def test_unwritable_output_leaves_nothing(tmp_path, capsys, sim_file):
+    code, err = run_err(capsys, ["image", str(sim_file), "-o", str(tmp_path / "no" / "o.npz")])
+    assert code == 2 and "does not exist" in err
+    code, err = run_err(capsys, ["image", str(sim_file), "-o", str(tmp_path)])
+    assert code == 2 and "folder" in err
+    assert [p.name for p in tmp_path.iterdir()] == []  # no temporary file left
+
+
+def test_bad_options_one_line(capsys, sim_file, tmp_path):
+    for argv in (["simulate", "nope", "-o", "x.npz"], ["image"], ["simulate", "paper-2d",
+                 "-o", str(tmp_path / "a.npz"), "--snr", "loud"],
+                 ["image", str(sim_file), "-o", str(tmp_path / "b.npz"), "--sigma-x", "-1"],
+                 ["info", "--device", "no-such-device"]):
+        code, err = run_err(capsys, argv)
+        assert code == 2 and err.count("\n") == 0 and err.startswith("rpm-cl: error:"), (argv, err)
+
+
+def test_no_opencl_platform_says_how_to_install(monkeypatch, capsys):
+    import rpm_cl.cl as clmod
+
+    def none():
+        raise clmod.NoOpenCLError(clmod.INSTALL_HINT)
+
+    monkeypatch.setattr(clmod, "_platforms", none)
+    code, err = run_err(capsys, ["info"])
+    assert code == 2 and "pocl" in err.lower() and err.count("\n") == 0
+
+
+def test_installed_entry_point_runs(tmp_path):
+    """The console script exists and errors cleanly (no traceback)."""
+    exe = os.path.join(os.path.dirname(sys.executable), "rpm-cl")
+    r = subprocess.run([exe, "image", str(tmp_path / "none.npz"), "-o", str(tmp_path / "o.npz")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0
