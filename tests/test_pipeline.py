@@ -108,3 +108,16 @@ def test_single_target_one_cluster_near_truth(dev32):
     res = run_method("kspace-rpm", data, p, dev32)
     assert len(set(res.rps.cluster.tolist())) == 1
     assert np.median(np.linalg.norm(res.image.points - [0.05, 0.6], axis=1)) < 0.005
+
+
+def test_example_runs():
+    """examples/paper_2d.py runs and images three clusters."""
+    import importlib.util
+    import pathlib
+
+    path = pathlib.Path(__file__).parents[1] / "examples" / "paper_2d.py"
+    spec = importlib.util.spec_from_file_location("paper_2d_example", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    res = mod.main(snr_db=None)
+    assert len(np.unique(res.rps.cluster)) == 3
