@@ -13,9 +13,10 @@
  * The pair weight is amp_j * exp(-d^2 / (2 sigma_x^2)).
  * Invalid slots get coordinates 0 and weight 0, so scoring needs no branch.
  *
- * Work-item mapping: one work-item per (main RP i, sub slot js), flattened as
- * gid = i*maxc + js; sub RP j = cstart[i] + js, valid only for js < ccount[i]
- * and j != i.
+ * Work-item mapping: one work-item per (main RP i, sub slot js) of a chunk of
+ * n main RPs starting at RP i0, flattened as gid = (i - i0)*maxc + js; sub RP
+ * j = cstart[i] + js, valid only for js < ccount[i] and j != i.  Indices are
+ * 64-bit (n*maxc may exceed 2^31 on large devices).
  *
  * Outputs: cand planes (2, n, maxc) local (x, y); w (n, maxc); valid (n, maxc).
  * NumPy reference: rpm_cl.rpm.reference.intersect_circles.
@@ -25,15 +26,16 @@
 __kernel void intersect_circles(
     __global const REAL *x, __global const REAL *r, __global const REAL *amp,
     __global const int *cstart, __global const int *ccount,
-    const int n, const int maxc, const REAL inv2sx2,
+    const int i0, const int n, const int maxc, const REAL inv2sx2,
     __global REAL *cand, __global REAL *w, __global char *valid)
 {
-    const int gid = get_global_id(0);
-    if (gid >= n * maxc) return;
-    const int i = gid / maxc;
-    const int js = gid - i * maxc;
-    const int j = cstart[i] + js;
+    const long gid = get_global_id(0);
     const long plane = (long)n * maxc;
+    if (gid >= plane) return;
+    const int il = (int)(gid / maxc);
+    const int js = (int)(gid - (long)il * maxc);
+    const int i = i0 + il;
+    const int j = cstart[i] + js;
 
     REAL cx = (REAL)0, cy = (REAL)0, wt = (REAL)0;
     char ok = 0;

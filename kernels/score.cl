@@ -9,7 +9,7 @@
  *
  * DIM (2 or 3) is set with -DDIM=.  cand holds DIM planes of (n, maxc).
  *
- * Work-item mapping: one work-item per (i, l), gid = i*maxc + l; the inner loop
+ * Work-item mapping: one work-item per (i, l), gid = i*maxc + l (64-bit); the inner loop
  * over c has the same trip count for every work-item (no branch on validity),
  * which PoCL's CPU device vectorises across work-items.
  * NumPy reference: rpm_cl.rpm.reference.score_candidates.
@@ -29,11 +29,10 @@ __kernel void score_candidates(
     __global const REAL *cand, __global const REAL *w, __global const char *valid,
     const int n, const int maxc, const REAL inv2sr2, __global REAL *score)
 {
-    const int gid = get_global_id(0);
-    if (gid >= n * maxc) return;
-    const int i = gid / maxc;
+    const long gid = get_global_id(0);
     const long plane = (long)n * maxc;
-    const long row = (long)i * maxc;
+    if (gid >= plane) return;
+    const long row = (gid / maxc) * maxc;
 
     const REAL lx = cand[gid];
     const REAL ly = cand[plane + gid];

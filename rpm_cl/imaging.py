@@ -20,6 +20,11 @@ from .data import InputError, RadarData
 from .kspace import KSpaceParams, decompose
 from .rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
 
+#: The paper's sigma_r for 2-D (Section V-A2), m.
+SIGMA_R_DEFAULT = 0.05
+#: RPs below this level relative to their cluster's maximum are dropped, dB.
+RP_THRESHOLD_DB_DEFAULT = -10.0
+
 __all__ = ["RPMParams", "ImagingParams", "Image", "ImageResult", "rpm_image", "METHODS", "save_result",
            "run_method", "default_params"]
 
@@ -36,19 +41,30 @@ class RPMParams:
         sigma_r of the Gaussian kernel between intersection points, m.
     min_cluster_rps : int
         Clusters with fewer RPs are not imaged (an intersection needs 2).
+    max_cluster_rps : int
+        Larger clusters are refused with an error (the scoring work grows as
+        the cube of a cluster's size).
+    chunk_slots : int
+        Main RPs are processed in chunks of at most this many candidate slots
+        (main RPs x largest cluster), which bounds device memory.
     """
 
     sigma_x: float = 0.10
-    sigma_r: float = 0.05
+    sigma_r: float = SIGMA_R_DEFAULT
     min_cluster_rps: int = 2
+    max_cluster_rps: int = 8192
+    chunk_slots: int = 1 << 22
 
     def __post_init__(self):
         for name in ("sigma_x", "sigma_r"):
             v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise InputError(f"{name} must be > 0, got {v}")
+            # 1 um .. 1 km keeps 1/(2 sigma^2) finite and non-zero in float32
+            if not (np.isfinite(v) and 1e-6 <= v <= 1e3):
+                raise InputError(f"{name} must be between 1e-6 and 1e3 m, got {v}")
         if self.min_cluster_rps < 2:
             raise InputError(f"min_cluster_rps must be >= 2, got {self.min_cluster_rps}")
+        if self.chunk_slots < 1 or self.max_cluster_rps < self.min_cluster_rps:
+            raise InputError("chunk_slots must be >= 1 and max_cluster_rps >= min_cluster_rps")
 
 
 @dataclass(frozen=True)
@@ -57,7 +73,7 @@ class ImagingParams:
 
     kspace: KSpaceParams = field(default_factory=KSpaceParams)
     rpm: RPMParams = field(default_factory=RPMParams)
-    rp_threshold_db: float = -10.0
+    rp_threshold_db: float = RP_THRESHOLD_DB_DEFAULT
 
     def __post_init__(self):
         if not (np.isfinite(self.rp_threshold_db) and self.rp_threshold_db < 0):
@@ -79,10 +95,14 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     """
     arr = data.array
     aperture = float(arr.x[-1] - arr.x[0])
-    rpm_kw = {"sigma_x": overrides.pop("sigma_x", None) or aperture,
-              "sigma_r": overrides.pop("sigma_r", None) or 0.05}
+    sigma_x = overrides.pop("sigma_x", None)
+    sigma_r = overrides.pop("sigma_r", None)
+    rpm_kw = {"sigma_x": aperture if sigma_x is None else sigma_x,
+              "sigma_r": SIGMA_R_DEFAULT if sigma_r is None else sigma_r}
     rp_thr = overrides.pop("rp_threshold_db", None)
     ks = {k: v for k, v in overrides.items() if v is not None}
+    if "window_z" in ks and not arr.planar:
+        raise InputError("window_z applies to planar arrays only; this array is linear")
     params = ImagingParams(KSpaceParams(**ks), RPMParams(**rpm_kw))
     return replace(params, rp_threshold_db=rp_thr) if rp_thr is not None else params
 
@@ -142,16 +162,30 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
     empty = Image(np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64))
     if idx.size == 0:
         return empty
+    too_big = int(ccount[idx].max())
+    if too_big > params.max_cluster_rps:
+        raise InputError(f"a cluster holds {too_big} RPs, more than max_cluster_rps="
+                         f"{params.max_cluster_rps}; raise the RP or peak thresholds")
     # re-index the kept RPs (clusters stay contiguous)
-    sub = lambda a: np.asarray(a)[idx]  # noqa: E731
-    new_start = np.searchsorted(idx, cstart[idx])
-    maxc = int(ccount[idx].max())
-    best, score, point = engine.rpm_circles(sub(rps.x), sub(rps.range), sub(rps.amp),
-                                            new_start, sub(ccount), maxc,
-                                            params.sigma_x, params.sigma_r)
+    x, r = np.asarray(rps.x)[idx], np.asarray(rps.range)[idx]
+    # amplitudes scaled to a maximum of 1: the argmax of eq. 6 is unchanged and
+    # float32 kernels keep their range whatever the data's scale.
+    amp = np.asarray(rps.amp, np.float64)[idx]
+    scale = float(amp.max()) if amp.size and amp.max() > 0 else 1.0
+    amp = amp / scale
+    start, count = np.searchsorted(idx, cstart[idx]), ccount[idx]
+    maxc = int(count.max())
+    step = max(1, params.chunk_slots // maxc)
+    best, score, px, py = [], [], [], []
+    for i0 in range(0, idx.size, step):
+        b, s_, p = engine.rpm_circles(x, r, amp, start, count, maxc, params.sigma_x,
+                                      params.sigma_r, i0, min(step, idx.size - i0))
+        best.append(b), score.append(s_), px.append(p[0]), py.append(p[1])
+    best, score = np.concatenate(best), np.concatenate(score).astype(np.float64) * scale
+    px, py = np.concatenate(px), np.concatenate(py)
     ok = best >= 0
-    pts = np.stack([sub(rps.x)[ok] + point[0][ok], point[1][ok]], axis=1).astype(np.float64)
-    return Image(pts, sub(rps.cluster)[ok], np.asarray(score, np.float64)[ok], idx[ok])
+    pts = np.stack([x[ok] + px[ok], py[ok]], axis=1).astype(np.float64)
+    return Image(pts, np.asarray(rps.cluster)[idx][ok], score[ok], idx[ok])
 
 
 def _kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:

@@ -119,7 +119,7 @@ def _make(data: RadarData, flat_ant, r, amp, cluster) -> RangePoints:
 
 
 def rps_from_decomposition(data: RadarData, dec: Decomposition,
-                           rp_threshold_db: float = -10.0) -> RangePoints:
+                           rp_threshold_db: float) -> RangePoints:
     """RPs of every decomposed signal (eq. 5), each carrying its cluster.
 
     Parameters
@@ -145,7 +145,7 @@ def rps_from_decomposition(data: RadarData, dec: Decomposition,
                  np.concatenate(cl))
 
 
-def rps_from_profiles(data: RadarData, rp_threshold_db: float = -10.0) -> RangePoints:
+def rps_from_profiles(data: RadarData, rp_threshold_db: float) -> RangePoints:
     """RPs of the plain matched-filter output (no decomposition): one cluster.
 
     Parameters

@@ -317,7 +317,7 @@ def _paper_2d(step: float, sigma_x: float) -> Preset:
         Array((np.arange(21) - 10) * step),
         Waveform(20e9, 0.2e9),
         np.arange(0.0, 1.5, 2.5e-3),
-        {"sigma_x": sigma_x, "sigma_r": 0.05, "window_x": 417.0},
+        {"sigma_x": sigma_x, "sigma_r": 0.05, "window_x": 417.0}  # the paper's values,
     )
 
 

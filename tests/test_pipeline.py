@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from rpm_cl.data import Array, Waveform
-from rpm_cl.imaging import default_params, rpm_image, run_method
+from rpm_cl.imaging import ImagingParams, default_params, rpm_image, run_method
 from rpm_cl.kspace import KSpaceParams, decompose
 from rpm_cl.metrics import cumulative, err_range, err_rpm, summary
 from rpm_cl.rangepoints import profile_peaks, rps_from_decomposition
@@ -30,7 +30,7 @@ def test_decomposition_separates_targets_within_one_range_cell():
     data, _ = simulate_preset("paper-2d")
     dec = decompose(data, KSpaceParams())
     assert len(dec.clusters) == 3
-    rps = rps_from_decomposition(data, dec)
+    rps = rps_from_decomposition(data, dec, ImagingParams().rp_threshold_db)
     truth = data.truth
     true_r = truth.rp_range.reshape(3, -1)  # (target, antenna)
     for c in range(3):
@@ -121,3 +121,40 @@ def test_example_runs():
     spec.loader.exec_module(mod)
     res = mod.main(snr_db=None)
     assert len(np.unique(res.rps.cluster)) == 3
+
+
+def test_chunked_rpm_equals_whole_and_scale_invariant(dev32):
+    from dataclasses import replace
+
+    from rpm_cl.data import InputError, RadarData
+    from rpm_cl.kspace import decompose as dec_
+    from rpm_cl.rangepoints import rps_from_decomposition as rps_
+
+    data, pre = simulate_preset("paper-2d", 20.0, seed=3)
+    p = default_params(data, **pre.defaults)
+    rps = rps_(data, dec_(data, p.kspace), p.rp_threshold_db)
+    whole = rpm_image(rps, p.rpm, dev32)
+    chunked = rpm_image(rps, replace(p.rpm, chunk_slots=50), dev32)  # 2 main RPs a chunk
+    np.testing.assert_array_equal(whole.points, chunked.points)
+    # the data's scale must not matter, even for float32 kernels (1e300 and
+    # 1e-300 would overflow / underflow a float32 weight)
+    for k in (1e300, 1e-300):
+        scaled = RadarData(data.signal * k, data.array, data.range, data.waveform, data.truth)
+        res = run_method("kspace-rpm", scaled, p, dev32)
+        np.testing.assert_allclose(res.image.points, run_method("kspace-rpm", data, p, dev32).image.points,
+                                   atol=1e-4)
+    with pytest.raises(InputError, match="max_cluster_rps"):
+        rpm_image(rps, replace(p.rpm, max_cluster_rps=5), dev32)
+
+
+def test_intersect_chunk_offset_matches_reference(dev32, rng):
+    from rpm_cl.rpm import reference as ref
+
+    n = 50
+    x, r = rng.uniform(-0.05, 0.05, n), rng.uniform(0.3, 0.6, n)
+    amp, st_, ct = rng.uniform(0, 1, n), np.repeat([0, 30], [30, 20]), np.repeat([30, 20], [30, 20])
+    whole = ref.intersect_circles(x, r, amp, st_, ct, 30, 0.1)
+    part = ref.intersect_circles(x, r, amp, st_, ct, 30, 0.1, 25, 10)
+    np.testing.assert_array_equal(part[2], whole[2][25:35])
+    np.testing.assert_array_equal(dev32.intersect_circles(x, r, amp, st_, ct, 30, 0.1, 25, 10)[2],
+                                  part[2])

@@ -79,21 +79,21 @@ class DeviceRPM:
             kernel(self.env.queue, (_round_up(nitems),), None, *args)
 
     # -- kernels on device buffers ----------------------------------------
-    def _intersect(self, x, r, amp, cstart, ccount, maxc, sigma_x):
-        n = int(np.size(x))
+    def _intersect(self, x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
+        n = int(np.size(x)) - i0 if n is None else int(n)
         # Subtract a common origin on the host in float64 so that float32
         # kernels see small coordinates; the outputs are in each main
         # antenna's frame, so they do not depend on it.
         x = np.asarray(x, np.float64)
-        x0 = float(np.mean(x)) if n else 0.0
+        x0 = float(np.mean(x)) if x.size else 0.0
         cand = self._out((2, n, maxc))
         w = self._out((n, maxc))
         valid = self._out((n, maxc), np.int8)
         self._run(self._k["intersect_circles"], n * maxc,
                   self._buf(x - x0), self._buf(r), self._buf(amp),
                   self._buf(cstart, np.int32), self._buf(ccount, np.int32),
-                  np.int32(n), np.int32(maxc), self.dtype.type(1.0 / (2.0 * sigma_x**2)),
-                  cand, w, valid)
+                  np.int32(i0), np.int32(n), np.int32(maxc),
+                  self.dtype.type(1.0 / (2.0 * sigma_x**2)), cand, w, valid)
         return cand, w, valid
 
     def _score(self, dim, n, maxc, cand, w, valid, sigma_r):
@@ -112,10 +112,10 @@ class DeviceRPM:
                 self._read(point, (dim, n)))
 
     # -- public twins of rpm_cl.rpm.reference -------------------------------
-    def intersect_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x):
+    def intersect_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
         """Device twin of :func:`rpm_cl.rpm.reference.intersect_circles`."""
-        n, maxc = int(np.size(x)), int(maxc)
-        cand, w, valid = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x)
+        n, maxc = (int(np.size(x)) - i0 if n is None else int(n)), int(maxc)
+        cand, w, valid = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
         return (self._read(cand, (2, n, maxc)), self._read(w, (n, maxc)),
                 self._read(valid, (n, maxc), np.int8))
 
@@ -133,13 +133,13 @@ class DeviceRPM:
         dim, n, maxc = cand.shape
         return self._argmax(dim, n, maxc, self._buf(score), self._buf(cand))
 
-    def rpm_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x, sigma_r):
+    def rpm_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x, sigma_r, i0=0, n=None):
         """Device twin of :func:`rpm_cl.rpm.reference.rpm_circles`.
 
         The three kernels run back to back on the device; only the per-main-RP
         results are read back.
         """
-        n, maxc = int(np.size(x)), int(maxc)
-        cand, w, valid = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x)
+        n, maxc = (int(np.size(x)) - i0 if n is None else int(n)), int(maxc)
+        cand, w, valid = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
         score = self._score(2, n, maxc, cand, w, valid, sigma_r)
         return self._argmax(2, n, maxc, score, cand)

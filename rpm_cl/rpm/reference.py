@@ -17,7 +17,7 @@ import numpy as np
 __all__ = ["intersect_circles", "score_candidates", "argmax_candidates", "rpm_circles"]
 
 
-def intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x):
+def intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
     """Intersections of each main RP's circle with the circles of its cluster.
 
     Parameters
@@ -35,6 +35,8 @@ def intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x):
         Candidate slots per main RP (>= the largest cluster).
     sigma_x : float
         sigma_x of eq. 6, m.
+    i0, n : int
+        The main RPs are ``i0 .. i0+n-1`` (a chunk; default all RPs).
 
     Returns
     -------
@@ -51,11 +53,11 @@ def intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x):
     amp = np.asarray(amp, np.float64)
     cstart = np.asarray(cstart, np.int64)
     ccount = np.asarray(ccount, np.int64)
-    n = x.size
+    n = x.size - i0 if n is None else n
     js = np.arange(maxc)[None, :]
-    i = np.arange(n)[:, None]
-    j = cstart[:, None] + js
-    inrange = js < ccount[:, None]
+    i = i0 + np.arange(n)[:, None]
+    j = cstart[i] + js
+    inrange = js < ccount[i]
     jj = np.where(inrange, j, i)  # any safe index where out of range
     d = x[jj] - x[i]
     ad = np.abs(d)
@@ -138,7 +140,7 @@ def argmax_candidates(score, cand):
     return best, best_score, point
 
 
-def rpm_circles(x, r, amp, cstart, ccount, maxc, sigma_x, sigma_r):
+def rpm_circles(x, r, amp, cstart, ccount, maxc, sigma_x, sigma_r, i0=0, n=None):
     """Whole 2-D RPM step: intersect, score, argmax (eq. 6).
 
     Parameters are those of :func:`intersect_circles` plus ``sigma_r`` (m).
@@ -149,5 +151,5 @@ def rpm_circles(x, r, amp, cstart, ccount, maxc, sigma_x, sigma_r):
         As :func:`argmax_candidates`; ``point`` is in each main antenna's
         frame (add ``x`` to its first row for absolute x).
     """
-    cand, w, valid = intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x)
+    cand, w, valid = intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
     return argmax_candidates(score_candidates(cand, w, valid, sigma_r), cand)
