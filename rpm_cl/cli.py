@@ -46,9 +46,32 @@ def _snr(text):
     try:
         v = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"S/N must be a number of dB or 'inf', got {text!r}")
-    if not np.isfinite(v):
+        v = float("nan")
+    if v == float("inf"):
         return None
+    if not (np.isfinite(v) and abs(v) <= 300):
+        raise argparse.ArgumentTypeError(f"S/N must be a number of dB in [-300, 300] or 'inf', "
+                                         f"got {text!r}")
+    return v
+
+
+def _seed(text):
+    try:
+        v = int(text)
+    except ValueError:
+        v = -1
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"seed must be an integer >= 0, got {text!r}")
+    return v
+
+
+def _positive_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        v = 0
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
     return v
 
 
@@ -196,7 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("scene", choices=sorted(PRESETS))
     sp.add_argument("-o", "--output", required=True)
     sp.add_argument("--snr", type=_snr, default=None, help="S/N in dB (default: noise-free)")
-    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("--seed", type=_seed, default=0)
     sp.set_defaults(func=cmd_simulate)
 
     sp = sub.add_parser("image", help="image an .npz (input contract in the README)")
@@ -213,19 +236,19 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("reproduce", help="reproduce the paper's tables")
     sp.add_argument("name", choices=sorted(CASES))
     sp.add_argument("--json", help="write the rows as JSON here")
-    sp.add_argument("--trials", type=int, default=10, help="noise realisations per noisy row")
-    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("--trials", type=_positive_int, default=10, help="noise realisations per noisy row")
+    sp.add_argument("--seed", type=_seed, default=0)
     sp.add_argument("-v", "--verbose", action="store_true")
     device_opts(sp)
     sp.set_defaults(func=cmd_reproduce)
 
     sp = sub.add_parser("demo", help="simulate, image and score a scene end to end")
-    sp.add_argument("--seed", type=int, default=0)
+    sp.add_argument("--seed", type=_seed, default=0)
     device_opts(sp)
     sp.set_defaults(func=cmd_demo)
 
     sp = sub.add_parser("bench", help="time each method and stage on the paper's scenes")
-    sp.add_argument("--repeats", type=int, default=20)
+    sp.add_argument("--repeats", type=_positive_int, default=20)
     device_opts(sp)
     sp.set_defaults(func=cmd_bench)
     return p
@@ -241,6 +264,16 @@ def main(argv=None) -> int:
     except (CLIError, InputError, NoOpenCLError) as exc:
         print(f"rpm-cl: error: {exc}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print("rpm-cl: error: out of memory; lower the problem size or the RPM chunk size",
+              file=sys.stderr)
+        return 2
+    except Exception as exc:  # an OpenCL runtime error is not the user's input
+        if type(exc).__module__.startswith("pyopencl"):
+            print(f"rpm-cl: error: OpenCL: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
+                  file=sys.stderr)
+            return 2
+        raise
     except KeyboardInterrupt:
         print("rpm-cl: interrupted", file=sys.stderr)
         return 130

@@ -69,6 +69,9 @@ def _uniform_axis(name: str, values, min_len: int = 1) -> np.ndarray:
         raise InputError(f"{name} must have at least {min_len} values, got {a.size}")
     if not np.issubdtype(a.dtype, np.number) or np.iscomplexobj(a):
         raise InputError(f"{name} must be real numbers, got dtype {a.dtype}")
+    # tolerance of the uniformity test: 1e-6 of the step, plus the rounding of
+    # the stored values (float32 axes of measured data are common)
+    eps = np.finfo(a.dtype).eps if np.issubdtype(a.dtype, np.floating) else 0.0
     a = a.astype(np.float64)
     if not np.all(np.isfinite(a)):
         raise InputError(f"{name} contains NaN or Inf")
@@ -76,7 +79,8 @@ def _uniform_axis(name: str, values, min_len: int = 1) -> np.ndarray:
         step = np.diff(a)
         if np.any(step <= 0):
             raise InputError(f"{name} must be strictly increasing")
-        if np.max(np.abs(step - step.mean())) > 1e-6 * abs(step.mean()) + 1e-12:
+        tol = 1e-6 * abs(step.mean()) + 8 * eps * float(np.max(np.abs(a))) + 1e-12
+        if np.max(np.abs(step - step.mean())) > tol:
             raise InputError(f"{name} must be uniformly spaced (steps vary from "
                              f"{step.min():.6g} to {step.max():.6g} m)")
     a.setflags(write=False)
@@ -236,8 +240,9 @@ class RadarData:
 
     def __post_init__(self):
         s = np.asarray(self.signal)
-        if not np.issubdtype(s.dtype, np.number):
-            raise InputError(f"signal must be numeric (complex), got dtype {s.dtype}")
+        if not np.iscomplexobj(s):
+            raise InputError(f"signal must be complex baseband (complex64/complex128), "
+                             f"got dtype {s.dtype}")
         rng = _uniform_axis("range", self.range, 2)
         want = self.array.shape + (rng.size,)
         if s.shape != want:
@@ -247,6 +252,21 @@ class RadarData:
             raise InputError("signal contains NaN or Inf")
         if rng[0] < 0:
             raise InputError(f"range must be >= 0, starts at {rng[0]:g} m")
+        res = self.waveform.range_resolution
+        dr = float(rng[1] - rng[0])
+        if dr > res:
+            raise InputError(f"range spacing {dr:g} m is coarser than the range resolution "
+                             f"c/2B = {res:g} m: range peaks cannot be located")
+        if dr < 1e-9 * res:
+            raise InputError(f"range spacing {dr:g} m is below 1e-9 of the range resolution "
+                             f"{res:g} m")
+        t = self.truth
+        if t is not None:
+            if t.boundary.shape[1] != self.array.dim or len(t.boundary) == 0:
+                raise InputError(f"truth_boundary must have shape (P>0, {self.array.dim}) for "
+                                 f"this array, got {t.boundary.shape}")
+            if t.rp_antenna.size and (t.rp_antenna.min() < 0 or t.rp_antenna.max() >= self.array.n):
+                raise InputError(f"truth_rp_antenna must index the {self.array.n} antennas")
         s = s.astype(np.complex128 if s.dtype != np.complex64 else np.complex64, copy=False)
         object.__setattr__(self, "signal", s)
         object.__setattr__(self, "range", rng)

@@ -77,7 +77,7 @@ def good_arrays():
     ({"signal": np.full((4, 8), np.nan, complex)}, "NaN or Inf"),
     ({"fc": -1.0}, "fc must be > 0"),
     ({"bandwidth": 0.0}, "bandwidth must be > 0"),
-    ({"signal": np.array(["a"] * 32).reshape(4, 8)}, "numeric"),
+    ({"signal": np.array(["a"] * 32).reshape(4, 8)}, "complex"),
     ({"x": np.zeros(0)}, "at least 2"),
 ])
 def test_bad_input_one_line_exit_2(tmp_path, capsys, change, words):
@@ -140,3 +140,37 @@ def test_installed_entry_point_runs(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
     assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0
+
+
+@pytest.mark.parametrize("argv_tail, words", [
+    (["--seed", "-1"], "seed"), (["--snr", "nan"], "S/N"), (["--snr", "4000"], "S/N"),
+    (["--snr=-1e300"], "S/N")])
+def test_bad_simulate_numbers(tmp_path, capsys, argv_tail, words):
+    code, err = run_err(capsys, ["simulate", "paper-2d", "-o", str(tmp_path / "s.npz"), *argv_tail])
+    assert code == 2 and words in err and err.count("\n") == 0
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"signal": np.ones((4, 8))}, "complex"),
+    ({"bandwidth": 1e-300}, "range resolution"),
+    ({"range": np.arange(8) * 1e-300}, "range resolution"),
+    ({"truth_boundary": np.zeros((3, 3)), "truth_rp_antenna": np.zeros(1, int),
+      "truth_rp_range": np.ones(1)}, "truth_boundary"),
+    ({"truth_boundary": np.zeros((3, 2)), "truth_rp_antenna": np.array([9]),
+      "truth_rp_range": np.ones(1)}, "truth_rp_antenna"),
+])
+def test_inconsistent_input_rejected(tmp_path, capsys, change, words):
+    arrays = {**good_arrays(), **change}
+    path = write_npz(tmp_path / "bad.npz", **arrays)
+    code, err = run_err(capsys, ["image", path, "-o", str(tmp_path / "o.npz")])
+    assert code == 2 and words in err and err.count("\n") == 0, err
+
+
+def test_float32_axes_accepted(sim_file, tmp_path, capsys):
+    with np.load(sim_file) as f:
+        arrays = {k: f[k] for k in f.files}
+    arrays["range"] = arrays["range"].astype(np.float32)
+    arrays["x"] = arrays["x"].astype(np.float32)
+    arrays["signal"] = arrays["signal"].astype(np.complex64)
+    path = write_npz(tmp_path / "f32.npz", **arrays)
+    assert main(["image", path, "-o", str(tmp_path / "o.npz")]) == 0
