@@ -11,9 +11,8 @@ from __future__ import annotations
 import platform
 import time
 
-import numpy as np
 
-from .imaging import METHODS, default_params, run_method
+from .imaging import METHODS, default_params, timed_run
 from .metrics import summary
 from .simulate import simulate_preset
 
@@ -37,20 +36,15 @@ def bench_case(engine, preset: str, snr, method: str, repeats: int = 20, seed: i
     """
     data, pre = simulate_preset(preset, snr, seed)
     params = default_params(data, **pre.defaults)
-    res = run_method(method, data, params, engine)  # warm-up
-    stages = {k: [] for k in res.timings}
-    for _ in range(max(1, repeats)):
-        r = run_method(method, data, params, engine)
-        for k, v in r.timings.items():
-            stages[k].append(v)
+    res, _, stages = timed_run(method, data, params, engine, repeats)
     s = summary(res.rps, res.image, data.truth)
     _, counts = res.rps.cluster_bounds()
     # RPM work: every main RP pairs with its cluster (n*maxc slots) and every
     # slot is scored against every slot of its row.
     maxc = int(counts.max()) if counts.size else 0
     n = len(res.rps)
-    rpm_s = float(np.median(stages["rpm"]))
-    out = {f"{k}_ms": 1e3 * float(np.median(v)) for k, v in stages.items()}
+    rpm_s = stages["rpm"]
+    out = {f"{k}_ms": 1e3 * v for k, v in stages.items()}
     out.update(
         rp10=s["rp_within_10mm"] / max(1, s["rp_total"]),
         rpm50=s["rpm_within_50mm"] / max(1, s["rpm_total"]),

@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 from dataclasses import asdict
 
 import numpy as np
@@ -130,8 +129,7 @@ def cmd_image(args) -> int:
 
 
 def _accuracy_line(s: dict) -> str:
-    def pct(n, d):
-        return f"{100.0 * n / d:.0f}% ({n}/{d})" if d else "-"
+    from .reproduce import pct
 
     return (f"Err_range<=10mm {pct(s['rp_within_10mm'], s['rp_total'])}, "
             f"Err_RPM<=50mm {pct(s['rpm_within_50mm'], s['rpm_total'])}, "
@@ -156,7 +154,7 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from .imaging import default_params, run_method
+    from .imaging import default_params, timed_run
     from .metrics import summary
     from .simulate import simulate_preset
 
@@ -165,9 +163,8 @@ def cmd_demo(args) -> int:
     for snr in (None, 20.0):
         data, preset = simulate_preset("paper-2d", snr, seed=args.seed)
         params = default_params(data, **preset.defaults)
-        run_method("kspace-rpm", data, params, engine)  # warm-up (first-call costs)
-        res = run_method("kspace-rpm", data, params, engine)
-        mf = run_method("mf-rpm", data, params, engine)
+        res = timed_run("kspace-rpm", data, params, engine)[0]
+        mf = timed_run("mf-rpm", data, params, engine)[0]
         label = "inf" if snr is None else f"{snr:g} dB"
         print(f"\npaper-2d (3 point targets within 80 mm of range, 0.2 GHz, 21 antennas), "
               f"S/N {label}")
@@ -274,6 +271,11 @@ def main(argv=None) -> int:
                   file=sys.stderr)
             return 2
         raise
+    except BrokenPipeError:  # output piped into e.g. head: not an error
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except KeyboardInterrupt:
         print("rpm-cl: interrupted", file=sys.stderr)
         return 130

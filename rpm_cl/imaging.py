@@ -25,7 +25,7 @@ SIGMA_R_DEFAULT = 0.05
 #: RPs below this level relative to their cluster's maximum are dropped, dB.
 RP_THRESHOLD_DB_DEFAULT = -10.0
 
-__all__ = ["RPMParams", "ImagingParams", "Image", "ImageResult", "rpm_image", "METHODS", "save_result",
+__all__ = ["RPMParams", "ImagingParams", "Image", "ImageResult", "rpm_image", "METHODS", "save_result", "timed_run",
            "run_method", "default_params"]
 
 
@@ -222,6 +222,29 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
     except KeyError:
         raise InputError(f"unknown method {name!r}; choose from {', '.join(METHODS)}") from None
     return fn(data, params, engine)
+
+
+def timed_run(name: str, data: RadarData, params: ImagingParams, engine, repeats: int = 1):
+    """Run a method after one warm-up call (first-call costs excluded).
+
+    Returns
+    -------
+    result : ImageResult
+        The last run's result.
+    seconds : float
+        Median wall time of ``repeats`` runs, s(X, R) to points.
+    stages : dict
+        Median time of each stage, s.
+    """
+    run_method(name, data, params, engine)
+    times, stages = [], {}
+    for _ in range(max(1, repeats)):
+        t0 = time.perf_counter()
+        result = run_method(name, data, params, engine)
+        times.append(time.perf_counter() - t0)
+        for k, v in result.timings.items():
+            stages.setdefault(k, []).append(v)
+    return result, float(np.median(times)), {k: float(np.median(v)) for k, v in stages.items()}
 
 
 def save_result(path, result: ImageResult, meta: dict | None = None) -> None:

@@ -10,17 +10,16 @@ and every kernel has run once before the clock starts (compile excluded).
 from __future__ import annotations
 
 import json
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from .data import InputError
-from .imaging import METHODS, default_params, run_method
+from .imaging import METHODS, default_params, timed_run
 from .metrics import summary
 from .simulate import simulate_preset
 
-__all__ = ["PAPER", "CASES", "ReproRow", "reproduce", "format_table", "write_json"]
+__all__ = ["PAPER", "CASES", "ReproRow", "reproduce", "format_table", "write_json", "pct"]
 
 #: The paper's figures (Table I, Table II and Section V-A4), as fractions.
 PAPER = {
@@ -96,10 +95,8 @@ def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
                 times = []
                 for data, preset in datasets:
                     params = default_params(data, **preset.defaults)
-                    run_method(method, data, params, engine)  # warm-up: first-call costs
-                    t0 = time.perf_counter()
-                    res = run_method(method, data, params, engine)
-                    times.append(time.perf_counter() - t0)
+                    res, seconds, _ = timed_run(method, data, params, engine)
+                    times.append(seconds)
                     s = summary(res.rps, res.image, data.truth)
                     for k in tot:
                         tot[k] += s[k]
@@ -108,8 +105,9 @@ def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
     return rows
 
 
-def _pct(n, d):
-    return f"{100.0 * n / d:5.1f}% ({n}/{d})" if d else "    -"
+def pct(n: int, d: int) -> str:
+    """``"95.2% (60/63)"``, or ``"-"`` when ``d`` is 0."""
+    return f"{100.0 * n / d:.1f}% ({n}/{d})" if d else "-"
 
 
 def format_table(rows: list[ReproRow]) -> str:
@@ -122,9 +120,9 @@ def format_table(rows: list[ReproRow]) -> str:
         ref = PAPER.get((r.case, r.method, r.snr_db))
         ref_s = "" if ref is None else " / ".join(
             f"{100 * ref[k]:.0f}%" if k in ref else "-" for k in ("rp10", "rpm50", "rpm100"))
-        lines.append(f"{r.case:12s} {r.method:11s} {snr:>5s} {_pct(r.rp_within_10mm, r.rp_total):>20s} "
-                     f"{_pct(r.rpm_within_50mm, r.rpm_total):>20s} "
-                     f"{_pct(r.rpm_within_100mm, r.rpm_total):>20s} {1e3 * r.seconds:7.2f}   {ref_s}")
+        lines.append(f"{r.case:12s} {r.method:11s} {snr:>5s} {pct(r.rp_within_10mm, r.rp_total):>20s} "
+                     f"{pct(r.rpm_within_50mm, r.rpm_total):>20s} "
+                     f"{pct(r.rpm_within_100mm, r.rpm_total):>20s} {1e3 * r.seconds:7.2f}   {ref_s}")
     return "\n".join(lines)
 
 
