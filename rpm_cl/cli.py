@@ -261,6 +261,11 @@ def main(argv=None) -> int:
     except (CLIError, InputError, NoOpenCLError) as exc:
         print(f"rpm-cl: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into e.g. head: not an error
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except MemoryError:
         print("rpm-cl: error: out of memory; lower the problem size or the RPM chunk size",
               file=sys.stderr)
@@ -271,11 +276,6 @@ def main(argv=None) -> int:
                   file=sys.stderr)
             return 2
         raise
-    except BrokenPipeError:  # output piped into e.g. head: not an error
-        import os
-
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
     except KeyboardInterrupt:
         print("rpm-cl: interrupted", file=sys.stderr)
         return 130
