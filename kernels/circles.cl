@@ -6,8 +6,9 @@
  *     x = (e*s + d*d) / (2d)
  *     y = sqrt((s - |d|)(s + |d|)) * sqrt((|d| - |e|)(|d| + |e|)) / (2|d|)
  * (the Heron-like product form of R_i^2 - x^2: every factor is a sum or a
- * difference of inputs, so the sign test is exact and there is no
- * cancellation).  The pair is valid iff d != 0 (not the same antenna),
+ * difference of inputs, so the sign test involves one rounding per factor
+ * and there is no catastrophic cancellation; float32 and float64 masks can
+ * differ only within that rounding of tangency).  The pair is valid iff d != 0 (not the same antenna),
  * s > |d| and |d| > |e| (two distinct real intersections; tangent or disjoint
  * circles are skipped).  Only the y > 0 root is kept.
  * The pair weight is amp_j * exp(-d^2 / (2 sigma_x^2)).
