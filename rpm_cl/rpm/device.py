@@ -94,7 +94,7 @@ class DeviceRPM:
                   self._buf(cstart, np.int32), self._buf(ccount, np.int32),
                   np.int32(i0), np.int32(n), np.int32(maxc),
                   self.dtype.type(1.0 / (2.0 * sigma_x**2)), cand, w, valid)
-        return cand, w, valid
+        return cand, w, valid, n
 
     def _score(self, dim, n, maxc, cand, w, valid, sigma_r):
         score = self._out((n, maxc))
@@ -114,8 +114,8 @@ class DeviceRPM:
     # -- public twins of rpm_cl.rpm.reference -------------------------------
     def intersect_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
         """Device twin of :func:`rpm_cl.rpm.reference.intersect_circles`."""
-        n, maxc = (int(np.size(x)) - i0 if n is None else int(n)), int(maxc)
-        cand, w, valid = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
+        maxc = int(maxc)
+        cand, w, valid, n = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
         return (self._read(cand, (2, n, maxc)), self._read(w, (n, maxc)),
                 self._read(valid, (n, maxc), np.int8))
 
@@ -139,7 +139,7 @@ class DeviceRPM:
         The three kernels run back to back on the device; only the per-main-RP
         results are read back.
         """
-        n, maxc = (int(np.size(x)) - i0 if n is None else int(n)), int(maxc)
-        cand, w, valid = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
+        maxc = int(maxc)
+        cand, w, valid, n = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
         score = self._score(2, n, maxc, cand, w, valid, sigma_r)
         return self._argmax(2, n, maxc, score, cand)
