@@ -9,9 +9,10 @@
  *
  * DIM (2 or 3) is set with -DDIM=.  cand holds DIM planes of (n, maxc).
  *
- * Work-item mapping: one work-item per (i, l), gid = i*maxc + l (64-bit); the inner loop
- * over c has the same trip count for every work-item (no branch on validity),
- * which PoCL's CPU device vectorises across work-items.
+ * Work-item mapping: a 2-D range, one work-item per (l, i); flat index
+ * i*maxc + l (64-bit).  maxc must be a multiple of 8 (the host pads rows with
+ * invalid, zero-weight slots); the inner loop over c runs 8 candidates at a
+ * time with the same trip count for every work-item.
  * NumPy reference: rpm_cl.rpm.reference.score_candidates.
  *
  * argmax_candidates: one work-item per main RP; first index of the largest
@@ -25,33 +26,63 @@
 #define DIM 2
 #endif
 
+/* Vectors over the candidates c (float8 / double4: 256-bit, which PoCL's
+ * generic CPU target supports everywhere): PoCL turns them into SIMD
+ * instructions and its vector exp into a SIMD exp, which its implicit
+ * work-item vectoriser does not do for a scalar loop.  The host pads every row
+ * to a multiple of 8 slots (padding slots have weight 0). */
+#define CAT(a, b) CAT_(a, b)
+#define CAT_(a, b) a##b
+#if defined(REAL_IS_DOUBLE)
+#define VW 4
+#else
+#define VW 8
+#endif
+#define REALV CAT(REAL, VW)
+#define VLOAD CAT(vload, VW)
+
+inline REAL hsum(const REALV a)
+{
+#if VW == 8
+    return dot(a.lo, (CAT(REAL, 4))((REAL)1)) + dot(a.hi, (CAT(REAL, 4))((REAL)1));
+#else
+    return dot(a, (REALV)((REAL)1));
+#endif
+}
+
 __kernel void score_candidates(
     __global const REAL *cand, __global const REAL *w, __global const char *valid,
     const int n, const int maxc, const REAL inv2sr2, __global REAL *score)
 {
-    const long gid = get_global_id(0);
+    /* 2-D range: dim 0 = candidate l (maxc, a multiple of 8), dim 1 = main RP i */
+    const int l = get_global_id(0);
+    const int i = get_global_id(1);
+    if (l >= maxc || i >= n) return;
     const long plane = (long)n * maxc;
-    if (gid >= plane) return;
-    const long row = (gid / maxc) * maxc;
-
+    const long row = (long)i * maxc;
+    const long gid = row + l;
+    if (!valid[gid]) {
+        score[gid] = (REAL)(-1);
+        return;
+    }
     const REAL lx = cand[gid];
     const REAL ly = cand[plane + gid];
 #if DIM == 3
     const REAL lz = cand[2 * plane + gid];
 #endif
-    REAL acc = (REAL)0;
-    for (int c = 0; c < maxc; ++c) {
-        const long k = row + c;
-        const REAL dx = cand[k] - lx;
-        const REAL dy = cand[plane + k] - ly;
-        REAL d2 = dx * dx + dy * dy;
+    const int nv = maxc / VW;
+    REALV acc = (REALV)((REAL)0);
+    for (int c = 0; c < nv; ++c) {
+        const REALV dx = VLOAD(c, cand + row) - lx;
+        const REALV dy = VLOAD(c, cand + plane + row) - ly;
+        REALV d2 = dx * dx + dy * dy;
 #if DIM == 3
-        const REAL dz = cand[2 * plane + k] - lz;
+        const REALV dz = VLOAD(c, cand + 2 * plane + row) - lz;
         d2 += dz * dz;
 #endif
-        acc += w[k] * exp(-d2 * inv2sr2);
+        acc += VLOAD(c, w + row) * exp(-d2 * inv2sr2);
     }
-    score[gid] = valid[gid] ? acc : (REAL)(-1);
+    score[gid] = hsum(acc);
 }
 
 __kernel void argmax_candidates(

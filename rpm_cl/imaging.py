@@ -19,6 +19,7 @@ import numpy as np
 from .data import InputError, RadarData
 from .kspace import KSpaceParams, decompose
 from .rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
+from .rpm.neighbours import neighbour_lists
 
 #: The paper's sigma_r for 2-D (Section V-A2), m.
 SIGMA_R_DEFAULT = 0.05
@@ -46,7 +47,15 @@ class RPMParams:
         the cube of a cluster's size).
     chunk_slots : int
         Main RPs are processed in chunks of at most this many candidate slots
-        (main RPs x largest cluster), which bounds device memory.
+        (main RPs x slots per main RP), which bounds device memory.
+    pair_cutoff : float
+        3-D: sub RPs farther than ``pair_cutoff * sigma_x`` from the main
+        antenna are not paired (their weight in eq. 11 is below
+        exp(-pair_cutoff^2 / 2)); inf pairs the whole cluster.
+    max_neighbours : int
+        3-D: at most this many sub RPs (the nearest) per main RP; the triplet
+        candidates per main RP are their pairs, max_neighbours^2 / 2, and the
+        scoring work per main RP grows as their square.
     """
 
     sigma_x: float = 0.10
@@ -54,6 +63,8 @@ class RPMParams:
     min_cluster_rps: int = 2
     max_cluster_rps: int = 8192
     chunk_slots: int = 1 << 22
+    pair_cutoff: float = 2.0
+    max_neighbours: int = 32
 
     def __post_init__(self):
         for name in ("sigma_x", "sigma_r"):
@@ -63,6 +74,10 @@ class RPMParams:
                 raise InputError(f"{name} must be between 1e-6 and 1e3 m, got {v}")
         if self.min_cluster_rps < 2:
             raise InputError(f"min_cluster_rps must be >= 2, got {self.min_cluster_rps}")
+        if not (self.pair_cutoff > 0):
+            raise InputError(f"pair_cutoff must be > 0 (inf allowed), got {self.pair_cutoff}")
+        if not (2 <= self.max_neighbours <= 4096):
+            raise InputError(f"max_neighbours must be in 2..4096, got {self.max_neighbours}")
         if self.chunk_slots < 1 or self.max_cluster_rps < self.min_cluster_rps:
             raise InputError("chunk_slots must be >= 1 and max_cluster_rps >= min_cluster_rps")
 
@@ -83,28 +98,39 @@ class ImagingParams:
 def default_params(data: RadarData, **overrides) -> ImagingParams:
     """Parameters derived from the array when not given.
 
-    sigma_x defaults to the aperture length (the paper's 2-D choice: 100 mm
-    for its 100 mm aperture, 400 mm for the 400 mm sparse one); sigma_r to
-    50 mm (the paper's 2-D value); window_x to 417 rad/m (the paper's).
+    - sigma_x (sigma_D): linear arrays, the aperture length (the paper's 2-D
+      choice: 100 mm for its 100 mm aperture, 400 mm for the 400 mm sparse
+      one); planar arrays, 2.5 antenna spacings (the paper: "two or three
+      times of sensor separations").
+    - sigma_r: 50 mm (the paper's 2-D value); window_x: 417 rad/m (the
+      paper's 2-D value), window_z = window_x.
 
     Parameters
     ----------
+    data : RadarData
     overrides : keyword arguments
-        ``sigma_x``, ``sigma_r``, ``window_x``, ``window_z`` and any other
-        :class:`KSpaceParams` field, ``rp_threshold_db``.
+        ``sigma_x``, ``sigma_r``, ``pair_cutoff``, ``max_neighbours``,
+        ``rp_threshold_db``, ``window_x``, ``window_z`` and any other
+        :class:`KSpaceParams` field.  None means "the default".
     """
     arr = data.array
-    aperture = float(arr.x[-1] - arr.x[0])
-    sigma_x = overrides.pop("sigma_x", None)
-    sigma_r = overrides.pop("sigma_r", None)
-    rpm_kw = {"sigma_x": aperture if sigma_x is None else sigma_x,
-              "sigma_r": SIGMA_R_DEFAULT if sigma_r is None else sigma_r}
-    rp_thr = overrides.pop("rp_threshold_db", None)
-    ks = {k: v for k, v in overrides.items() if v is not None}
-    if "window_z" in ks and not arr.planar:
+    ov = {k: v for k, v in overrides.items() if v is not None}
+    if arr.planar:
+        sigma_x = 2.5 * max(arr.dx, arr.dz)
+    else:
+        sigma_x = float(arr.x[-1] - arr.x[0])
+    rpm_kw = {"sigma_x": ov.pop("sigma_x", sigma_x), "sigma_r": ov.pop("sigma_r", SIGMA_R_DEFAULT)}
+    for k in ("pair_cutoff", "max_neighbours"):
+        if k in ov:
+            rpm_kw[k] = ov.pop(k)
+    rp_thr = ov.pop("rp_threshold_db", RP_THRESHOLD_DB_DEFAULT)
+    if "window_z" in ov and not arr.planar:
         raise InputError("window_z applies to planar arrays only; this array is linear")
-    params = ImagingParams(KSpaceParams(**ks), RPMParams(**rpm_kw))
-    return replace(params, rp_threshold_db=rp_thr) if rp_thr is not None else params
+    try:
+        ks = KSpaceParams(**ov)
+    except TypeError as exc:
+        raise InputError(f"unknown imaging parameter: {exc}") from None
+    return ImagingParams(ks, RPMParams(**rpm_kw), rp_thr)
 
 
 @dataclass(frozen=True)
@@ -138,53 +164,78 @@ class ImageResult:
     timings: dict
 
 
+def _prepare(rps: RangePoints, params: RPMParams):
+    """Kept RPs (clusters with enough RPs), re-indexed, amplitudes scaled to 1."""
+    cstart, ccount = rps.cluster_bounds()
+    idx = np.nonzero(ccount >= params.min_cluster_rps)[0]
+    if idx.size and int(ccount[idx].max()) > params.max_cluster_rps:
+        raise InputError(f"a cluster holds {int(ccount[idx].max())} RPs, more than "
+                         f"max_cluster_rps={params.max_cluster_rps}; raise the RP or peak "
+                         "thresholds")
+    # amplitudes scaled to a maximum of 1: the argmax of eq. 6/10 is unchanged
+    # and float32 kernels keep their range whatever the data's scale.
+    amp = np.asarray(rps.amp, np.float64)[idx]
+    scale = float(amp.max()) if amp.size and amp.max() > 0 else 1.0
+    start, count = np.searchsorted(idx, cstart[idx]), ccount[idx]
+    return idx, amp / scale, scale, start, count
+
+
+def _chunks(total: int, maxc: int, chunk_slots: int):
+    step = max(1, chunk_slots // max(1, maxc))
+    return [(i0, min(step, total - i0)) for i0 in range(0, total, step)]
+
+
 def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
-    """RPM (eq. 6) over every cluster of ``rps``.
+    """RPM over every cluster of ``rps``: eq. 6 (2-D) or eq. 10-11 (3-D).
+
+    Main RPs run in chunks of at most ``params.chunk_slots`` candidate slots,
+    so one large cluster cannot exhaust device memory.
 
     Parameters
     ----------
     rps : RangePoints
-        2-D RPs (linear array), sorted by cluster.
+        RPs sorted by cluster; 2-D (linear array) or 3-D (planar array).
     params : RPMParams
     engine : object
         :mod:`rpm_cl.rpm.reference` (float64 NumPy) or a
-        :class:`rpm_cl.rpm.DeviceRPM`; anything with ``rpm_circles``.
+        :class:`rpm_cl.rpm.DeviceRPM`; anything with ``rpm_circles`` and
+        ``rpm_spheres``.
 
     Returns
     -------
     Image
+        Points (M, 2) or (M, 3), m.
     """
-    if rps.dim != 2:
-        raise InputError("rpm_image handles 2-D RPs (linear arrays)")
-    cstart, ccount = rps.cluster_bounds()
-    keep = ccount >= params.min_cluster_rps
-    idx = np.nonzero(keep)[0]
-    empty = Image(np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64))
+    dim = rps.dim
+    idx, amp, scale, start, count = _prepare(rps, params)
     if idx.size == 0:
-        return empty
-    too_big = int(ccount[idx].max())
-    if too_big > params.max_cluster_rps:
-        raise InputError(f"a cluster holds {too_big} RPs, more than max_cluster_rps="
-                         f"{params.max_cluster_rps}; raise the RP or peak thresholds")
-    # re-index the kept RPs (clusters stay contiguous)
-    x, r = np.asarray(rps.x)[idx], np.asarray(rps.range)[idx]
-    # amplitudes scaled to a maximum of 1: the argmax of eq. 6 is unchanged and
-    # float32 kernels keep their range whatever the data's scale.
-    amp = np.asarray(rps.amp, np.float64)[idx]
-    scale = float(amp.max()) if amp.size and amp.max() > 0 else 1.0
-    amp = amp / scale
-    start, count = np.searchsorted(idx, cstart[idx]), ccount[idx]
-    maxc = int(count.max())
-    step = max(1, params.chunk_slots // maxc)
-    best, score, px, py = [], [], [], []
-    for i0 in range(0, idx.size, step):
-        b, s_, p = engine.rpm_circles(x, r, amp, start, count, maxc, params.sigma_x,
-                                      params.sigma_r, i0, min(step, idx.size - i0))
-        best.append(b), score.append(s_), px.append(p[0]), py.append(p[1])
-    best, score = np.concatenate(best), np.concatenate(score).astype(np.float64) * scale
-    px, py = np.concatenate(px), np.concatenate(py)
+        return Image(np.zeros((0, dim)), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64))
+    x, r = np.asarray(rps.x, np.float64)[idx], np.asarray(rps.range, np.float64)[idx]
+    parts = []
+    if dim == 2:
+        maxc = int(count.max())
+        for i0, n in _chunks(idx.size, maxc, params.chunk_slots):
+            parts.append(engine.rpm_circles(x, r, amp, start, count, maxc, params.sigma_x,
+                                            params.sigma_r, i0, n))
+    else:
+        z = np.asarray(rps.z, np.float64)[idx]
+        nbr, nnbr = neighbour_lists(x, z, np.asarray(rps.antenna)[idx], start, count,
+                                    params.pair_cutoff * params.sigma_x, params.max_neighbours)
+        if nbr.shape[1] >= 2:
+            maxc = nbr.shape[1] * (nbr.shape[1] - 1) // 2
+            for i0, n in _chunks(idx.size, maxc, params.chunk_slots):
+                parts.append(engine.rpm_spheres(x, z, r, amp, nbr, nnbr, params.sigma_x,
+                                                params.sigma_r, i0, n))
+    if not parts:
+        return Image(np.zeros((0, dim)), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64))
+    best = np.concatenate([p[0] for p in parts])
+    score = np.concatenate([p[1] for p in parts]).astype(np.float64) * scale
+    local = np.concatenate([p[2] for p in parts], axis=1).astype(np.float64)
     ok = best >= 0
-    pts = np.stack([x[ok] + px[ok], py[ok]], axis=1).astype(np.float64)
+    pts = local[:, ok].T.copy()
+    pts[:, 0] += x[ok]
+    if dim == 3:
+        pts[:, 2] += z[ok]
     return Image(pts, np.asarray(rps.cluster)[idx][ok], score[ok], idx[ok])
 
 

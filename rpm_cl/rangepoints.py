@@ -135,7 +135,7 @@ def rps_from_decomposition(data: RadarData, dec: Decomposition,
         env = np.abs(c.signal).reshape(-1, c.signal.shape[-1])
         row, pos, val = profile_peaks(env, rel)
         ants.append(row)
-        rs.append(data.range[c.r_slice.start] + pos * data.dr)
+        rs.append(data.range[c.r_slice.start] + pos * data.dr + np.ravel(c.offset)[row])
         amps.append(val)
         cl.append(np.full(row.size, m))
     if not ants:

@@ -289,6 +289,8 @@ class Preset:
     defaults : dict
         Imaging parameters the paper uses for this case (see
         :class:`rpm_cl.imaging.ImagingParams`).
+    boundary_spacing : float
+        Spacing of the true-boundary samples kept for Err_RPM, m.
     """
 
     scene: Scene
@@ -296,6 +298,7 @@ class Preset:
     waveform: Waveform
     range_axis: np.ndarray
     defaults: dict
+    boundary_spacing: float = 1e-3
 
 
 # The paper's Fig. 4 gives no coordinates; these three point targets follow
@@ -321,9 +324,51 @@ def _paper_2d(step: float, sigma_x: float) -> Preset:
     )
 
 
+# The paper's human body (Section VI-B, Fig. 19) is "11 ellipsoids
+# corresponding to the head, upper and lower torsos, arms, and legs" with no
+# dimensions given.  Ours is an adult of about 1.75 m standing with the front
+# of the torso 1 m from the array, arms hanging beside the torso; feet at
+# z = 0.  (name, centre (x, y, z), semi-axes (x, y, z)), m.  Neighbouring
+# parts overlap a little, as joints do; a specular point inside another part
+# is blocked by it and not counted.
+HUMAN_BODY_PARTS = (
+    ("head", (0.0, 1.07, 1.63), (0.075, 0.095, 0.115)),
+    ("upper-torso", (0.0, 1.11, 1.31), (0.17, 0.11, 0.19)),
+    ("lower-torso", (0.0, 1.10, 0.99), (0.155, 0.10, 0.15)),
+    ("right-upper-arm", (0.235, 1.11, 1.30), (0.045, 0.05, 0.15)),
+    ("left-upper-arm", (-0.235, 1.11, 1.30), (0.045, 0.05, 0.15)),
+    ("right-forearm", (0.25, 1.09, 0.99), (0.04, 0.045, 0.13)),
+    ("left-forearm", (-0.25, 1.09, 0.99), (0.04, 0.045, 0.13)),
+    ("right-thigh", (0.10, 1.11, 0.63), (0.075, 0.08, 0.21)),
+    ("left-thigh", (-0.10, 1.11, 0.63), (0.075, 0.08, 0.21)),
+    ("right-lower-leg", (0.12, 1.12, 0.22), (0.05, 0.055, 0.20)),
+    ("left-lower-leg", (-0.12, 1.12, 0.22), (0.05, 0.055, 0.20)),
+)
+#: Height of the centre of the human-body array, m (chest-abdomen height).
+HUMAN_BODY_ARRAY_Z = 1.0
+
+
+def _human_body() -> Preset:
+    # 20 GHz / 3 GHz (50 mm range resolution); 11 x 17 antennas at 7.5 mm
+    # (half the 15 mm wavelength) in x and z, centred at (0, 0, 1 m).
+    step = 7.5e-3
+    targets = tuple(Ellipsoid(c, e, (0.0, 0.0, 0.0)) for _, c, e in HUMAN_BODY_PARTS)
+    return Preset(
+        Scene(targets, "human-body"),
+        Array((np.arange(11) - 5) * step, HUMAN_BODY_ARRAY_Z + (np.arange(17) - 8) * step),
+        Waveform(20e9, 3e9),
+        np.arange(0.70, 1.70, 2.5e-3),
+        # the paper's window widths (Section VI-B2, read as rad/mm: the k axes
+        # span 2 pi / 7.5 mm = 838 rad/m); sigma_D is 2-3 spacings (Section II)
+        {"sigma_x": 0.02, "sigma_r": 0.05, "window_x": 775.0, "window_z": 1210.0},
+        boundary_spacing=3e-3,
+    )
+
+
 PRESETS = {
     "paper-2d": lambda: _paper_2d(5e-3, 0.10),
     "paper-2d-sparse": lambda: _paper_2d(20e-3, 0.40),
+    "human-body": _human_body,
 }
 
 

@@ -267,5 +267,6 @@ def simulate_preset(name: str, snr_db: float | None = None, seed: int | None = N
     from .scene import get_preset
 
     preset = get_preset(name)
-    data = simulate(preset.scene, preset.array, preset.waveform, preset.range_axis, snr_db, seed)
+    data = simulate(preset.scene, preset.array, preset.waveform, preset.range_axis, snr_db, seed,
+                    boundary_spacing=preset.boundary_spacing)
     return data, preset

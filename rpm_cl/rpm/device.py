@@ -12,12 +12,28 @@ from __future__ import annotations
 import numpy as np
 
 from ..cl import CLEnv, get_kernels
+from .reference import EPS_DET, pair_table
 
 __all__ = ["DeviceRPM"]
 
 
 def _round_up(n: int, m: int = 64) -> int:
     return max(m, ((n + m - 1) // m) * m)
+
+
+def _stride(maxc: int) -> int:
+    """Device row length: maxc padded to the score kernel's vector width (8)."""
+    return max(8, ((int(maxc) + 7) // 8) * 8)
+
+
+def _pad_rows(a, stride: int, fill=0):
+    """Pad the last axis of ``a`` to ``stride`` with ``fill``."""
+    a = np.asarray(a)
+    if a.shape[-1] == stride:
+        return a
+    out = np.full(a.shape[:-1] + (stride,), fill, a.dtype)
+    out[..., :a.shape[-1]] = a
+    return out
 
 
 class DeviceRPM:
@@ -42,8 +58,9 @@ class DeviceRPM:
         base = {"REAL": "float" if precision == "float32" else "double"}
         if precision == "float64":
             base["REAL_IS_DOUBLE"] = 1
-        k2 = get_kernels(env, "circles.cl", ["intersect_circles"], base)
-        self._k = dict(k2)
+        self._k = dict(get_kernels(env, "circles.cl", ["intersect_circles"], base))
+        self._k.update(get_kernels(env, "spheres.cl", ["intersect_spheres"], base))
+        self._pairs = {}  # kmax -> device pair table
         for dim in (2, 3):
             ks = get_kernels(env, "score.cl", ["score_candidates", "argmax_candidates"],
                              {**base, "DIM": dim})
@@ -78,6 +95,10 @@ class DeviceRPM:
         if nitems > 0:
             kernel(self.env.queue, (_round_up(nitems),), None, *args)
 
+    def _run2(self, kernel, n0, n1, *args):
+        if n0 > 0 and n1 > 0:
+            kernel(self.env.queue, (n0, n1), None, *args)
+
     # -- kernels on device buffers ----------------------------------------
     def _intersect(self, x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
         n = int(np.size(x)) - i0 if n is None else int(n)
@@ -86,6 +107,7 @@ class DeviceRPM:
         # antenna's frame, so they do not depend on it.
         x = np.asarray(x, np.float64)
         x0 = float(np.mean(x)) if x.size else 0.0
+        maxc = _stride(maxc)  # slots >= the cluster size are invalid in the kernel
         cand = self._out((2, n, maxc))
         w = self._out((n, maxc))
         valid = self._out((n, maxc), np.int8)
@@ -94,12 +116,43 @@ class DeviceRPM:
                   self._buf(cstart, np.int32), self._buf(ccount, np.int32),
                   np.int32(i0), np.int32(n), np.int32(maxc),
                   self.dtype.type(1.0 / (2.0 * sigma_x**2)), cand, w, valid)
-        return cand, w, valid, n
+        return cand, w, valid, n, maxc
+
+    def _pair_bufs(self, kmax):
+        if kmax not in self._pairs:
+            pa, pb = pair_table(kmax)
+            stride = _stride(pa.size)
+            # padding slots pair position kmax, never < nnbr: invalid
+            self._pairs[kmax] = (self._buf(_pad_rows(pa, stride, 0), np.int32),
+                                 self._buf(_pad_rows(pb, stride, kmax), np.int32))
+        return self._pairs[kmax]
+
+    def _intersect3(self, x, z, r, amp, nbr, nnbr, sigma_d, i0=0, n=None):
+        x = np.asarray(x, np.float64)
+        z = np.asarray(z, np.float64)
+        n = x.size - i0 if n is None else int(n)
+        nbr = np.asarray(nbr).reshape(x.size, -1)
+        kmax = nbr.shape[1]
+        maxc = _stride(kmax * (kmax - 1) // 2)
+        # common origin removed in float64 (outputs are in each main antenna's frame)
+        x0 = float(np.mean(x)) if x.size else 0.0
+        z0 = float(np.mean(z)) if z.size else 0.0
+        cand = self._out((3, n, maxc))
+        w = self._out((n, maxc))
+        valid = self._out((n, maxc), np.int8)
+        pa, pb = self._pair_bufs(kmax)
+        self._run(self._k["intersect_spheres"], n * maxc,
+                  self._buf(x - x0), self._buf(z - z0), self._buf(r), self._buf(amp),
+                  self._buf(nbr, np.int32), self._buf(nnbr, np.int32), pa, pb,
+                  np.int32(i0), np.int32(n), np.int32(kmax), np.int32(maxc),
+                  self.dtype.type(1.0 / (2.0 * sigma_d**2)), self.dtype.type(EPS_DET),
+                  cand, w, valid)
+        return cand, w, valid, n, maxc
 
     def _score(self, dim, n, maxc, cand, w, valid, sigma_r):
         score = self._out((n, maxc))
-        self._run(self._k[f"score{dim}"], n * maxc, cand, w, valid,
-                  np.int32(n), np.int32(maxc), self.dtype.type(1.0 / (2.0 * sigma_r**2)), score)
+        self._run2(self._k[f"score{dim}"], maxc, n, cand, w, valid,
+                   np.int32(n), np.int32(maxc), self.dtype.type(1.0 / (2.0 * sigma_r**2)), score)
         return score
 
     def _argmax(self, dim, n, maxc, score, cand):
@@ -112,26 +165,39 @@ class DeviceRPM:
                 self._read(point, (dim, n)))
 
     # -- public twins of rpm_cl.rpm.reference -------------------------------
+    # Device rows are padded to _stride(maxc) slots; the twins return the
+    # reference's (.., maxc) shapes.
     def intersect_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
         """Device twin of :func:`rpm_cl.rpm.reference.intersect_circles`."""
         maxc = int(maxc)
-        cand, w, valid, n = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
-        return (self._read(cand, (2, n, maxc)), self._read(w, (n, maxc)),
-                self._read(valid, (n, maxc), np.int8))
+        cand, w, valid, n, stride = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
+        return (self._read(cand, (2, n, stride))[..., :maxc], self._read(w, (n, stride))[:, :maxc],
+                self._read(valid, (n, stride), np.int8)[:, :maxc])
+
+    def intersect_spheres(self, x, z, r, amp, nbr, nnbr, sigma_d, i0=0, n=None):
+        """Device twin of :func:`rpm_cl.rpm.reference.intersect_spheres`."""
+        cand, w, valid, n, stride = self._intersect3(x, z, r, amp, nbr, nnbr, sigma_d, i0, n)
+        kmax = np.asarray(nbr).reshape(np.size(x), -1).shape[1]
+        maxc = kmax * (kmax - 1) // 2
+        return (self._read(cand, (3, n, stride))[..., :maxc], self._read(w, (n, stride))[:, :maxc],
+                self._read(valid, (n, stride), np.int8)[:, :maxc])
 
     def score_candidates(self, cand, w, valid, sigma_r):
         """Device twin of :func:`rpm_cl.rpm.reference.score_candidates`."""
         cand = np.asarray(cand)
         dim, n, maxc = cand.shape
-        score = self._score(dim, n, maxc, self._buf(cand), self._buf(w),
-                            self._buf(valid, np.int8), sigma_r)
-        return self._read(score, (n, maxc))
+        st = _stride(maxc)
+        score = self._score(dim, n, st, self._buf(_pad_rows(cand, st)), self._buf(_pad_rows(w, st)),
+                            self._buf(_pad_rows(np.asarray(valid, np.int8), st), np.int8), sigma_r)
+        return self._read(score, (n, st))[:, :maxc]
 
     def argmax_candidates(self, score, cand):
         """Device twin of :func:`rpm_cl.rpm.reference.argmax_candidates`."""
         cand = np.asarray(cand)
         dim, n, maxc = cand.shape
-        return self._argmax(dim, n, maxc, self._buf(score), self._buf(cand))
+        st = _stride(maxc)
+        return self._argmax(dim, n, st, self._buf(_pad_rows(np.asarray(score), st, -1)),
+                            self._buf(_pad_rows(cand, st)))
 
     def rpm_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x, sigma_r, i0=0, n=None):
         """Device twin of :func:`rpm_cl.rpm.reference.rpm_circles`.
@@ -139,7 +205,16 @@ class DeviceRPM:
         The three kernels run back to back on the device; only the per-main-RP
         results are read back.
         """
-        maxc = int(maxc)
-        cand, w, valid, n = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
-        score = self._score(2, n, maxc, cand, w, valid, sigma_r)
-        return self._argmax(2, n, maxc, score, cand)
+        cand, w, valid, n, st = self._intersect(x, r, amp, cstart, ccount, int(maxc), sigma_x, i0, n)
+        score = self._score(2, n, st, cand, w, valid, sigma_r)
+        return self._argmax(2, n, st, score, cand)
+
+    def rpm_spheres(self, x, z, r, amp, nbr, nnbr, sigma_d, sigma_r, i0=0, n=None):
+        """Device twin of :func:`rpm_cl.rpm.reference.rpm_spheres`.
+
+        The three kernels run back to back on the device; only the per-main-RP
+        results are read back.
+        """
+        cand, w, valid, n, st = self._intersect3(x, z, r, amp, nbr, nnbr, sigma_d, i0, n)
+        score = self._score(3, n, st, cand, w, valid, sigma_r)
+        return self._argmax(3, n, st, score, cand)

@@ -14,7 +14,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["intersect_circles", "score_candidates", "argmax_candidates", "rpm_circles"]
+__all__ = ["intersect_circles", "intersect_spheres", "score_candidates", "argmax_candidates",
+           "rpm_circles", "rpm_spheres", "pair_table", "EPS_DET"]
+
+#: Triplets whose antennas are this close to collinear (|det| relative to
+#: |a_j| |a_k|, the sine of the angle at the main antenna) are skipped: below
+#: it, float32 rounding of det is comparable to det itself.
+EPS_DET = 1e-4
 
 
 def intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
@@ -74,6 +80,91 @@ def intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
     cand[1] = np.where(ok, cy, 0.0)
     w = np.where(ok, wt, 0.0)
     return cand, w, ok.astype(np.int8)
+
+
+def pair_table(kmax: int):
+    """Slot -> pair of neighbour-list positions, colex order.
+
+    Parameters
+    ----------
+    kmax : int
+        Length of the neighbour lists.
+
+    Returns
+    -------
+    pa, pb : ndarray of int32, shape (kmax*(kmax-1)//2,)
+        ``pa[s] < pb[s]``; the first ``m*(m-1)//2`` slots are exactly the
+        pairs of positions ``< m``.
+    """
+    kmax = int(kmax)
+    b = np.repeat(np.arange(kmax), np.arange(kmax))
+    start = b * (b - 1) // 2
+    a = np.arange(b.size) - start
+    return a.astype(np.int32), b.astype(np.int32)
+
+
+def intersect_spheres(x, z, r, amp, nbr, nnbr, sigma_d, i0=0, n=None):
+    """Intersections of each main RP's sphere with pairs of its sub RPs' spheres.
+
+    Parameters
+    ----------
+    x, z : ndarray, shape (N,)
+        Antenna coordinates of each RP, m (any common origin).
+    r : ndarray, shape (N,)
+        RP ranges, m.
+    amp : ndarray, shape (N,)
+        RP amplitudes |s(q)|, >= 0.
+    nbr : ndarray of int, shape (N, kmax)
+        Sub-RP indices of each RP (same cluster, other antennas); entries at
+        positions >= ``nnbr`` are ignored.
+    nnbr : ndarray of int, shape (N,)
+        Length of each list, <= kmax.
+    sigma_d : float
+        sigma_D of eq. 11, m.
+    i0, n : int
+        The main RPs are ``i0 .. i0+n-1`` (a chunk; default all RPs).
+
+    Returns
+    -------
+    cand : ndarray, shape (3, n, maxc), maxc = kmax*(kmax-1)//2
+        (x, y, z) of the y > 0 intersection in the main antenna's frame, m; 0
+        where invalid.  Slot order: :func:`pair_table`.
+    w : ndarray, shape (n, maxc)
+        The weight g of eq. 11; 0 where invalid.
+    valid : ndarray of int8, shape (n, maxc)
+        1 where the triplet has a real, non-tangent intersection and
+        non-collinear antennas (see :data:`EPS_DET`), else 0.
+    """
+    x, z, r, amp = (np.asarray(v, np.float64) for v in (x, z, r, amp))
+    nbr = np.asarray(nbr, np.int64).reshape(x.size, -1)
+    nnbr = np.asarray(nnbr, np.int64)
+    kmax = nbr.shape[1]
+    n = x.size - i0 if n is None else n
+    pa, pb = pair_table(kmax)
+    i = i0 + np.arange(n)[:, None]
+    inrange = pb[None, :] < nnbr[i]
+    j = np.where(inrange, nbr[i, pa[None, :]], i)
+    k = np.where(inrange, nbr[i, pb[None, :]], i)
+    ajx, ajz, akx, akz = x[j] - x[i], z[j] - z[i], x[k] - x[i], z[k] - z[i]
+    nj2, nk2 = ajx**2 + ajz**2, akx**2 + akz**2
+    det = ajx * akz - ajz * akx
+    ri = r[i]
+    ok = inrange & (np.abs(det) > EPS_DET * np.sqrt(nj2) * np.sqrt(nk2))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        bj = 0.5 * ((ri - r[j]) * (ri + r[j]) + nj2)
+        bk = 0.5 * ((ri - r[k]) * (ri + r[k]) + nk2)
+        px = (bj * akz - bk * ajz) / det
+        pz = (ajx * bk - akx * bj) / det
+        rho = np.sqrt(px**2 + pz**2)
+        ok &= ri - rho > 0
+        py = np.sqrt((ri - rho) * (ri + rho))
+        inv = 1.0 / (2.0 * sigma_d**2)
+        g = amp[j] * np.exp(-nj2 * inv) + amp[k] * np.exp(-nk2 * inv)
+    cand = np.zeros((3, n, pa.size))
+    cand[0] = np.where(ok, px, 0.0)
+    cand[1] = np.where(ok, py, 0.0)
+    cand[2] = np.where(ok, pz, 0.0)
+    return cand, np.where(ok, g, 0.0), ok.astype(np.int8)
 
 
 def score_candidates(cand, w, valid, sigma_r):
@@ -152,4 +243,19 @@ def rpm_circles(x, r, amp, cstart, ccount, maxc, sigma_x, sigma_r, i0=0, n=None)
         frame (add ``x`` to its first row for absolute x).
     """
     cand, w, valid = intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
+    return argmax_candidates(score_candidates(cand, w, valid, sigma_r), cand)
+
+
+def rpm_spheres(x, z, r, amp, nbr, nnbr, sigma_d, sigma_r, i0=0, n=None):
+    """Whole 3-D RPM step: intersect, score, argmax (eq. 10-11).
+
+    Parameters are those of :func:`intersect_spheres` plus ``sigma_r`` (m).
+
+    Returns
+    -------
+    best, best_score, point
+        As :func:`argmax_candidates`; ``point`` (3, n) is in each main
+        antenna's frame (add ``x`` and ``z`` for absolute coordinates).
+    """
+    cand, w, valid = intersect_spheres(x, z, r, amp, nbr, nnbr, sigma_d, i0, n)
     return argmax_candidates(score_candidates(cand, w, valid, sigma_r), cand)

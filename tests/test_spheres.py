@@ -1,0 +1,193 @@
+"""3-D RPM: sphere-triplet kernel against its float64 reference, neighbour lists."""
+
+import numpy as np
+import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+
+from rpm_cl.rpm import reference as ref
+from rpm_cl.rpm.neighbours import neighbour_lists
+
+EPS32 = float(np.finfo(np.float32).eps)
+
+
+def planar_cluster(rng, sizes, span=0.1, noise=1e-3, dup=True):
+    """RPs of random scatterers seen from random antennas on the y = 0 plane.
+
+    Ranges are the exact distances plus Gaussian noise (so most triplets
+    intersect, some do not); with ``dup`` some RPs share an antenna.
+    Returns x, z, r, amp, antenna, cstart, ccount.
+    """
+    xs, zs, rs, ants = [], [], [], []
+    a0 = 0
+    for m in sizes:
+        p = np.array([rng.uniform(-0.3, 0.3), rng.uniform(0.3, 1.5), rng.uniform(-0.3, 0.3)])
+        x = rng.uniform(-span / 2, span / 2, m)
+        z = rng.uniform(-span / 2, span / 2, m)
+        ant = a0 + np.arange(m)
+        if dup:
+            same = rng.random(m) < 0.15
+            x[same], z[same], ant[same] = x[0], z[0], ant[0]
+        r = np.sqrt((p[0] - x) ** 2 + p[1] ** 2 + (p[2] - z) ** 2) + rng.normal(0, noise, m)
+        xs.append(x), zs.append(z), rs.append(r), ants.append(ant)
+        a0 += m
+    sizes = np.asarray(sizes)
+    starts = np.repeat(np.cumsum(np.r_[0, sizes[:-1]]), sizes)
+    counts = np.repeat(sizes, sizes)
+    x, z, r, ant = (np.concatenate(v) for v in (xs, zs, rs, ants))
+    amp = rng.uniform(0.1, 2.0, x.size)
+    return x, z, r, amp, ant, starts, counts
+
+
+def lists(x, z, ant, starts, counts, kmax=9):
+    return neighbour_lists(x, z, ant, starts, counts, np.inf, kmax)
+
+
+def test_pair_table_colex_prefix_property():
+    for kmax in (2, 3, 7, 32):
+        pa, pb = ref.pair_table(kmax)
+        assert pa.size == kmax * (kmax - 1) // 2
+        assert np.all(pa < pb) and np.all(pb < kmax)
+        assert len(set(zip(pa.tolist(), pb.tolist()))) == pa.size  # every pair once
+        for m in range(2, kmax + 1):  # the first m(m-1)/2 slots are the pairs below m
+            k = m * (m - 1) // 2
+            assert pb[:k].max() == m - 1 and (k == pa.size or pb[k] == m)
+
+
+def test_neighbour_lists_respect_cluster_antenna_radius_and_order(rng):
+    x, z, r, amp, ant, starts, counts = planar_cluster(rng, [30, 25])
+    radius, kmax = 0.04, 12
+    nbr, nn = neighbour_lists(x, z, ant, starts, counts, radius, kmax)
+    for i in range(x.size):
+        lst = nbr[i, :nn[i]]
+        d = np.hypot(x[lst] - x[i], z[lst] - z[i])
+        assert np.all((lst >= starts[i]) & (lst < starts[i] + counts[i]))
+        assert np.all(ant[lst] != ant[i]) and np.all(d <= radius)
+        assert np.all(np.diff(d) >= 0)  # nearest first
+        lo, hi = starts[i], starts[i] + counts[i]
+        dall = np.hypot(x[lo:hi] - x[i], z[lo:hi] - z[i])
+        eligible = np.sum((ant[lo:hi] != ant[i]) & (dall <= radius))
+        assert nn[i] == min(kmax, eligible)
+        assert np.all(nbr[i, nn[i]:] == -1)
+
+
+def test_intersect_float64_matches_reference(dev64, rng):
+    x, z, r, amp, ant, st_, ct = planar_cluster(rng, [12, 9, 15])
+    nbr, nn = lists(x, z, ant, st_, ct)
+    want = ref.intersect_spheres(x, z, r, amp, nbr, nn, 0.03)
+    got = dev64.intersect_spheres(x, z, r, amp, nbr, nn, 0.03)
+    assert want[2].any() and not want[2].all()  # both kinds of slot occur
+    np.testing.assert_array_equal(got[2], want[2])
+    np.testing.assert_allclose(got[0], want[0], rtol=1e-9, atol=1e-11)
+    np.testing.assert_allclose(got[1], want[1], rtol=1e-12, atol=1e-14)
+
+
+def test_intersect_float32_agrees_with_reference(dev32, rng):
+    x, z, r, amp, ant, st_, ct = planar_cluster(rng, [12, 9, 15])
+    nbr, nn = lists(x, z, ant, st_, ct)
+    want = ref.intersect_spheres(x, z, r, amp, nbr, nn, 0.03)
+    got = dev32.intersect_spheres(x, z, r, amp, nbr, nn, 0.03)
+    assert np.all(np.isfinite(got[0])) and np.all(np.isfinite(got[1]))
+    # Error model: float32 ranges carry ~eps*R, so b = ((Ri-Rj)(Ri+Rj)+|a|^2)/2
+    # carries ~2 eps R^2 and Cramer's rule divides it by det / |a|: the
+    # in-plane error is ~ eps R^2 (|a_j| + |a_k|) / |det|; p_y inherits it
+    # times rho / p_y.  Slots whose validity sits within that error of a
+    # threshold may flip; compare the others.
+    pa, pb = ref.pair_table(nbr.shape[1])
+    i = np.arange(x.size)[:, None]
+    inr = pb[None, :] < nn[:, None]
+    j = np.where(inr, nbr[i, pa], i)
+    k = np.where(inr, nbr[i, pb], i)
+    ajx, ajz, akx, akz = x[j] - x[i], z[j] - z[i], x[k] - x[i], z[k] - z[i]
+    nj, nk = np.hypot(ajx, ajz), np.hypot(akx, akz)
+    det = np.abs(ajx * akz - ajz * akx)
+    R = r[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        err_p = 50 * EPS32 * R**2 * (nj + nk) / det + 50 * EPS32 * R
+        rho = np.hypot(want[0][0], want[0][2])
+        clear = inr & (det > 2 * ref.EPS_DET * nj * nk) & (np.abs(R - rho) > 4 * err_p)
+    both = clear & (want[2] == 1)
+    assert both.sum() > 50
+    np.testing.assert_array_equal(got[2][clear], want[2][clear])
+    for plane in (0, 2):
+        assert np.all(np.abs(got[0][plane][both] - want[0][plane][both]) <= err_p[both])
+    tol_y = err_p * (1 + rho / np.maximum(want[0][1], 1e-30))
+    assert np.all(np.abs(got[0][1][both] - want[0][1][both]) <= tol_y[both])
+    np.testing.assert_allclose(got[1][both], want[1][both], rtol=1e-5)
+
+
+def test_rpm_spheres_chain_matches_reference(dev32, dev64, rng):
+    x, z, r, amp, ant, st_, ct = planar_cluster(rng, [14, 14], dup=False)
+    nbr, nn = lists(x, z, ant, st_, ct)
+    want = ref.rpm_spheres(x, z, r, amp, nbr, nn, 0.03, 0.02)
+    got64 = dev64.rpm_spheres(x, z, r, amp, nbr, nn, 0.03, 0.02)
+    np.testing.assert_array_equal(got64[0], want[0])
+    np.testing.assert_allclose(got64[2], want[2], atol=1e-9)
+    got32 = dev32.rpm_spheres(x, z, r, amp, nbr, nn, 0.03, 0.02)
+    # float32 may pick another candidate on a near-tie: its float64 score must
+    # then equal the best within float32 accumulation error.
+    scores = ref.score_candidates(*ref.intersect_spheres(x, z, r, amp, nbr, nn, 0.03), 0.02)
+    ok = want[0] >= 0
+    assert ok.sum() > 20
+    np.testing.assert_array_equal(got32[0] >= 0, ok)
+    picked = scores[np.arange(x.size), np.maximum(got32[0], 0)]
+    np.testing.assert_allclose(picked[ok], want[1][ok], rtol=1e-4)
+
+
+def test_degenerate_triplets_are_skipped_never_nan(dev32, dev64):
+    # main RP 0 at the origin, R = 1; sub RPs: 1, 2 collinear with it (along
+    # x), 3 at the main antenna itself, 4 too far to intersect, 5 and 6 a
+    # proper triangle.
+    x = np.array([0.0, 0.01, 0.02, 0.0, 3.0, 0.0, 0.01])
+    z = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.01, 0.01])
+    p = np.array([0.05, 0.9, 0.02])
+    r = np.sqrt((p[0] - x) ** 2 + p[1] ** 2 + (p[2] - z) ** 2)
+    r[4] = 1.0
+    nbr = np.array([[1, 2, 3, 4, 5, 6]] + [[-1] * 6] * 6)
+    nn = np.array([6, 0, 0, 0, 0, 0, 0])
+    amp = np.ones_like(x)
+    pa, pb = ref.pair_table(6)
+    pairs = {(int(a) + 1, int(b) + 1): s for s, (a, b) in enumerate(zip(pa, pb))}
+    for engine in (ref, dev32, dev64):
+        cand, w, valid = engine.intersect_spheres(x, z, r, amp, nbr, nn, 0.03)
+        assert np.all(np.isfinite(cand)) and np.all(np.isfinite(w))
+        assert valid[0, pairs[(1, 2)]] == 0  # collinear
+        assert all(valid[0, pairs[tuple(sorted((3, o)))]] == 0 for o in (1, 2, 4, 5, 6))
+        assert valid[0, pairs[(4, 5)]] == 0  # no real intersection
+        assert valid[0, pairs[(5, 6)]] == 1
+        np.testing.assert_allclose(cand[:, 0, pairs[(5, 6)]], p, atol=1e-5)
+        assert np.all(cand[:, valid == 0] == 0) and np.all(w[valid == 0] == 0)
+        assert not valid[1:].any()
+
+
+def test_tangent_triplet_is_skipped():
+    # spheres of antennas (0,0), (d,0), (0,d) all tangent to the plane y = 0
+    # at the same point on the array: R_i = rho exactly -> p_y = 0: skipped.
+    d = 0.01
+    x = np.array([0.0, d, 0.0])
+    z = np.array([0.0, 0.0, d])
+    p = np.array([0.5, 0.0, 0.5])  # in the array plane: y = 0, tangent case
+    r = np.sqrt((p[0] - x) ** 2 + (p[2] - z) ** 2)
+    cand, w, valid = ref.intersect_spheres(x, z, r, np.ones(3), np.array([[1, 2]] * 3),
+                                           np.array([2, 2, 2]), 0.03)
+    assert valid[0, 0] == 0 and np.all(np.isfinite(cand))
+
+
+coord = st.floats(-0.5, 0.5, allow_nan=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(px=coord, py=st.floats(0.05, 20.0), pz=coord, dx=st.floats(5e-4, 0.05),
+       dz=st.floats(5e-4, 0.05), ang=st.floats(0.2, 2.9))
+@example(px=0.0, py=20.0, pz=0.0, dx=5e-4, dz=5e-4, ang=1.5)  # far and tiny: worst case
+def test_round_trip_recovers_scatterer(px, py, pz, dx, dz, ang):
+    """Exact ranges from three non-collinear antennas intersect at the scatterer."""
+    x = np.array([0.0, dx, dz * np.cos(ang)])
+    z = np.array([0.0, 0.0, dz * np.sin(ang)])
+    r = np.sqrt((px - x) ** 2 + py**2 + (pz - z) ** 2)
+    cand, w, valid = ref.intersect_spheres(x, z, r, np.ones(3), np.array([[1, 2]] * 3),
+                                           np.array([2, 2, 2]), 0.1)
+    assert valid[0, 0] == 1
+    # float64 rounding of R (~1e-16 R) amplified by R^2 / (baseline area).
+    tol = 1e-14 * py**2 * (dx + dz) / (dx * dz * np.sin(ang)) + 1e-12
+    np.testing.assert_allclose(cand[:, 0, 0], [px, py, pz], atol=tol * max(1.0, py))
