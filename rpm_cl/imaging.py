@@ -64,7 +64,7 @@ class RPMParams:
     max_cluster_rps: int = 8192
     chunk_slots: int = 1 << 22
     pair_cutoff: float = 2.0
-    max_neighbours: int = 32
+    max_neighbours: int = 24
 
     def __post_init__(self):
         for name in ("sigma_x", "sigma_r"):

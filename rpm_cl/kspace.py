@@ -38,6 +38,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import fft as sfft
 from scipy import ndimage
 
 from .data import C0, InputError, RadarData
@@ -172,7 +173,7 @@ def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False):
             shp = [1] * sig.ndim
             shp[a] = n
             sig = sig * np.hanning(n + 2)[1:-1].reshape(shp)
-    spec = np.fft.fftn(sig, s=shape, axes=axes)
+    spec = sfft.fftn(sig, s=shape, axes=axes)
     steps = (arr.dx,) if not arr.planar else (arr.dx, arr.dz)
     k_axes = tuple(2 * np.pi * np.fft.fftfreq(n, d) for n, d in zip(shape, steps))
     return spec, k_axes
@@ -249,10 +250,10 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
         u = np.zeros(n_k)
         if align:
             u, offset, sig = _align(data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi)
-            part = np.fft.fftn(sig, s=spec.shape[:n_k], axes=tuple(range(n_k)))
+            part = sfft.fftn(sig, s=spec.shape[:n_k], axes=tuple(range(n_k)))
         else:
             part = spec[..., lo:hi]
-        sub = np.fft.ifftn(w * part, axes=tuple(range(n_k)))
+        sub = sfft.ifftn(w * part, axes=tuple(range(n_k)))
         sub = sub[tuple(slice(0, n) for n in arr.shape)]
         clusters.append(Cluster(kc, float(data.range[ir]), slice(lo, hi), sub,
                                 float(mag[tuple(ind)]), offset, u))
@@ -303,7 +304,10 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi):
                + 1j * ndimage.map_coordinates(coeffs[1], [rows, cols], order=3, mode="nearest",
                                               prefilter=False))
         sig = sig.reshape(data.array.shape + (hi - lo,))
-        peak = float(np.max(np.abs(np.tensordot(steer, sig, axes=n_k)))) if sig.size else 0.0
+        # coherent sum over the antennas (elementwise: BLAS threads cost more
+        # than they save on a few hundred antennas)
+        beam = (sig.reshape(steer.size, -1) * steer.reshape(-1, 1)).sum(axis=0)
+        peak = float(np.max(np.abs(beam))) if beam.size else 0.0
         if best is None or peak > best[0]:
             best = (peak, u, delta, sig)
     return best[1], best[2], best[3]

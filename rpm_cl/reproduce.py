@@ -21,13 +21,18 @@ from .simulate import simulate_preset
 
 __all__ = ["PAPER", "CASES", "ReproRow", "reproduce", "format_table", "write_json", "pct"]
 
-#: The paper's figures (Table I, Table II and Section V-A4), as fractions.
+#: The paper's figures (Tables I, II, IV, V and Section V-A4), as fractions;
+#: ``*_n`` are the paper's counts of accurate RPs / points where it gives them.
 PAPER = {
     ("points-5mm", "kspace-rpm", None): {"rp10": 0.94, "rpm50": 0.67, "rpm100": 1.00},
     ("points-5mm", "kspace-rpm", 20.0): {"rp10": 0.95, "rpm50": 0.71, "rpm100": 0.97},
     ("points-5mm", "kspace-rpm", 10.0): {"rp10": 0.95, "rpm50": 0.50, "rpm100": 0.94},
     ("points-5mm", "kspace-rpm", 0.0): {"rp10": 0.90, "rpm50": 0.35, "rpm100": 0.61},
     ("sparse-20mm", "kspace-rpm", None): {"rp10": 0.87, "rpm50": 0.94},
+    ("human-body", "kspace-rpm", None): {"rp10": 0.98, "rpm50": 0.95, "rp10_n": 2248,
+                                         "rpm50_n": 1155},
+    ("human-body", "kspace-rpm", 20.0): {"rp10": 0.98, "rpm50": 0.95, "rp10_n": 2253,
+                                         "rpm50_n": 1170},
 }
 
 #: Cases of each reproduction: name -> (preset, S/N list).
@@ -35,6 +40,9 @@ CASES = {
     "paper-2d": {
         "points-5mm": ("paper-2d", [None, 20.0, 10.0, 0.0]),
         "sparse-20mm": ("paper-2d-sparse", [None]),
+    },
+    "paper-3d": {
+        "human-body": ("human-body", [None, 20.0]),
     },
 }
 
@@ -119,7 +127,8 @@ def format_table(rows: list[ReproRow]) -> str:
         snr = "inf" if r.snr_db is None else f"{r.snr_db:g}"
         ref = PAPER.get((r.case, r.method, r.snr_db))
         ref_s = "" if ref is None else " / ".join(
-            f"{100 * ref[k]:.0f}%" if k in ref else "-" for k in ("rp10", "rpm50", "rpm100"))
+            (f"{100 * ref[k]:.0f}%" + (f" ({ref[k + '_n']})" if k + "_n" in ref else ""))
+            if k in ref else "-" for k in ("rp10", "rpm50", "rpm100"))
         lines.append(f"{r.case:12s} {r.method:11s} {snr:>5s} {pct(r.rp_within_10mm, r.rp_total):>20s} "
                      f"{pct(r.rpm_within_50mm, r.rpm_total):>20s} "
                      f"{pct(r.rpm_within_100mm, r.rpm_total):>20s} {1e3 * r.seconds:7.2f}   {ref_s}")
