@@ -8,7 +8,7 @@ __version__ = "0.1.0"
 
 from .cl import CLEnv, NoOpenCLError, create_env, list_devices
 from .data import Array, InputError, RadarData, Truth, Waveform, load_npz, save_npz
-from .imaging import ImagingParams, RPMParams, default_params, run_method, METHODS
+from .imaging import METHODS, ImagingParams, RPMParams, default_params, run_method
 from .kspace import KSpaceParams, decompose
 from .metrics import err_range, err_rpm, summary
 from .rpm import DeviceRPM
@@ -16,9 +16,33 @@ from .scene import Ellipsoid, PointTarget, Scene, get_preset
 from .simulate import simulate, simulate_preset
 
 __all__ = [
-    "__version__", "CLEnv", "NoOpenCLError", "create_env", "list_devices", "Array",
-    "InputError", "RadarData", "Truth", "Waveform", "load_npz", "save_npz", "ImagingParams",
-    "RPMParams", "default_params", "run_method", "METHODS", "KSpaceParams", "decompose",
-    "err_range", "err_rpm", "summary", "DeviceRPM", "Ellipsoid", "PointTarget", "Scene",
-    "get_preset", "simulate", "simulate_preset",
+    "METHODS",
+    "Array",
+    "CLEnv",
+    "DeviceRPM",
+    "Ellipsoid",
+    "ImagingParams",
+    "InputError",
+    "KSpaceParams",
+    "NoOpenCLError",
+    "PointTarget",
+    "RPMParams",
+    "RadarData",
+    "Scene",
+    "Truth",
+    "Waveform",
+    "__version__",
+    "create_env",
+    "decompose",
+    "default_params",
+    "err_range",
+    "err_rpm",
+    "get_preset",
+    "list_devices",
+    "load_npz",
+    "run_method",
+    "save_npz",
+    "simulate",
+    "simulate_preset",
+    "summary",
 ]

@@ -24,15 +24,15 @@ from importlib import resources
 import numpy as np
 
 __all__ = [
-    "NoOpenCLError",
     "CLEnv",
     "DeviceInfo",
-    "list_devices",
+    "NoOpenCLError",
+    "build_program",
     "choose_device",
     "create_env",
-    "build_program",
     "get_kernels",
     "kernel_source",
+    "list_devices",
 ]
 
 INSTALL_HINT = (
@@ -220,7 +220,7 @@ def _include_dir() -> str:
 
 
 # context -> {(filename, options): (program, {kernel name: Kernel})}
-_PROGRAMS: "weakref.WeakKeyDictionary[object, dict]" = weakref.WeakKeyDictionary()
+_PROGRAMS: weakref.WeakKeyDictionary[object, dict] = weakref.WeakKeyDictionary()
 _LOCK = threading.Lock()
 
 

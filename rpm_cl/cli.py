@@ -1,4 +1,4 @@
-"""Command line: ``rpm-cl {info,simulate,image,reproduce,demo,bench}``.
+"""Command line: ``rpm-cl {info,simulate,image,view,reproduce,demo,bench}``.
 
 Every error the user can cause (bad input file, bad option, no OpenCL) is
 reported as one line ``rpm-cl: error: ...`` on stderr with exit code 2.
@@ -118,6 +118,8 @@ def cmd_image(args) -> int:
     result = run_method(args.method, data, params, engine)
     meta = {"version": __version__, "device": env.name, "precision": args.precision,
             "input": args.input, "params": asdict(params)}
+    if data.truth is not None and data.truth.scene not in ("", "{}"):
+        meta["scene"] = json.loads(data.truth.scene)  # for `rpm-cl view`
     save_result(args.output, result, meta)
     print(f"{args.method}: {len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} "
           f"clusters -> {len(result.image.points)} points, "
@@ -160,27 +162,68 @@ def cmd_demo(args) -> int:
 
     engine, env = _engine(args)
     print(f"rpm-cl {__version__} demo on {env.name}")
-    for snr in (None, 20.0):
-        data, preset = simulate_preset("paper-2d", snr, seed=args.seed)
-        params = default_params(data, **preset.defaults)
-        res = timed_run("kspace-rpm", data, params, engine)[0]
-        mf = timed_run("mf-rpm", data, params, engine)[0]
-        label = "inf" if snr is None else f"{snr:g} dB"
-        print(f"\npaper-2d (3 point targets within 80 mm of range, 0.2 GHz, 21 antennas), "
-              f"S/N {label}")
-        for r in (res, mf):
-            t = ", ".join(f"{k} {1e3 * v:.2f} ms" for k, v in r.timings.items())
-            print(f"  {r.method:10s}: {len(r.rps):3d} RPs, "
-                  f"{len(set(r.rps.cluster.tolist()))} clusters, {len(r.image.points):3d} points | {t}")
-            print(f"  {'':10s}  {_accuracy_line(summary(r.rps, r.image, data.truth))}")
-        pts = res.image.points
-        for c in np.unique(res.image.cluster):
-            p = pts[res.image.cluster == c]
-            print(f"  cluster {c}: median point x={1e3 * np.median(p[:, 0]):7.1f} mm, "
-                  f"y={1e3 * np.median(p[:, 1]):6.1f} mm ({len(p)} points)")
-    truth = json.loads(data.truth.scene)["targets"]
-    print("  true targets (mm): " + ", ".join(
-        f"({1e3 * t['position'][0]:.1f}, {1e3 * t['position'][1]:.1f})" for t in truth))
+    data, preset = simulate_preset("paper-2d", None, seed=args.seed)
+    params = default_params(data, **preset.defaults)
+    print("\npaper-2d: 3 point targets within 80 mm of range (0.1 of the 750 mm range "
+          "resolution), 21 antennas at 5 mm, noise-free")
+    for method in ("kspace-rpm", "mf-rpm"):
+        r, sec, _ = timed_run(method, data, params, engine)
+        print(f"  {method:10s}: {len(r.rps):3d} RPs -> {len(r.image.points):3d} points in "
+              f"{1e3 * sec:6.2f} ms | {_accuracy_line(summary(r.rps, r.image, data.truth))}")
+
+    data, preset = simulate_preset("human-body", args.snr, seed=args.seed)
+    params = default_params(data, **preset.defaults)
+    res, sec, stages = timed_run("kspace-rpm", data, params, engine)
+    label = "noise-free" if args.snr is None else f"S/N {args.snr:g} dB"
+    print(f"\nhuman-body: 11 ellipsoids about 1 m away, 20 GHz / 3 GHz, 11 x 17 antennas "
+          f"at 7.5 mm, {label}")
+    print(f"  kspace-rpm: {len(res.rps)} RPs in {len(set(res.rps.cluster.tolist()))} clusters "
+          f"-> {len(res.image.points)} points in {1e3 * sec:.0f} ms ("
+          + ", ".join(f"{k} {1e3 * v:.0f}" for k, v in stages.items() if k != "total") + " ms)")
+    print(f"  {_accuracy_line(summary(res.rps, res.image, data.truth))}")
+    print(f"  {'body part':16s} {'points':>6s} {'median Err_RPM':>15s}")
+    for name, n, med in _points_per_part(res.image.points, preset.scene):
+        print(f"  {name:16s} {n:6d} {'-' if n == 0 else f'{1e3 * med:.1f} mm':>15s}")
+    if args.png:
+        import os
+        import tempfile
+
+        from .imaging import save_result
+        from .view import view
+
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "human-body.npz")
+            save_result(out, res, {"scene": json.loads(data.truth.scene)})
+            view(out, args.png)
+        print(f"  wrote {args.png}")
+    else:
+        print("  (--png FILE draws it; or: rpm-cl simulate human-body -o hb.npz && "
+              "rpm-cl image hb.npz -o out.npz && rpm-cl view out.npz --png out.png)")
+    return 0
+
+
+def _points_per_part(points, scene):
+    """(part name, number of points nearest that part, their median distance)."""
+    from scipy.spatial import cKDTree
+
+    from .scene import HUMAN_BODY_PARTS, boundary_samples
+
+    trees = [cKDTree(boundary_samples(t, 3e-3)) for t in scene.targets]
+    if len(points) == 0:
+        return [(n, 0, 0.0) for n, _, _ in HUMAN_BODY_PARTS]
+    d = np.stack([t.query(points)[0] for t in trees], axis=1)
+    part = np.argmin(d, axis=1)
+    best = d[np.arange(len(points)), part]
+    return [(name, int(np.sum(part == k)), float(np.median(best[part == k])) if np.any(part == k) else 0.0)
+            for k, (name, _, _) in enumerate(HUMAN_BODY_PARTS)]
+
+
+def cmd_view(args) -> int:
+    from .view import view
+
+    view(args.input, args.png)
+    if args.png:
+        print(f"wrote {args.png}")
     return 0
 
 
@@ -188,12 +231,13 @@ def cmd_bench(args) -> int:
     from .bench import run_bench
 
     engine, env = _engine(args)
-    print(run_bench(engine, env, repeats=args.repeats))
+    print(run_bench(engine, env, repeats=args.repeats, scenes=args.scene))
     return 0
 
 
 # --------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
+    from .bench import SCENES
     from .imaging import METHODS
     from .reproduce import CASES
     from .scene import PRESETS
@@ -239,13 +283,23 @@ def build_parser() -> argparse.ArgumentParser:
     device_opts(sp)
     sp.set_defaults(func=cmd_reproduce)
 
-    sp = sub.add_parser("demo", help="simulate, image and score a scene end to end")
+    sp = sub.add_parser("demo", help="simulate, image and score the paper's scenes end to end")
     sp.add_argument("--seed", type=_seed, default=0)
+    sp.add_argument("--snr", type=_snr, default=None, help="S/N of the human body in dB "
+                    "(default: noise-free)")
+    sp.add_argument("--png", help="also draw the human-body image here (needs pyvista)")
     device_opts(sp)
     sp.set_defaults(func=cmd_demo)
 
+    sp = sub.add_parser("view", help="draw an image result (3-D: pyvista; 2-D: matplotlib)")
+    sp.add_argument("input", help="a result .npz of `rpm-cl image`")
+    sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
+    sp.set_defaults(func=cmd_view)
+
     sp = sub.add_parser("bench", help="time each method and stage on the paper's scenes")
     sp.add_argument("--repeats", type=_positive_int, default=20)
+    sp.add_argument("--scene", action="append", choices=sorted({s[0] for s in SCENES}),
+                    help="benchmark only this scene (repeatable; default: all)")
     device_opts(sp)
     sp.set_defaults(func=cmd_bench)
     return p

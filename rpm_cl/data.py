@@ -30,15 +30,15 @@ import numpy as np
 
 __all__ = [
     "C0",
-    "InputError",
-    "Waveform",
     "Array",
-    "Truth",
+    "InputError",
     "RadarData",
-    "load_npz",
-    "save_npz",
+    "Truth",
+    "Waveform",
     "atomic_savez",
     "atomic_write_text",
+    "load_npz",
+    "save_npz",
 ]
 
 #: Speed of light in vacuum, m/s (the propagation speed in air used throughout).

@@ -12,7 +12,7 @@ stage timings).  ``--method`` and ``reproduce`` iterate over :data:`METHODS`.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -23,11 +23,25 @@ from .rpm.neighbours import neighbour_lists
 
 #: The paper's sigma_r for 2-D (Section V-A2), m.
 SIGMA_R_DEFAULT = 0.05
+#: k-space window period for planar arrays, rad/m: the measured best on the
+#: paper's 3-D scene (1.3-2 k-space resolution cells of its 11 x 17 array;
+#: see rpm_cl.scene._human_body).  Linear arrays default to the paper's 417.
+WINDOW_PLANAR_DEFAULT = 100.0
 #: RPs below this level relative to their cluster's maximum are dropped, dB.
 RP_THRESHOLD_DB_DEFAULT = -10.0
 
-__all__ = ["RPMParams", "ImagingParams", "Image", "ImageResult", "rpm_image", "METHODS", "save_result", "timed_run",
-           "run_method", "default_params"]
+__all__ = [
+    "METHODS",
+    "Image",
+    "ImageResult",
+    "ImagingParams",
+    "RPMParams",
+    "default_params",
+    "rpm_image",
+    "run_method",
+    "save_result",
+    "timed_run",
+]
 
 
 @dataclass(frozen=True)
@@ -102,8 +116,9 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
       choice: 100 mm for its 100 mm aperture, 400 mm for the 400 mm sparse
       one); planar arrays, 2.5 antenna spacings (the paper: "two or three
       times of sensor separations").
-    - sigma_r: 50 mm (the paper's 2-D value); window_x: 417 rad/m (the
-      paper's 2-D value), window_z = window_x.
+    - sigma_r: 50 mm (the paper's 2-D value).
+    - window_x: 417 rad/m for linear arrays (the paper's 2-D value),
+      :data:`WINDOW_PLANAR_DEFAULT` for planar ones; window_z = window_x.
 
     Parameters
     ----------
@@ -126,6 +141,9 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     rp_thr = ov.pop("rp_threshold_db", RP_THRESHOLD_DB_DEFAULT)
     if "window_z" in ov and not arr.planar:
         raise InputError("window_z applies to planar arrays only; this array is linear")
+    if arr.planar:
+        ov.setdefault("window_x", WINDOW_PLANAR_DEFAULT)
+        ov.setdefault("window_z", ov["window_x"])
     try:
         ks = KSpaceParams(**ov)
     except TypeError as exc:

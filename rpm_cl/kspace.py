@@ -43,7 +43,7 @@ from scipy import ndimage
 
 from .data import C0, InputError, RadarData
 
-__all__ = ["KSpaceParams", "Cluster", "Decomposition", "kspace_spectrum", "decompose"]
+__all__ = ["Cluster", "Decomposition", "KSpaceParams", "decompose", "kspace_spectrum"]
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from scipy.spatial import cKDTree
 
 from .data import Truth
 
-__all__ = ["err_range", "err_rpm", "cumulative", "summary"]
+__all__ = ["cumulative", "err_range", "err_rpm", "summary"]
 
 
 def err_range(antenna, rng, truth: Truth) -> np.ndarray:

@@ -19,7 +19,7 @@ from .imaging import METHODS, default_params, timed_run
 from .metrics import summary
 from .simulate import simulate_preset
 
-__all__ = ["PAPER", "CASES", "ReproRow", "reproduce", "format_table", "write_json", "pct"]
+__all__ = ["CASES", "PAPER", "ReproRow", "format_table", "pct", "reproduce", "write_json"]
 
 #: The paper's figures (Tables I, II, IV, V and Section V-A4), as fractions;
 #: ``*_n`` are the paper's counts of accurate RPs / points where it gives them.

@@ -14,14 +14,14 @@ import numpy as np
 from .data import Array, InputError, Waveform
 
 __all__ = [
-    "PointTarget",
-    "Ellipsoid",
-    "Scene",
-    "Preset",
     "PRESETS",
+    "Ellipsoid",
+    "PointTarget",
+    "Preset",
+    "Scene",
+    "boundary_samples",
     "get_preset",
     "specular_point",
-    "boundary_samples",
 ]
 
 

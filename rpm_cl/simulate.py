@@ -53,7 +53,7 @@ import numpy as np
 from .data import C0, Array, InputError, RadarData, Truth, Waveform
 from .scene import Ellipsoid, PointTarget, Scene, boundary_samples, specular_point
 
-__all__ = ["echoes", "synthesize", "simulate", "simulate_preset"]
+__all__ = ["echoes", "simulate", "simulate_preset", "synthesize"]
 
 
 def _blocked(start: np.ndarray, end: np.ndarray, ell: Ellipsoid) -> np.ndarray:

@@ -1,7 +1,6 @@
 """3-D RPM: sphere-triplet kernel against its float64 reference, neighbour lists."""
 
 import numpy as np
-import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 

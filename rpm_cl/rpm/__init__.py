@@ -3,4 +3,4 @@
 from . import reference
 from .device import DeviceRPM
 
-__all__ = ["reference", "DeviceRPM"]
+__all__ = ["DeviceRPM", "reference"]

@@ -45,15 +45,23 @@ class DeviceRPM:
         The OpenCL environment (context, queue, device).
     precision : {"float32", "float64"}
         Kernel arithmetic; float64 needs a device with ``double_fp_config``.
+    timing : bool
+        Wait for each kernel and add its wall time (s) to ``kernel_times``
+        (``intersect``, ``score``, ``argmax``), and the Gaussian kernel
+        evaluations the scoring kernel performed to ``kernel_evals``.  For
+        benchmarks: the waits serialise host and device.
     """
 
-    def __init__(self, env: CLEnv, precision: str = "float32"):
+    def __init__(self, env: CLEnv, precision: str = "float32", timing: bool = False):
         if precision not in ("float32", "float64"):
             raise ValueError(f"precision must be 'float32' or 'float64', got {precision!r}")
         if precision == "float64" and not env.has_double:
             raise ValueError(f"device {env.name} has no float64 support; use precision='float32'")
         self.env = env
         self.precision = precision
+        self.timing = timing
+        self.kernel_times = {"intersect": 0.0, "score": 0.0, "argmax": 0.0}
+        self.kernel_evals = 0
         self.dtype = np.dtype(np.float32 if precision == "float32" else np.float64)
         base = {"REAL": "float" if precision == "float32" else "double"}
         if precision == "float64":
@@ -91,13 +99,25 @@ class DeviceRPM:
             cl.enqueue_copy(self.env.queue, out, buf)
         return out
 
-    def _run(self, kernel, nitems, *args):
-        if nitems > 0:
-            kernel(self.env.queue, (_round_up(nitems),), None, *args)
+    def _timed(self, stage, launch):
+        if not self.timing:
+            launch()
+            return
+        import time
 
-    def _run2(self, kernel, n0, n1, *args):
+        self.env.queue.finish()
+        t0 = time.perf_counter()
+        launch()
+        self.env.queue.finish()
+        self.kernel_times[stage] += time.perf_counter() - t0
+
+    def _run(self, kernel, nitems, *args, stage="intersect"):
+        if nitems > 0:
+            self._timed(stage, lambda: kernel(self.env.queue, (_round_up(nitems),), None, *args))
+
+    def _run2(self, kernel, n0, n1, *args, stage="score"):
         if n0 > 0 and n1 > 0:
-            kernel(self.env.queue, (n0, n1), None, *args)
+            self._timed(stage, lambda: kernel(self.env.queue, (n0, n1), None, *args))
 
     # -- kernels on device buffers ----------------------------------------
     def _intersect(self, x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
@@ -153,6 +173,8 @@ class DeviceRPM:
         score = self._out((n, maxc))
         self._run2(self._k[f"score{dim}"], maxc, n, cand, w, valid,
                    np.int32(n), np.int32(maxc), self.dtype.type(1.0 / (2.0 * sigma_r**2)), score)
+        if self.timing:  # valid candidates each sum over their whole row
+            self.kernel_evals += int(np.count_nonzero(self._read(valid, (n, maxc), np.int8))) * maxc
         return score
 
     def _argmax(self, dim, n, maxc, score, cand):
@@ -160,7 +182,7 @@ class DeviceRPM:
         best_score = self._out((n,))
         point = self._out((dim, n))
         self._run(self._k[f"argmax{dim}"], n, score, cand, np.int32(n), np.int32(maxc),
-                  best, best_score, point)
+                  best, best_score, point, stage="argmax")
         return (self._read(best, (n,), np.int32), self._read(best_score, (n,)),
                 self._read(point, (dim, n)))
 

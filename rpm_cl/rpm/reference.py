@@ -14,8 +14,16 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["intersect_circles", "intersect_spheres", "score_candidates", "argmax_candidates",
-           "rpm_circles", "rpm_spheres", "pair_table", "EPS_DET"]
+__all__ = [
+    "EPS_DET",
+    "argmax_candidates",
+    "intersect_circles",
+    "intersect_spheres",
+    "pair_table",
+    "rpm_circles",
+    "rpm_spheres",
+    "score_candidates",
+]
 
 #: Triplets whose antennas are this close to collinear (|det| relative to
 #: |a_j| |a_k|, the sine of the angle at the main antenna) are skipped: below
