@@ -98,3 +98,34 @@ def test_float32_and_float64_choose_the_same_points(body, dev32, dev64):
     d = np.linalg.norm(a.points - b.points, axis=1)
     # near-ties may flip between float32 and float64; nearly all agree
     assert np.mean(d < 1e-4) >= 0.99
+
+
+@pytest.mark.parametrize("axes", [(1.0, 0.01, 0.01), (0.3, 0.002, 0.05), (0.05, 0.05, 0.05)])
+def test_specular_point_is_stationary_on_elongated_ellipsoids(axes, rng):
+    """The specular point lies on the surface and its normal points at the
+    antenna (the distance is stationary there), even for 100:1 ellipsoids."""
+    ell = Ellipsoid((0.05, 1.2, -0.1), axes, rng.uniform(-np.pi, np.pi, 3))
+    ants = np.stack([rng.uniform(-0.2, 0.2, 50), np.zeros(50), rng.uniform(-0.2, 0.2, 50)], 1)
+    pt, d, radii = specular_point(ell, ants)
+    local = (pt - ell.center) @ ell.rotation
+    e = np.asarray(axes)
+    np.testing.assert_allclose(np.sum((local / e) ** 2, axis=1), 1.0, atol=1e-9)
+    normal = (local / e**2) @ ell.rotation.T
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    ray = (ants - pt) / np.linalg.norm(ants - pt, axis=1, keepdims=True)
+    np.testing.assert_allclose(np.sum(normal * ray, axis=1), 1.0, atol=1e-9)
+    np.testing.assert_allclose(d, np.linalg.norm(ants - pt, axis=1), rtol=1e-12)
+    assert np.all(radii > 0) and np.all(np.isfinite(radii))
+
+
+def test_chunked_rpm_equals_one_chunk(body, dev32):
+    """Bounded chunks (a tiny chunk_slots) give exactly the one-chunk image."""
+    from dataclasses import replace
+
+    data, preset = body
+    params = default_params(data, **preset.defaults)
+    whole = run_method("kspace-rpm", data, params, dev32).image
+    small = replace(params, rpm=replace(params.rpm, chunk_slots=5000))
+    chunked = run_method("kspace-rpm", data, small, dev32).image
+    np.testing.assert_array_equal(whole.rp_index, chunked.rp_index)
+    np.testing.assert_array_equal(whole.points, chunked.points)
