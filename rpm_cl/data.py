@@ -317,6 +317,13 @@ def load_npz(path) -> RadarData:
             raise InputError(f"{path}: cannot read ({type(exc).__name__}: {exc})") from None
 
 
+def _usual_mode(path) -> None:
+    """Give a temporary file (mkstemp: 0600) the mode a plain open() would."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(path, 0o666 & ~umask)
+
+
 def _atomic_write(path, write) -> None:
     """Call ``write(fh)`` on a temporary file beside ``path``, then rename it.
 
@@ -340,6 +347,7 @@ def _atomic_write(path, write) -> None:
     try:
         with os.fdopen(fd, "wb") as fh:
             write(fh)
+        _usual_mode(tmp)
         os.replace(tmp, path)
     except BaseException as exc:
         try:

@@ -19,7 +19,7 @@ import os
 
 import numpy as np
 
-from .data import InputError
+from .data import InputError, _usual_mode
 
 __all__ = ["load_result", "view"]
 
@@ -177,6 +177,7 @@ def view(path, png=None, size=(1000, 800)) -> None:
     os.close(fd)
     try:
         render(res, tmp, size)
+        _usual_mode(tmp)
         os.replace(tmp, png)
     finally:
         if os.path.exists(tmp):

@@ -84,3 +84,14 @@ def test_reproduce_paper_3d_json(tmp_path, capsys):
     for r in ks:  # Tables IV and V
         assert r["rp_within_10mm"] >= 0.98 * r["rp_total"]
         assert r["rpm_within_50mm"] >= 0.95 * r["rpm_total"] and r["rpm_within_50mm"] >= 1155
+
+
+def test_outputs_get_the_usual_file_mode(body_result, tmp_path):
+    """Outputs are written to a private temporary file and renamed; the result
+    must still have the mode a plain open() gives (0666 minus the umask)."""
+    import os
+
+    umask = os.umask(0)
+    os.umask(umask)
+    _, out = body_result
+    assert os.stat(out).st_mode & 0o777 == 0o666 & ~umask
