@@ -1,0 +1,133 @@
+/* Delay-and-sum (SAR back-projection) of range-compressed baseband profiles.
+ *
+ * Maths. Antennas a at (X_a, 0, Z_a) hold s_a(R) on the uniform range axis
+ * R_i = r0 + i dr, with the phase exp(-j 2 k_c R_t) at a target of range R_t.
+ * The image at voxel p is
+ *     I(p) = sum_a s_a(d_a) exp(+j 2 k_c d_a),   d_a = |p - (X_a, 0, Z_a)|
+ * with s_a(d) interpolated linearly between the two samples around d (the
+ * baseband profiles are smooth: many samples per range resolution), and 0
+ * outside the range axis.  2-D images use Z_a = 0 and voxel z = 0.
+ *
+ * Layout. The image is (rows, nlast) in C order: rows = nx (2-D) or nx*ny
+ * (3-D) and the last axis is y (2-D) or z (3-D).  A chunk covers rows
+ * row0 .. row0 + nrows - 1.  Row r has fixed coordinates (x, y) in 3-D or x
+ * in 2-D; see row_x / row_y below.
+ *
+ * Work-item mapping: a 2-D range, dim 0 = group of VW consecutive voxels
+ * along the last axis, dim 1 = row of the chunk.  The VW voxels are computed
+ * as one vector (sqrt, sincos on REALV: SIMD on PoCL's CPU device); the two
+ * samples per voxel are gathered lane by lane.
+ *
+ * Evaluation. With d = R_i + f dr (i the sample below d, 0 <= f < 1), the
+ * summand is exactly
+ *     (s_a[i] (1 - f) + s_a[i+1] f) exp(j 2 k_c (R_i + dr/2)) exp(j 2 k_c dr (f - 1/2))
+ * The host supplies, per antenna and sample, uv[i] = (s_a[i], s_a[i+1]) times
+ * exp(j 2 k_c (R_i + dr/2)) (float64 phases, then rounded), so the kernel
+ * gathers one REAL4 per voxel and antenna and needs only the phasor of
+ * x = 2 k_c dr (f - 1/2), |x| <= k_c dr, instead of a full-range sincos.
+ * With -DPOLY (host: when k_c dr <= 1.1) that phasor is a Taylor polynomial
+ * (|x| <= 1.1: truncation below 1e-7, under float32 rounding), else sincos.
+ *
+ * NumPy reference: rpm_cl.das.das_numpy (float64).
+ */
+#include "real.h"
+
+#define CAT(a, b) CAT_(a, b)
+#define CAT_(a, b) a##b
+#if defined(REAL_IS_DOUBLE)
+#define VW 4
+#define IDX long     /* comparisons of double4 give long4 masks */
+#else
+#define VW 8
+#define IDX int
+#endif
+#define REALV CAT(REAL, VW)
+#define INTV CAT(IDX, VW)
+#define REAL2 CAT(REAL, 2)
+#define REAL4 CAT(REAL, 4)
+
+/* cos and sin of |x| <= 1.1 (Taylor to x^12 / x^11) */
+inline REALV poly_sincos(const REALV x, REALV *c)
+{
+    const REALV x2 = x * x;
+    *c = (REAL)1 + x2 * ((REAL)(-1.0 / 2) + x2 * ((REAL)(1.0 / 24) + x2 * ((REAL)(-1.0 / 720)
+         + x2 * ((REAL)(1.0 / 40320) + x2 * ((REAL)(-1.0 / 3628800) + x2 * (REAL)(1.0 / 479001600))))));
+    return x * ((REAL)1 + x2 * ((REAL)(-1.0 / 6) + x2 * ((REAL)(1.0 / 120) + x2 * ((REAL)(-1.0 / 5040)
+         + x2 * ((REAL)(1.0 / 362880) + x2 * (REAL)(-1.0 / 39916800))))));
+}
+
+__kernel void das_backproject(
+    __global const REAL4 *uv, const int n_ant, const int nr,
+    __global const REAL *ant_x, __global const REAL *ant_z,
+    const REAL r0, const REAL inv_dr, const REAL kdr,
+    __global const REAL *gx, __global const REAL *gy, __global const REAL *gz,
+    const int ny, const int nlast, const int dim,
+    const long row0, const int nrows, __global REAL2 *out)
+{
+    const int q = get_global_id(0);          /* vector group along the last axis */
+    const int rl = get_global_id(1);         /* row within the chunk */
+    if (rl >= nrows || q * VW >= nlast) return;
+    const long row = row0 + rl;
+    REAL px, py;
+    REALV pl;                                /* last-axis coordinate per lane */
+    REAL lastc[VW];
+    for (int l = 0; l < VW; ++l) {
+        const int k = min(q * VW + l, nlast - 1);
+        lastc[l] = (dim == 3) ? gz[k] : gy[k];
+    }
+    pl = CAT(vload, VW)(0, lastc);
+    if (dim == 3) {
+        px = gx[row / ny];
+        py = gy[row % ny];
+    } else {
+        px = gx[row];
+        py = (REAL)0;
+    }
+
+    REALV acc_re = (REALV)((REAL)0), acc_im = (REALV)((REAL)0);
+    for (int a = 0; a < n_ant; ++a) {
+        const REAL dx = px - ant_x[a];
+        REALV d2;
+        if (dim == 3) {
+            const REALV dz = pl - ant_z[a];
+            d2 = dx * dx + py * py + dz * dz;
+        } else {
+            d2 = dx * dx + pl * pl;         /* 2-D: the last axis is y */
+        }
+        const REALV d = sqrt(d2);
+        const REALV t = (d - r0) * inv_dr;
+        const REALV fl = floor(t);
+        const REALV fr = t - fl;
+        /* lanes outside the axis read sample 0 with weight 0 */
+        const INTV inside = (fl >= (REAL)0) & (fl < (REAL)(nr - 1));
+        const INTV iv = select((INTV)0, CAT(CAT(convert_, IDX), VW)(fl), inside);
+        __global const REAL4 *row_a = uv + (long)a * (nr - 1);
+        REALV ur, ui, vr, vi;
+#define GATHER(l) { const REAL4 w = row_a[iv.s##l]; ur.s##l = w.x; ui.s##l = w.y; vr.s##l = w.z; vi.s##l = w.w; }
+        GATHER(0) GATHER(1) GATHER(2) GATHER(3)
+#if VW == 8
+        GATHER(4) GATHER(5) GATHER(6) GATHER(7)
+#endif
+#undef GATHER
+        const REALV m = select((REALV)((REAL)0), (REALV)((REAL)1), inside);
+        ur *= m; ui *= m; vr *= m; vi *= m;
+        const REALV omf = (REAL)1 - fr;
+        const REALV pr = ur * omf + vr * fr;
+        const REALV pi = ui * omf + vi * fr;
+        const REALV x = kdr * (fr - (REAL)0.5);
+        REALV c;
+#ifdef POLY
+        const REALV sn = poly_sincos(x, &c);
+#else
+        const REALV sn = sincos(x, &c);
+#endif
+        const REALV sr = pr, si = pi;
+        acc_re += sr * c - si * sn;
+        acc_im += sr * sn + si * c;
+    }
+    for (int l = 0; l < VW; ++l) {
+        const int k = q * VW + l;
+        if (k < nlast)
+            out[(long)rl * nlast + k] = (REAL2)(((REAL *)&acc_re)[l], ((REAL *)&acc_im)[l]);
+    }
+}
