@@ -31,6 +31,11 @@
    u = -(k~ + n 2 pi / d) / (2 k_c): when the array is sparser than a quarter
    wavelength, k~ is aliased and the alias n whose alignment gives the largest
    coherent peak is taken.
+
+A linear array sampled coarser than half a wavelength (the paper's sparse
+case) aliases the k axis and bends each target's wave across the aperture
+beyond what a window in k can hold; ``near_field`` selects the spherical-wave
+decomposition of :mod:`rpm_cl.nearfield` for it (automatically by default).
 """
 
 from __future__ import annotations
@@ -42,6 +47,7 @@ from scipy import fft as sfft
 from scipy import ndimage
 
 from .data import C0, InputError, RadarData
+from .nearfield import decompose_near_field, near_field_wanted
 
 __all__ = ["Cluster", "Decomposition", "KSpaceParams", "decompose", "kspace_spectrum"]
 
@@ -73,6 +79,9 @@ class KSpaceParams:
         paper's 3-D case: 0.13 m against 0.05 m); for shorter arrays (the
         paper's 2-D case: 0.1 m against 0.75 m) it is measured to cost more,
         through interpolation and leakage, than it gains.
+    near_field : bool or None
+        Use the near-field decomposition (:mod:`rpm_cl.nearfield`, linear
+        arrays only); None = where the pitch exceeds half a wavelength.
     """
 
     window_x: float = 417.0
@@ -82,6 +91,7 @@ class KSpaceParams:
     range_gate: float | None = None
     detect_taper: bool = True
     align: bool | None = None
+    near_field: bool | None = None
 
     def __post_init__(self):
         for name in ("window_x", "window_z", "range_gate"):
@@ -92,6 +102,8 @@ class KSpaceParams:
             raise InputError(f"pad must be an integer >= 1, got {self.pad}")
         if not (np.isfinite(self.peak_threshold_db) and self.peak_threshold_db < 0):
             raise InputError(f"peak_threshold_db must be < 0, got {self.peak_threshold_db}")
+        if self.near_field not in (None, True, False):
+            raise InputError(f"near_field must be True, False or None, got {self.near_field!r}")
 
 
 @dataclass(frozen=True)
@@ -203,6 +215,10 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
     gmax = float(mag.max()) if mag.size else 0.0
     if gmax == 0.0:
         return Decomposition(k_axes, mag, ())
+    if params.near_field or (params.near_field is None and near_field_wanted(data)):
+        if arr.planar:
+            raise InputError("the near-field decomposition handles linear arrays only")
+        return decompose_near_field(data, params, (mag, k_axes))
     det = np.abs(kspace_spectrum(data, params.pad, True)[0]) if params.detect_taper else mag
     gate = params.range_gate or data.waveform.range_resolution
     dr = data.dr

@@ -1,0 +1,108 @@
+"""Near-field decomposition of sparse linear arrays (paper Section V-A4)."""
+
+import numpy as np
+import pytest
+
+from rpm_cl import nearfield
+from rpm_cl.data import Array, InputError, RadarData, Waveform
+from rpm_cl.imaging import default_params, run_method
+from rpm_cl.kspace import KSpaceParams, decompose
+from rpm_cl.metrics import err_range, summary
+from rpm_cl.rangepoints import rps_from_decomposition
+from rpm_cl.rpm import reference
+from rpm_cl.scene import PointTarget, Scene, get_preset
+from rpm_cl.simulate import simulate, simulate_preset
+
+
+def test_sparse_paper_2d_reaches_the_paper(dev32):
+    """Acceptance: the sparse 20 mm case (Section V-A4, Fig. 12(c)).
+
+    Measured: RP <= 10 mm 63/63, RPM <= 50 mm 63/63, <= 100 mm 63/63.  The
+    floors are the paper's 87 % (55/63) and 94 %: the centres come from a
+    discrete search (grid scans, a choice among map peaks) that can settle a
+    grid step differently on another BLAS or device and move a few edge RPs
+    (with a 3-term envelope instead of 4 the same search gives 61/63 and
+    62/63), so 8 RPs and 6 % of points of margin; the RP count (one per
+    antenna per target) catches a lost or split cluster outright.
+    """
+    data, pre = simulate_preset("paper-2d-sparse")
+    res = run_method("kspace-rpm", data, default_params(data, **pre.defaults), dev32)
+    s = summary(res.rps, res.image, data.truth)
+    assert s["rp_total"] == 63
+    assert s["rp_within_10mm"] >= 55  # 87 %
+    assert s["rpm_within_50mm"] / s["rpm_total"] >= 0.94
+    assert s["rpm_within_100mm"] / s["rpm_total"] >= 0.98
+
+
+def test_sparse_paper_2d_at_20_db():
+    """One noisy realisation (measured over seeds 0-4: RP <= 10 mm 56-63 of
+    63, RPM <= 50 mm 62-63 of 63; seed 0: 62 and 63); floors of 85 % leave
+    room for the noise draw."""
+    data, pre = simulate_preset("paper-2d-sparse", 20.0, seed=0)
+    res = run_method("kspace-rpm", data, default_params(data, **pre.defaults), reference)
+    s = summary(res.rps, res.image, data.truth)
+    assert s["rp_total"] == 63
+    assert s["rp_within_10mm"] / s["rp_total"] >= 0.85
+    assert s["rpm_within_50mm"] / s["rpm_total"] >= 0.85
+
+
+def test_aliased_pair_is_separated():
+    """+3 and +25 degrees are aliases at 20 mm (k 43.9 and 40.1 rad/m on a
+    314 rad/m axis): each gets its own cluster holding its own ranges."""
+    data, _ = simulate_preset("paper-2d-sparse")
+    dec = decompose(data, KSpaceParams())
+    assert len(dec.clusters) == 3
+    theta = sorted(np.degrees(np.arcsin(c.k[0] / (2 * data.waveform.kc))) for c in dec.clusters)
+    np.testing.assert_allclose(theta, [-28, 3, 25], atol=0.5)
+    rps = rps_from_decomposition(data, dec, -10.0)
+    true_r = data.truth.rp_range.reshape(3, -1)  # (target, antenna)
+    matched = set()
+    for c in range(3):
+        sel = rps.cluster == c
+        within = [np.mean(np.abs(rps.range[sel] - true_r[t, rps.antenna[sel]]) <= 0.010)
+                  for t in range(3)]
+        matched.add(int(np.argmax(within)))
+        assert max(within) >= 0.95
+    assert matched == {0, 1, 2}
+
+
+def test_single_sparse_target_is_exact():
+    pre = get_preset("paper-2d-sparse")
+    data = simulate(Scene((PointTarget([0.15, 0.4]),)), pre.array, pre.waveform, pre.range_axis)
+    dec = decompose(data, KSpaceParams())
+    assert len(dec.clusters) == 1
+    rps = rps_from_decomposition(data, dec, -10.0)
+    assert len(rps) == 21
+    assert np.max(err_range(rps.antenna, rps.range, data.truth)) < 1e-3
+
+
+def test_switch_follows_the_pitch():
+    dense, _ = simulate_preset("paper-2d")
+    sparse, _ = simulate_preset("paper-2d-sparse")
+    assert not nearfield.near_field_wanted(dense)  # 5 mm < lambda/2: plane-wave FFT
+    assert nearfield.near_field_wanted(sparse)     # 20 mm > lambda/2
+    # the plane-wave decomposition stays available on request
+    assert len(decompose(sparse, KSpaceParams(near_field=False)).clusters) == 1
+
+
+def test_planar_array_refuses_near_field():
+    arr = Array(np.arange(4) * 0.02, np.arange(3) * 0.02)
+    data = RadarData(np.ones((4, 3, 8), complex), arr, np.arange(8) * 0.01, Waveform(20e9, 0.2e9))
+    with pytest.raises(InputError, match="linear"):
+        decompose(data, KSpaceParams(near_field=True))
+    assert not nearfield.near_field_wanted(data)
+
+
+def test_scans_equal_direct_fits(rng):
+    """The batched one- and two-centre scans equal least-squares fits done one by one."""
+    x = (np.arange(21) - 10) * 0.02
+    sc = rng.standard_normal((21, 21)) + 1j * rng.standard_normal((21, 21))
+    model = nearfield._Model(x, 419.0, sc, nearfield.SEARCH_TERMS)
+    others = [[0.1, 0.45]]
+    um, rm = np.array([0.3, 0.31, 0.32]), np.array([0.45, 0.46, 0.47])
+    un, rn = np.array([-0.4, -0.41]), np.array([0.42, 0.43])
+    one = [model.cost(others + [[um[i], rm[i]]]) for i in range(3)]
+    np.testing.assert_allclose(model.scan(others, um, rm), one, rtol=1e-9)
+    two = [[model.cost(others + [[um[i], rm[i]], [un[j], rn[j]]]) for j in range(2)]
+           for i in range(3)]
+    np.testing.assert_allclose(model.scan_pair(others, um, rm, un, rn), two, rtol=1e-9)
