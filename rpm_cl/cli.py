@@ -1,4 +1,4 @@
-"""Command line: ``rpm-cl {info,simulate,image,view,reproduce,demo,bench}``.
+"""Command line: ``rpm-cl {info,simulate,image,das,view,reproduce,demo,bench}``.
 
 Every error the user can cause (bad input file, bad option, no OpenCL) is
 reported as one line ``rpm-cl: error: ...`` on stderr with exit code 2.
@@ -227,6 +227,52 @@ def cmd_view(args) -> int:
     return 0
 
 
+def cmd_das(args) -> int:
+    import time
+
+    from .das import DeviceDAS, das_numpy, parse_grid, write_image
+    from .data import load_npz
+
+    data = load_npz(args.input)
+    grid = parse_grid(args.grid)
+    if grid.dim != data.array.dim:
+        raise CLIError(f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
+                       f" array needs {data.array.dim} (x, y{', z' if data.array.planar else ''})")
+    budget = args.memory_budget * 1e9
+    n_bp = grid.size * data.array.n
+    timing = {}
+    if args.backend == "opencl":
+        from .cl import create_env
+
+        env = create_env(args.device)
+        try:
+            dev = DeviceDAS(env, args.precision, budget)
+        except ValueError as exc:
+            raise CLIError(str(exc)) from None
+        device, dtype = env.name, dev.cplx
+
+        def fill(out):
+            t0 = time.perf_counter()
+            dev.backproject(data, grid, out=out)
+            timing["seconds"] = time.perf_counter() - t0
+    else:
+        device, dtype = "numpy (float64)", np.complex128
+
+        def fill(out):
+            t0 = time.perf_counter()
+            das_numpy(data, grid, budget, out=out)
+            timing["seconds"] = time.perf_counter() - t0
+
+    meta = {"version": __version__, "method": "das", "backend": args.backend, "device": device,
+            "precision": args.precision if args.backend == "opencl" else "float64",
+            "input": args.input, "grid": args.grid, "timing": timing}
+    write_image(args.output, grid, fill, dtype, meta)
+    sec = timing.get("seconds", float("nan"))
+    print(f"das ({args.backend}): image {grid.shape} from {data.array.n} antennas in {sec:.3f} s "
+          f"({n_bp / sec:.3g} back-projections/s); wrote {args.output}")
+    return 0
+
+
 def cmd_bench(args) -> int:
     from .bench import run_bench
 
@@ -296,6 +342,18 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
     sp.set_defaults(func=cmd_view)
 
+    sp = sub.add_parser("das", help="SAR / delay-and-sum back-projection onto a grid")
+    sp.add_argument("input")
+    sp.add_argument("-o", "--output", required=True)
+    sp.add_argument("--grid", required=True,
+                    help="'x0:x1:dx,y0:y1:dy' (linear array) or 'x0:x1:dx,y0:y1:dy,z0:z1:dz' "
+                         "(planar), m, ends inclusive")
+    sp.add_argument("--backend", choices=("opencl", "numpy"), default="opencl")
+    sp.add_argument("--memory-budget", type=float, default=2.0,
+                    help="GB the back-projection may hold (default 2)")
+    device_opts(sp)
+    sp.set_defaults(func=cmd_das)
+
     sp = sub.add_parser("bench", help="time each method and stage on the paper's scenes")
     sp.add_argument("--repeats", type=_positive_int, default=20)
     sp.add_argument("--scene", action="append", choices=sorted({s[0] for s in SCENES}),
@@ -309,6 +367,13 @@ def main(argv=None) -> int:
     """Entry point of the ``rpm-cl`` command; returns the exit code."""
     from .data import InputError
 
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # a grid starting with a negative coordinate ("--grid -0.4:0.4:...") would
+    # be taken for an option by argparse: bind the value to the flag.
+    for i in range(len(argv) - 1):
+        if argv[i] == "--grid":
+            argv[i:i + 2] = [f"--grid={argv[i + 1]}"]
+            break
     try:
         args = build_parser().parse_args(argv)
         return args.func(args)

@@ -32,7 +32,7 @@ import numpy as np
 from .data import C0, InputError, RadarData
 
 __all__ = ["Grid", "parse_grid", "das_numpy", "das_adjoint", "DASPlan", "DeviceDAS",
-           "MEMORY_BUDGET_DEFAULT", "image_points"]
+           "MEMORY_BUDGET_DEFAULT", "image_points", "write_image"]
 
 #: Default bound on the memory a DAS run may hold (temporaries, tables), bytes.
 MEMORY_BUDGET_DEFAULT = 2_000_000_000
@@ -409,3 +409,74 @@ def image_points(image: np.ndarray, grid: Grid, threshold_db: float = -10.0,
         pts[:, a] = grid.axes[a][cols[k]]
     pts[:, along] = grid.axes[along][best[cols]]
     return pts
+
+
+def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = None) -> None:
+    """Write an image ``.npz`` (``image``, ``x``, ``y`` [, ``z``], ``meta``)
+    without holding the image in memory, atomically.
+
+    ``fill(out)`` writes the image into ``out``, a memory-mapped array of shape
+    ``grid.shape`` in a temporary ``.npy`` beside ``path``; the ``.npz`` is then
+    assembled by streaming that file into the zip.
+
+    Parameters
+    ----------
+    path : str or path-like
+    grid : Grid
+    fill : callable
+    dtype : numpy dtype
+        complex64 or complex128.
+    meta : dict, optional
+        Stored as a JSON string under ``meta``.
+    """
+    import io
+    import json
+    import os
+    import tempfile
+    import zipfile
+
+    from .data import _usual_mode
+
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise InputError(f"{path}: output folder {folder} does not exist")
+    need = grid.size * np.dtype(dtype).itemsize
+    free = _free_bytes(folder)
+    if free is not None and 2.2 * need > free:
+        raise InputError(f"{path}: the image needs {2 * need / 1e9:.1f} GB of disk while written, "
+                         f"{free / 1e9:.1f} GB free")
+    fd, tmp_npy = tempfile.mkstemp(prefix=".tmp-", suffix=".npy", dir=folder)
+    os.close(fd)
+    fd, tmp_zip = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=folder)
+    os.close(fd)
+    try:
+        out = np.lib.format.open_memmap(tmp_npy, mode="w+", dtype=dtype, shape=grid.shape)
+        fill(out)
+        out.flush()
+        del out
+        with zipfile.ZipFile(tmp_zip, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+            zf.write(tmp_npy, "image.npy")
+            extra = dict(zip("xyz", grid.axes))
+            extra["meta"] = np.array(json.dumps(meta or {}, default=str))
+            for name, arr in extra.items():
+                buf = io.BytesIO()
+                np.save(buf, arr)
+                zf.writestr(name + ".npy", buf.getvalue())
+        _usual_mode(tmp_zip)
+        os.replace(tmp_zip, path)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write ({exc})") from None
+    finally:
+        for t in (tmp_npy, tmp_zip):
+            if os.path.exists(t):
+                os.remove(t)
+
+
+def _free_bytes(folder):
+    import shutil
+
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return None
