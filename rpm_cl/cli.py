@@ -143,7 +143,13 @@ def cmd_reproduce(args) -> int:
 
     engine, env = _engine(args)
     progress = (lambda m: print(f"  running {m}", file=sys.stderr)) if args.verbose else None
-    rows = reproduce(args.name, engine, trials=args.trials, seed=args.seed, progress=progress)
+    das = None
+    if not args.no_das:
+        from .das import DeviceDAS
+
+        das = DeviceDAS(env, args.precision)
+    rows = reproduce(args.name, engine, trials=args.trials, seed=args.seed, progress=progress,
+                     das=das, skip_volume=args.skip_volume)
     print(f"{args.name} on {env.name} ({args.precision}); noisy rows pooled over "
           f"{args.trials} noise realisations")
     print(format_table(rows))
@@ -324,6 +330,9 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("name", choices=sorted(CASES))
     sp.add_argument("--json", help="write the rows as JSON here")
     sp.add_argument("--trials", type=_positive_int, default=10, help="noise realisations per noisy row")
+    sp.add_argument("--no-das", action="store_true", help="leave out the DAS (SAR) rows")
+    sp.add_argument("--skip-volume", action="store_true",
+                    help="leave out the full 2 m x 2 m x 2 m DAS volume of paper-3d (minutes)")
     sp.add_argument("--seed", type=_seed, default=0)
     sp.add_argument("-v", "--verbose", action="store_true")
     device_opts(sp)
