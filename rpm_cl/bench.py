@@ -11,6 +11,7 @@ from __future__ import annotations
 import platform
 import time
 
+import numpy as np
 from .imaging import METHODS, default_params, timed_run
 from .metrics import summary
 from .simulate import simulate_preset
@@ -75,8 +76,45 @@ def kernel_profile(engine, method, data, params) -> dict:
     return out
 
 
-def run_bench(engine, env, repeats: int = 20, scenes=None) -> str:
-    """All methods on :data:`SCENES` (or the labels in ``scenes``); the table as text."""
+def bench_das(das, preset: str, snr, repeats: int = 3, seed: int = 0, volume: bool = False):
+    """DAS rows of one scene: one dict per grid of
+    :data:`rpm_cl.reproduce.DAS_GRIDS` (the volume only with ``volume``).
+
+    Each dict: ``label``, ``total_ms`` (median of ``repeats``; the volume runs
+    once), ``bp_per_s`` (back-projections, voxels x antennas, per second),
+    ``rpm50``, ``rpm100`` (fractions of the image's points within 50 / 100 mm
+    of the true boundary), ``points``.
+    """
+    from .das import parse_grid
+    from .metrics import cumulative, err_rpm
+    from .reproduce import DAS_GRIDS, das_points
+
+    data, _ = simulate_preset(preset, snr, seed)
+    out = []
+    for label, text, kind in DAS_GRIDS.get(preset, []):
+        if kind == "volume" and not volume:
+            continue
+        grid = parse_grid(text)
+        times = []
+        for _ in range(1 if kind == "volume" else repeats):
+            pts, sec = das_points(das, data, grid, kind)
+            times.append(sec)
+        sec = float(np.median(times))
+        e = err_rpm(pts, data.truth)
+        n = max(1, len(e))
+        out.append({"label": label, "total_ms": 1e3 * sec, "points": len(e),
+                    "bp_per_s": grid.size * data.array.n / sec,
+                    "rpm50": cumulative(e, 0.05)[0] / n, "rpm100": cumulative(e, 0.10)[0] / n})
+    return out
+
+
+def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: bool = False) -> str:
+    """All methods on :data:`SCENES` (or the labels in ``scenes``); the table as text.
+
+    With ``das`` (a :class:`rpm_cl.das.DeviceDAS`), the DAS rows of each scene
+    follow, with their back-projections per second; ``volume`` adds the
+    human body's full 2 m x 2 m x 2 m volume at 3 mm (minutes).
+    """
     chosen = [sc for sc in SCENES if scenes is None or sc[0] in scenes]
     lines = [f"device: {env.name} | precision: {getattr(engine, 'precision', 'float64')} | "
              f"host: {platform.processor() or platform.machine()} | "
@@ -95,9 +133,17 @@ def run_bench(engine, env, repeats: int = 20, scenes=None) -> str:
                 f"{b.get('intersect_ms', float('nan')):6.2f} {b.get('score_ms', float('nan')):7.2f} "
                 f"{b['rp10']:9.0%} {b['rpm50']:8.0%} {b['rpm100']:9.0%} "
                 f"{b.get('kernel_evals_per_s', float('nan')):15.3g}")
+        if das is not None:
+            for b in bench_das(das, preset, snr, max(1, min(repeats, 5)), volume=volume):
+                lines.append(
+                    f"{label:12s} {'inf' if snr is None else f'{snr:g}':>4s} {'das':11s} "
+                    f"{b['total_ms']:8.1f} {'':7s} {'':6s} {'':7s} {'':6s} {'':7s} {'-':>9s} "
+                    f"{b['rpm50']:8.0%} {b['rpm100']:9.0%} {b['bp_per_s']:12.3g} bp/s  "
+                    f"({b['label']}, {b['points']} points)")
     lines.append(f"(wall time of the benchmark: {time.perf_counter() - t0:.1f} s.  Times in ms: "
                  "total, decomp(osition), RPs (extraction) and RPM are stage medians; isect and "
                  "score are the intersection and scoring kernels of one extra run with each "
                  "kernel waited for; kernel evals/s = Gaussian evaluations of the scoring "
-                 "kernel per second of it)")
+                 "kernel per second of it; das rows: back-projections (voxels x antennas) per "
+                 "second, points = the image's peaks, or its -6 dB pixels for a section)")
     return "\n".join(lines)

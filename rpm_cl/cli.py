@@ -283,7 +283,13 @@ def cmd_bench(args) -> int:
     from .bench import run_bench
 
     engine, env = _engine(args)
-    print(run_bench(engine, env, repeats=args.repeats, scenes=args.scene))
+    das = None
+    if not args.no_das:
+        from .das import DeviceDAS
+
+        das = DeviceDAS(env, args.precision)
+    print(run_bench(engine, env, repeats=args.repeats, scenes=args.scene, das=das,
+                    volume=args.das_volume))
     return 0
 
 
@@ -367,6 +373,9 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--repeats", type=_positive_int, default=20)
     sp.add_argument("--scene", action="append", choices=sorted({s[0] for s in SCENES}),
                     help="benchmark only this scene (repeatable; default: all)")
+    sp.add_argument("--no-das", action="store_true", help="leave out the DAS rows")
+    sp.add_argument("--das-volume", action="store_true",
+                    help="add the human body's full 2 m x 2 m x 2 m DAS volume at 3 mm (minutes)")
     device_opts(sp)
     sp.set_defaults(func=cmd_bench)
     return p

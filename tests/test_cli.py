@@ -56,7 +56,14 @@ def test_reproduce_json_schema(tmp_path, capsys):
     cases = {(r["case"], r["method"], r["snr_db"]) for r in rows}
     for snr in (None, 20.0, 10.0, 0.0):
         assert ("points-5mm", "kspace-rpm", snr) in cases
+        assert ("points-5mm", "das", snr) in cases
     assert ("sparse-20mm", "kspace-rpm", None) in cases
+    # the sparse array: DAS shows grating lobes (many peaks, few near a
+    # target) where k-space RPM places its points (the paper's Fig. 12)
+    das = next(r for r in rows if r["case"] == "sparse-20mm" and r["method"] == "das")
+    ks = next(r for r in rows if r["case"] == "sparse-20mm" and r["method"] == "kspace-rpm")
+    assert das["rpm_total"] > 20 and das["rpm_within_50mm"] < 0.5 * das["rpm_total"]
+    assert ks["rpm_within_50mm"] >= 0.9 * ks["rpm_total"]
 
 
 def write_npz(path, **arrays):
