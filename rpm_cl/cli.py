@@ -1,4 +1,4 @@
-"""Command line: ``rpm-cl {info,simulate,image,das,view,reproduce,demo,bench}``.
+"""Command line: ``rpm-cl {info,simulate,image,das,rma,view,reproduce,demo,bench}``.
 
 Every error the user can cause (bad input file, bad option, no OpenCL) is
 reported as one line ``rpm-cl: error: ...`` on stderr with exit code 2.
@@ -149,7 +149,7 @@ def cmd_reproduce(args) -> int:
 
         das = DeviceDAS(env, args.precision)
     rows = reproduce(args.name, engine, trials=args.trials, seed=args.seed, progress=progress,
-                     das=das, skip_volume=args.skip_volume)
+                     das=das, skip_volume=args.skip_volume, rma=not args.no_rma)
     print(f"{args.name} on {env.name} ({args.precision}); noisy rows pooled over "
           f"{args.trials} noise realisations")
     print(format_table(rows))
@@ -279,6 +279,23 @@ def cmd_das(args) -> int:
     return 0
 
 
+def cmd_rma(args) -> int:
+    import time
+
+    from .data import atomic_savez, load_npz
+    from .rma import rma_image
+
+    data = load_npz(args.input)
+    t0 = time.perf_counter()
+    img, x, y = rma_image(data, upsample_x=args.upsample_x, y_min=args.y_min, y_max=args.y_max)
+    sec = time.perf_counter() - t0
+    meta = {"version": __version__, "method": "rma", "input": args.input, "seconds": sec,
+            "upsample_x": args.upsample_x}
+    atomic_savez(args.output, image=img, x=x, y=y, meta=np.array(json.dumps(meta)))
+    print(f"rma: image {img.shape} in {1e3 * sec:.1f} ms; wrote {args.output}")
+    return 0
+
+
 def cmd_bench(args) -> int:
     from .bench import run_bench
 
@@ -337,6 +354,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--json", help="write the rows as JSON here")
     sp.add_argument("--trials", type=_positive_int, default=10, help="noise realisations per noisy row")
     sp.add_argument("--no-das", action="store_true", help="leave out the DAS (SAR) rows")
+    sp.add_argument("--no-rma", action="store_true", help="leave out the RMA rows")
     sp.add_argument("--skip-volume", action="store_true",
                     help="leave out the full 2 m x 2 m x 2 m DAS volume of paper-3d (minutes)")
     sp.add_argument("--seed", type=_seed, default=0)
@@ -368,6 +386,15 @@ def build_parser() -> argparse.ArgumentParser:
                     help="GB the back-projection may hold (default 2)")
     device_opts(sp)
     sp.set_defaults(func=cmd_das)
+
+    sp = sub.add_parser("rma", help="range migration (f-k, Stolt) image of a linear-array file")
+    sp.add_argument("input")
+    sp.add_argument("-o", "--output", required=True)
+    sp.add_argument("--y-min", type=float, help="crop the image to y >= this, m")
+    sp.add_argument("--y-max", type=float, help="crop the image to y <= this, m")
+    sp.add_argument("--upsample-x", type=_positive_int, default=1,
+                    help="x pixels per array pitch (default 1)")
+    sp.set_defaults(func=cmd_rma)
 
     sp = sub.add_parser("bench", help="time each method and stage on the paper's scenes")
     sp.add_argument("--repeats", type=_positive_int, default=20)

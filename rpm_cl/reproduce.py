@@ -29,6 +29,14 @@ PAPER = {
     ("points-5mm", "kspace-rpm", 10.0): {"rp10": 0.95, "rpm50": 0.50, "rpm100": 0.94},
     ("points-5mm", "kspace-rpm", 0.0): {"rp10": 0.90, "rpm50": 0.35, "rpm100": 0.61},
     ("sparse-20mm", "kspace-rpm", None): {"rp10": 0.87, "rpm50": 0.94},
+    ("points-5mm", "capon-rpm", None): {"rp10": 0.98, "rpm50": 0.61, "rpm100": 0.96},
+    ("points-5mm", "capon-rpm", 20.0): {"rp10": 0.0, "rpm50": 0.0, "rpm100": 0.0},
+    ("points-5mm", "capon-rpm", 10.0): {"rp10": 0.0, "rpm50": 0.0, "rpm100": 0.0},
+    ("points-5mm", "capon-rpm", 0.0): {"rp10": 0.0, "rpm50": 0.0, "rpm100": 0.0},
+    ("human-body", "capon-rpm", None): {"rp10": 1.00, "rpm50": 0.99, "rp10_n": 678,
+                                        "rpm50_n": 341},
+    ("human-body", "capon-rpm", 20.0): {"rp10": 0.026, "rpm50": 0.0, "rp10_n": 16,
+                                        "rpm50_n": 0},
     ("human-body", "kspace-rpm", None): {"rp10": 0.98, "rpm50": 0.95, "rp10_n": 2248,
                                          "rpm50_n": 1155},
     ("human-body", "kspace-rpm", 20.0): {"rp10": 0.98, "rpm50": 0.95, "rp10_n": 2253,
@@ -121,16 +129,64 @@ def das_points(das, data, grid, kind: str):
     img = das.backproject(data, grid)
     sec = time.perf_counter() - t0
     if kind == "image":
-        from scipy import ndimage
-
-        mag = np.abs(img)
-        peak = (mag == ndimage.maximum_filter(mag, size=5, mode="nearest"))
-        peak &= mag >= mag.max() * 10 ** (-10 / 20)
-        idx = np.nonzero(peak)
-        return np.stack([grid.x[idx[0]], grid.y[idx[1]]], axis=1), sec
+        return image_peak_points(img, grid.axes), sec
     mag = np.abs(img)
     idx = np.nonzero(mag >= mag.max() * 10 ** (-6 / 20))
     return np.stack([grid.axes[a][idx[a]] for a in range(grid.dim)], axis=1), sec
+
+
+def image_peak_points(img: np.ndarray, axes, threshold_db: float = -10.0) -> np.ndarray:
+    """Local maxima of |img| over 5 x 5 pixels above ``threshold_db`` of its
+    maximum: the targets a 2-D coherent image shows, as points (M, 2), m."""
+    from scipy import ndimage
+
+    mag = np.abs(img)
+    if mag.size == 0 or mag.max() == 0:
+        return np.zeros((0, 2))
+    peak = (mag == ndimage.maximum_filter(mag, size=5, mode="nearest"))
+    peak &= mag >= mag.max() * 10 ** (threshold_db / 20)
+    idx = np.nonzero(peak)
+    return np.stack([axes[0][idx[0]], axes[1][idx[1]]], axis=1)
+
+
+#: RMA rows (linear arrays): preset -> (label, y_min, y_max) of the image.
+RMA_IMAGES = {"paper-2d": ("image y 0.2-0.7 m", 0.2, 0.7),
+              "paper-2d-sparse": ("image y 0.2-0.7 m", 0.2, 0.7)}
+
+
+def rma_points(data, y_min: float, y_max: float):
+    """RMA image (:func:`rpm_cl.rma.rma_image`, x pixel 1/4 of the pitch) and
+    its peak points; returns (points (M, 2), seconds, image shape)."""
+    import time
+
+    from .rma import rma_image
+
+    rma_image(data, upsample_x=4, y_min=y_min, y_max=y_max)  # warm-up
+    t0 = time.perf_counter()
+    img, x, y = rma_image(data, upsample_x=4, y_min=y_min, y_max=y_max)
+    sec = time.perf_counter() - t0
+    return image_peak_points(img, (x, y)), sec, img.shape
+
+
+def _rma_rows(case, preset_name, snr, datasets, progress):
+    from .metrics import cumulative, err_rpm
+
+    if preset_name not in RMA_IMAGES:
+        return []
+    label, y0, y1 = RMA_IMAGES[preset_name]
+    if progress:
+        progress(f"{case} rma S/N={'inf' if snr is None else snr}")
+    tot = dict.fromkeys(("rpm_total", "rpm_within_50mm", "rpm_within_100mm"), 0)
+    times = []
+    for data, _ in datasets:
+        pts, sec, _ = rma_points(data, y0, y1)
+        times.append(sec)
+        e = err_rpm(pts, data.truth)
+        tot["rpm_total"] += len(e)
+        tot["rpm_within_50mm"] += cumulative(e, 0.05)[0]
+        tot["rpm_within_100mm"] += cumulative(e, 0.10)[0]
+    return [ReproRow(case, "rma", snr, len(datasets), 0, 0, seconds=float(np.median(times)),
+                     grid=label, **tot)]
 
 
 def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress):
@@ -159,7 +215,8 @@ def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress)
 
 
 def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
-              progress=None, das=None, skip_volume: bool = False) -> list[ReproRow]:
+              progress=None, das=None, skip_volume: bool = False,
+              rma: bool = True) -> list[ReproRow]:
     """Run every case of reproduction ``name`` with every method.
 
     Parameters
@@ -180,6 +237,8 @@ def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
         Adds the coherent rows of :data:`DAS_GRIDS` (``"method": "das"``).
     skip_volume : bool
         Leave out the full-volume DAS row (minutes on a CPU).
+    rma : bool
+        Add the RMA rows of :data:`RMA_IMAGES` (linear arrays).
     """
     if name not in CASES:
         raise InputError(f"unknown reproduction {name!r}; choose from {', '.join(CASES)}")
@@ -208,6 +267,8 @@ def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
                                      **tot))
             if das is not None:
                 rows += _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress)
+            if rma:
+                rows += _rma_rows(case, preset_name, snr, datasets, progress)
     return rows
 
 

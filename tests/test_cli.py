@@ -181,3 +181,30 @@ def test_float32_axes_accepted(sim_file, tmp_path, capsys):
     arrays["signal"] = arrays["signal"].astype(np.complex64)
     path = write_npz(tmp_path / "f32.npz", **arrays)
     assert main(["image", path, "-o", str(tmp_path / "o.npz")]) == 0
+
+
+def test_rma_and_das_cli_write_images(sim_file, tmp_path, capsys):
+    out = tmp_path / "rma.npz"
+    assert main(["rma", str(sim_file), "-o", str(out), "--y-min", "0.2", "--y-max", "0.7"]) == 0
+    with np.load(out) as f:
+        assert f["image"].shape == (f["x"].size, f["y"].size) and np.iscomplexobj(f["image"])
+        assert f["y"].min() >= 0.2 - 1e-9 and f["y"].max() <= 0.7 + 1e-9
+    out = tmp_path / "das.npz"
+    # a grid starting at a negative x: the value binds to --grid
+    assert main(["das", str(sim_file), "-o", str(out), "--grid", "-0.1:0.1:0.01,0.3:0.6:0.01"]) == 0
+    with np.load(out) as f:
+        assert f["image"].shape == (21, 31) and json.loads(str(f["meta"]))["backend"] == "opencl"
+    assert "back-projections/s" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["das", "{sim}", "-o", "{tmp}/a.npz", "--grid", "0:1:0.1,0:1:0.1,0:1:0.1"], "needs 2"),
+    (["das", "{sim}", "-o", "{tmp}/a.npz", "--grid", "0:1"], "--grid needs"),
+    (["das", "{sim}", "-o", "{tmp}/a.npz", "--grid", "0:1:-1,0:1:1"], "step > 0"),
+])
+def test_das_bad_grid_one_line_exit_2(argv, words, sim_file, tmp_path, capsys):
+    argv = [a.format(sim=sim_file, tmp=tmp_path) for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("rpm-cl: error:") and words in err and "\n" not in err
+    assert not list(tmp_path.glob("*.npz"))
