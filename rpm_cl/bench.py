@@ -108,6 +108,27 @@ def bench_das(das, preset: str, snr, repeats: int = 3, seed: int = 0, volume: bo
     return out
 
 
+def bench_rma(preset: str, snr, repeats: int = 3, seed: int = 0):
+    """RMA row of a linear-array scene (None for planar ones): ``total_ms``
+    (median), ``rpm50``, ``rpm100`` of the image's peaks, ``points``, ``label``."""
+    from .metrics import cumulative, err_rpm
+    from .reproduce import RMA_IMAGES, rma_points
+
+    if preset not in RMA_IMAGES:
+        return None
+    label, y0, y1 = RMA_IMAGES[preset]
+    data, _ = simulate_preset(preset, snr, seed)
+    times = []
+    for _ in range(repeats):
+        pts, sec, shape = rma_points(data, y0, y1)
+        times.append(sec)
+    e = err_rpm(pts, data.truth)
+    n = max(1, len(e))
+    return {"label": f"{label}, {shape[0]} x {shape[1]} px", "total_ms": 1e3 * float(np.median(times)),
+            "points": len(e), "rpm50": cumulative(e, 0.05)[0] / n,
+            "rpm100": cumulative(e, 0.10)[0] / n}
+
+
 def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: bool = False) -> str:
     """All methods on :data:`SCENES` (or the labels in ``scenes``); the table as text.
 
@@ -133,6 +154,13 @@ def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: boo
                 f"{b.get('intersect_ms', float('nan')):6.2f} {b.get('score_ms', float('nan')):7.2f} "
                 f"{b['rp10']:9.0%} {b['rpm50']:8.0%} {b['rpm100']:9.0%} "
                 f"{b.get('kernel_evals_per_s', float('nan')):15.3g}")
+        rma = bench_rma(preset, snr, max(1, min(repeats, 5)))
+        if rma is not None:
+            lines.append(
+                f"{label:12s} {'inf' if snr is None else f'{snr:g}':>4s} {'rma':11s} "
+                f"{rma['total_ms']:8.1f} {'':7s} {'':6s} {'':7s} {'':6s} {'':7s} {'-':>9s} "
+                f"{rma['rpm50']:8.0%} {rma['rpm100']:9.0%} {'':17s}  "
+                f"({rma['label']}, {rma['points']} points)")
         if das is not None:
             for b in bench_das(das, preset, snr, max(1, min(repeats, 5)), volume=volume):
                 lines.append(

@@ -131,16 +131,24 @@ def _geometry(data: RadarData, grid: Grid):
 
 def _weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float):
     """Sample index (n, A), the two complex weights (n, A) for voxels p (n, 3)."""
-    d = np.sqrt(((p[:, None, :] - ant[None, :, :]) ** 2).sum(axis=2))
-    t = (d - r0) / dr
-    i = np.floor(t)
-    fr = t - i
+    d = np.square(p[:, 0:1] - ant[None, :, 0])
+    d += np.square(p[:, 1:2] - ant[None, :, 1])
+    d += np.square(p[:, 2:3] - ant[None, :, 2])
+    np.sqrt(d, out=d)
+    ph = np.exp(1j * k2 * d)
+    d -= r0
+    d /= dr  # d is now the fractional sample index t
+    i = np.floor(d)
+    d -= i  # the fraction
     inside = (i >= 0) & (i < nr - 1)
-    ph = np.exp(1j * k2 * d) * inside
-    return np.where(inside, i, 0).astype(np.int64), ph * (1 - fr), ph * fr
+    ph *= inside
+    i[~inside] = 0
+    w1 = ph * d
+    ph -= w1  # ph (1 - fr)
+    return i.astype(np.int64), ph, w1
 
 
-def _chunk_voxels(n_ant: int, budget: float, per: int = 80) -> int:
+def _chunk_voxels(n_ant: int, budget: float, per: int = 160) -> int:
     """Voxels per chunk so that ``per`` bytes per (voxel, antenna) fit the budget."""
     return max(1, int(budget // (per * max(1, n_ant))))
 
@@ -155,8 +163,9 @@ def das_numpy(data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_
     grid : Grid
         2 axes for linear arrays, 3 for planar ones.
     memory_budget : float
-        Bound on the temporaries, bytes (about 80 bytes per voxel and antenna
-        of a chunk); the image itself is ``out``.
+        Bound on the temporaries, bytes (160 bytes per voxel and antenna of a
+        chunk, the measured peak of :func:`_weights` and the gather); the image
+        itself is ``out``.
     out : ndarray, complex, shape grid.shape, optional
         Where to write (e.g. a ``numpy.lib.format.open_memmap`` for volumes
         larger than memory); default a new complex128 array.
@@ -179,7 +188,10 @@ def das_numpy(data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_
     for lo in range(0, grid.size, step):
         hi = min(grid.size, lo + step)
         i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2)
-        flat[lo:hi] = (sig[a_idx, i] * w0 + sig[a_idx, i + 1] * w1).sum(axis=1)
+        w0 *= sig[a_idx, i]
+        w1 *= sig[a_idx, i + 1]
+        w0 += w1
+        flat[lo:hi] = w0.sum(axis=1)
         if progress:
             progress(hi, grid.size)
     return out

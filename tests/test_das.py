@@ -122,3 +122,19 @@ def test_image_points_follow_the_peak_column():
     img = np.array([[0.1, 1.0, 0.2], [0.05, 0.01, 0.02]])
     pts = image_points(img, g, threshold_db=-10)
     np.testing.assert_allclose(pts, [[0.0, 0.6]])
+
+
+def test_numpy_das_stays_within_its_memory_budget(rng):
+    """Peak NumPy allocations (tracemalloc sees them) stay under the budget
+    plus the image itself."""
+    import tracemalloc
+
+    data = random_data(rng, True, nr=200)
+    g = Grid(np.linspace(-0.2, 0.2, 40), np.linspace(0.35, 0.7, 30), np.linspace(-0.2, 0.2, 40))
+    budget = 4e6  # the unbounded computation would need ~ 48000 x 35 x 160 B = 270 MB
+    out = np.empty(g.shape, np.complex128)
+    tracemalloc.start()
+    das_numpy(data, g, memory_budget=budget, out=out)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert peak <= budget + g.size * 16 * 0.05  # grid coordinates are the only extra
