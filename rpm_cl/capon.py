@@ -302,10 +302,14 @@ def _whitening_filters(data: RadarData, params: CaponParams):
     lam, u = np.linalg.eigh(rxx)
     lam = np.maximum(lam, 0.0)  # rounding can leave tiny negatives
     mean = lam.sum(axis=1, keepdims=True) / m
-    # a profile without signal (mean 0) gets a unit matrix: P = 0 there
+    # a profile without signal (mean 0): any loading (its V is zeroed below)
     load = np.where(mean > 0, params.loading * mean, 1.0)
     lam = lam + np.maximum(load, np.finfo(np.float64).tiny)
-    return f[:m] - f[0], u / np.sqrt(lam)[:, None, :]
+    v = u / np.sqrt(lam)[:, None, :]
+    # no signal at all: no spectrum (P = 0 below), not the flat 1/M whose
+    # rounding ripples would be taken for peaks
+    v[mean[:, 0] <= 0] = 0.0
+    return f[:m] - f[0], v
 
 
 def _power(f_sub: np.ndarray, v: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -332,7 +336,8 @@ def _power(f_sub: np.ndarray, v: np.ndarray, r: np.ndarray) -> np.ndarray:
         a = np.exp(phase * f_sub[None, :, None] * r[:, None, :])  # (n, M, q)
         proj = np.einsum("nmi,nmq->niq", v.conj(), a)
     q = np.sum(proj.real ** 2 + proj.imag ** 2, axis=1)
-    return 1.0 / np.maximum(q, np.finfo(np.float64).tiny)
+    with np.errstate(divide="ignore"):
+        return np.where(q > 0, 1.0 / np.where(q > 0, q, 1.0), 0.0)
 
 
 def capon_profiles(data: RadarData, params: CaponParams | None = None) -> np.ndarray:

@@ -208,3 +208,19 @@ def test_das_bad_grid_one_line_exit_2(argv, words, sim_file, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("rpm-cl: error:") and words in err and "\n" not in err
     assert not list(tmp_path.glob("*.npz"))
+
+
+@pytest.mark.parametrize("method", ["kspace-rpm", "mf-rpm", "capon-rpm"])
+@pytest.mark.parametrize("planar", [False, True])
+def test_all_zero_input_is_valid_and_empty(method, planar, tmp_path, capsys):
+    """A target-free (all-zero) file images to nothing, with every method."""
+    shape = (11, 17, 300) if planar else (21, 300)
+    arrays = dict(signal=np.zeros(shape, complex), x=(np.arange(shape[0]) - 5) * 7.5e-3,
+                  range=0.5 + np.arange(300) * 2.5e-3, fc=20e9, bandwidth=3e9)
+    if planar:
+        arrays["z"] = (np.arange(17) - 8) * 7.5e-3
+    src = write_npz(tmp_path / "zero.npz", **arrays)
+    out = tmp_path / "out.npz"
+    assert main(["image", src, "-o", str(out), "--method", method]) == 0
+    with np.load(out) as f:
+        assert f["points"].shape == (0, 3 if planar else 2) and f["rp_range"].size == 0
