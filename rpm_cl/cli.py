@@ -64,6 +64,45 @@ def _seed(text):
     return v
 
 
+def _bind_negative_values(argv: list) -> list:
+    """``--opt -1e-3`` / ``--grid -0.4:0.4:...``: argparse takes a value that
+    starts with '-' and is not a plain decimal for an option; bind such values
+    to their flag (``--opt=-1e-3``)."""
+    out, i = [], 0
+    while i < len(argv):
+        tok = argv[i]
+        nxt = argv[i + 1] if i + 1 < len(argv) else None
+        if (tok.startswith("--") and "=" not in tok and nxt is not None and nxt.startswith("-")
+                and len(nxt) > 1 and (nxt[1].isdigit() or nxt[1] == ".")):
+            out.append(f"{tok}={nxt}")
+            i += 2
+        else:
+            out.append(tok)
+            i += 1
+    return out
+
+
+def _budget_gb(text):
+    try:
+        v = float(text)
+    except ValueError:
+        v = float("nan")
+    if not (np.isfinite(v) and 1e-3 <= v <= 1e6):
+        raise argparse.ArgumentTypeError(f"memory budget must be between 0.001 and 1e6 GB, "
+                                         f"got {text!r}")
+    return v
+
+
+def _metres(text):
+    try:
+        v = float(text)
+    except ValueError:
+        v = float("nan")
+    if not (np.isfinite(v) and abs(v) <= 1e4):
+        raise argparse.ArgumentTypeError(f"must be a length in m within +-1e4, got {text!r}")
+    return v
+
+
 def _positive_int(text):
     try:
         v = int(text)
@@ -286,6 +325,8 @@ def cmd_rma(args) -> int:
     from .rma import rma_image
 
     data = load_npz(args.input)
+    if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
+        raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
     t0 = time.perf_counter()
     img, x, y = rma_image(data, upsample_x=args.upsample_x, y_min=args.y_min, y_max=args.y_max)
     sec = time.perf_counter() - t0
@@ -342,9 +383,11 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("input")
     sp.add_argument("-o", "--output", required=True)
     sp.add_argument("--method", choices=sorted(METHODS), default="kspace-rpm")
-    sp.add_argument("--sigma-x", type=float, help="sigma_x of eq. 6, m (default: aperture)")
+    sp.add_argument("--sigma-x", type=float, help="sigma_x (sigma_D) of eq. 6/11, m (default: "
+                    "the aperture for linear arrays, 2.5 antenna spacings for planar ones)")
     sp.add_argument("--sigma-r", type=float, help="sigma_r of eq. 6, m (default 0.05)")
-    sp.add_argument("--window-x", type=float, help="k_x window period, rad/m (default 417)")
+    sp.add_argument("--window-x", type=float, help="k_x window period, rad/m (default 417 for "
+                    "linear arrays, 100 for planar ones)")
     sp.add_argument("--window-z", type=float, help="k_z window period, rad/m")
     device_opts(sp)
     sp.set_defaults(func=cmd_image)
@@ -382,7 +425,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="'x0:x1:dx,y0:y1:dy' (linear array) or 'x0:x1:dx,y0:y1:dy,z0:z1:dz' "
                          "(planar), m, ends inclusive")
     sp.add_argument("--backend", choices=("opencl", "numpy"), default="opencl")
-    sp.add_argument("--memory-budget", type=float, default=2.0,
+    sp.add_argument("--memory-budget", type=_budget_gb, default=2.0,
                     help="GB the back-projection may hold (default 2)")
     device_opts(sp)
     sp.set_defaults(func=cmd_das)
@@ -390,8 +433,8 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("rma", help="range migration (f-k, Stolt) image of a linear-array file")
     sp.add_argument("input")
     sp.add_argument("-o", "--output", required=True)
-    sp.add_argument("--y-min", type=float, help="crop the image to y >= this, m")
-    sp.add_argument("--y-max", type=float, help="crop the image to y <= this, m")
+    sp.add_argument("--y-min", type=_metres, help="crop the image to y >= this, m")
+    sp.add_argument("--y-max", type=_metres, help="crop the image to y <= this, m")
     sp.add_argument("--upsample-x", type=_positive_int, default=1,
                     help="x pixels per array pitch (default 1)")
     sp.set_defaults(func=cmd_rma)
@@ -412,13 +455,7 @@ def main(argv=None) -> int:
     """Entry point of the ``rpm-cl`` command; returns the exit code."""
     from .data import InputError
 
-    argv = list(sys.argv[1:] if argv is None else argv)
-    # a grid starting with a negative coordinate ("--grid -0.4:0.4:...") would
-    # be taken for an option by argparse: bind the value to the flag.
-    for i in range(len(argv) - 1):
-        if argv[i] == "--grid":
-            argv[i:i + 2] = [f"--grid={argv[i + 1]}"]
-            break
+    argv = _bind_negative_values(list(sys.argv[1:] if argv is None else argv))
     try:
         args = build_parser().parse_args(argv)
         return args.func(args)

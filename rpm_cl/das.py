@@ -42,9 +42,10 @@ def _axis(name: str, lo: float, hi: float, step: float) -> np.ndarray:
     if not all(map(math.isfinite, (lo, hi, step))) or step <= 0 or hi < lo:
         raise InputError(f"grid axis {name}: need finite start <= stop and step > 0, "
                          f"got {lo}:{hi}:{step}")
-    n = int(math.floor((hi - lo) / step + 1e-9)) + 1
-    if n > 100_000:
-        raise InputError(f"grid axis {name}: {n} samples is more than 100000")
+    q = (hi - lo) / step
+    if not math.isfinite(q) or q >= 100_000:
+        raise InputError(f"grid axis {name}: more than 100000 samples ({lo}:{hi}:{step})")
+    n = int(math.floor(q + 1e-9)) + 1
     return lo + step * np.arange(n)
 
 
@@ -252,6 +253,7 @@ class DASPlan:
                              "budget; use the direct back-projection")
         self.grid, self.shape = grid, data.signal.shape
         self.range0, self.dr = float(data.range[0]), data.dr
+        self.fc, self.positions = data.waveform.fc, data.array.positions()
         nr = data.range.size
         k2 = 4 * np.pi * data.waveform.fc / C0
         self.index = np.empty((grid.size, len(ant)), np.int32)
@@ -268,8 +270,10 @@ class DASPlan:
 
     def apply(self, data: RadarData) -> np.ndarray:
         """DAS image of one frame with the same geometry, shape grid.shape."""
-        if data.signal.shape != self.shape or float(data.range[0]) != self.range0:
-            raise InputError("this frame's array or range axis differs from the plan's")
+        if (data.signal.shape != self.shape or float(data.range[0]) != self.range0
+                or data.dr != self.dr or data.waveform.fc != self.fc
+                or not np.array_equal(data.array.positions(), self.positions)):
+            raise InputError("this frame's array, range axis or carrier differs from the plan's")
         s = np.ascontiguousarray(data.signal.reshape(-1), np.complex64)
         out = np.empty(self.grid.size, np.complex64)
         step = max(1, 2_000_000 // self.index.shape[1])
@@ -453,16 +457,20 @@ def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = 
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(folder):
         raise InputError(f"{path}: output folder {folder} does not exist")
+    if os.path.isdir(path):
+        raise InputError(f"{path}: is a folder, not a file")
     need = grid.size * np.dtype(dtype).itemsize
     free = _free_bytes(folder)
     if free is not None and 2.2 * need > free:
         raise InputError(f"{path}: the image needs {2 * need / 1e9:.1f} GB of disk while written, "
                          f"{free / 1e9:.1f} GB free")
-    fd, tmp_npy = tempfile.mkstemp(prefix=".tmp-", suffix=".npy", dir=folder)
-    os.close(fd)
-    fd, tmp_zip = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=folder)
-    os.close(fd)
+    tmps = []
     try:
+        for suffix in (".npy", ".npz"):
+            fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=suffix, dir=folder)
+            os.close(fd)
+            tmps.append(tmp)
+        tmp_npy, tmp_zip = tmps
         out = np.lib.format.open_memmap(tmp_npy, mode="w+", dtype=dtype, shape=grid.shape)
         fill(out)
         out.flush()
@@ -480,7 +488,7 @@ def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = 
     except OSError as exc:
         raise InputError(f"{path}: cannot write ({exc})") from None
     finally:
-        for t in (tmp_npy, tmp_zip):
+        for t in tmps:
             if os.path.exists(t):
                 os.remove(t)
 

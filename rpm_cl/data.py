@@ -22,6 +22,7 @@ Input contract (``.npz``)
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from dataclasses import dataclass, field
@@ -214,6 +215,12 @@ class Truth:
         object.__setattr__(self, "boundary", b)
         if self.rp_antenna.shape != self.rp_range.shape:
             raise InputError("truth_rp_antenna and truth_rp_range differ in length")
+        try:
+            scene = json.loads(str(self.scene) or "{}")
+        except ValueError:
+            raise InputError("truth_scene must be a JSON object (the scene description)") from None
+        if not isinstance(scene, dict):
+            raise InputError("truth_scene must be a JSON object (the scene description)")
 
 
 @dataclass(frozen=True)

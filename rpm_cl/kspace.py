@@ -231,6 +231,11 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
     size.append(2 * int(np.ceil(0.5 * data.waveform.range_resolution / dr)) + 1)
     mode = ["wrap"] * n_k + ["nearest"]
     local = det == ndimage.maximum_filter(det, size=size, mode=mode)
+    # a strict maximum along R (a flat run of equal values, e.g. a constant
+    # signal, is not a peak: every gate of it would pass the test above)
+    strict = np.zeros_like(local)
+    strict[..., 1:-1] = (det[..., 1:-1] > det[..., :-2]) & (det[..., 1:-1] >= det[..., 2:])
+    local &= strict
     local &= det >= float(det.max()) * 10.0 ** (params.peak_threshold_db / 20.0)
     local &= det > 0
     # a peak on the first or last range gate is the edge of the axis, not a maximum
@@ -276,6 +281,10 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
     return Decomposition(k_axes, mag, tuple(clusters))
 
 
+#: A non-principal alias must give a coherent peak this much larger (module notes, step 4).
+ALIAS_MARGIN = 1.05
+
+
 def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi):
     """Range-walk alignment of one cluster (module notes, step 4).
 
@@ -300,6 +309,8 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi):
     options = options[np.sum(options**2, axis=1) < 1.0]
     if len(options) == 0:
         options = np.zeros((1, n_k))
+    # the principal alias (smallest |u|) first; another must beat it clearly
+    options = options[np.argsort(np.sum(options**2, axis=1), kind="stable")]
     # a plane wave at kc, for the coherent sum that ranks the aliases
     steer = np.ones([1] * n_k)
     for a in range(n_k):
@@ -324,6 +335,9 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi):
         # than they save on a few hundred antennas)
         beam = (sig.reshape(steer.size, -1) * steer.reshape(-1, 1)).sum(axis=0)
         peak = float(np.max(np.abs(beam))) if beam.size else 0.0
-        if best is None or peak > best[0]:
+        # 5 % margin: a wrong alias misaligns the envelopes by a sizeable part
+        # of the resolution and loses far more than that; near-ties (flat or
+        # degenerate data) keep the principal alias
+        if best is None or peak > ALIAS_MARGIN * best[0]:
             best = (peak, u, delta, sig)
     return best[1], best[2], best[3]

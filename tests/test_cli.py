@@ -224,3 +224,49 @@ def test_all_zero_input_is_valid_and_empty(method, planar, tmp_path, capsys):
     assert main(["image", src, "-o", str(out), "--method", method]) == 0
     with np.load(out) as f:
         assert f["points"].shape == (0, 3 if planar else 2) and f["rp_range"].size == 0
+
+
+def test_bad_values_one_line_exit_2(sim_file, tmp_path, capsys):
+    """Review findings: each of these once ended in a traceback."""
+    from rpm_cl.data import load_npz
+
+    with np.load(sim_file) as f:
+        arrays = {k: f[k] for k in f.files}
+    bad_scene = write_npz(tmp_path / "scene.npz", **{**arrays, "truth_scene": np.array("not json")})
+    cases = [
+        ["image", bad_scene, "-o", str(tmp_path / "a.npz")],
+        ["das", str(sim_file), "-o", str(tmp_path / "a.npz"), "--grid", "0:1e308:1e-10,0:1:1"],
+        ["das", str(sim_file), "-o", str(tmp_path / "a.npz"), "--grid", "0:1:0.1,0:1:0.1",
+         "--memory-budget", "nan"],
+        ["das", str(sim_file), "-o", str(tmp_path), "--grid", "0:0.1:0.1,0.3:0.4:0.1"],
+        ["rma", str(sim_file), "-o", str(tmp_path / "a.npz"), "--y-min", "1e300"],
+        ["rma", str(sim_file), "-o", str(tmp_path / "a.npz"), "--y-min", "0.6", "--y-max", "0.5"],
+    ]
+    for argv in cases:
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("rpm-cl: error:") and "\n" not in err, (argv, err)
+    assert not list(tmp_path.glob("a.npz")) and not list(tmp_path.glob(".tmp-*"))
+    with pytest.raises(Exception):
+        load_npz(bad_scene)
+
+
+def test_negative_values_bind_to_their_flag(sim_file, tmp_path):
+    """'--y-min -1e-3' is a value, not an option."""
+    out = tmp_path / "r.npz"
+    assert main(["rma", str(sim_file), "-o", str(out), "--y-min", "-1e-3", "--y-max", "0.5"]) == 0
+    with np.load(out) as f:
+        assert f["y"].min() >= -1e-3 - 1e-9
+
+
+def test_constant_planar_input_gives_no_clusters(tmp_path):
+    """A flat signal has no k-space peak (plateaus are not maxima) and the
+    alignment keeps the principal alias on a tie: no clusters, no points."""
+    arrays = dict(signal=np.ones((11, 17, 200), complex), x=(np.arange(11) - 5) * 7.5e-3,
+                  z=(np.arange(17) - 8) * 7.5e-3, range=0.7 + np.arange(200) * 2.5e-3,
+                  fc=20e9, bandwidth=3e9)
+    src = write_npz(tmp_path / "c.npz", **arrays)
+    out = tmp_path / "o.npz"
+    assert main(["image", src, "-o", str(out)]) == 0
+    with np.load(out) as f:
+        assert f["points"].shape == (0, 3)

@@ -60,6 +60,9 @@ def test_planar_kspace_separates_two_points_in_one_range_cell():
     assert len(dec.clusters) == 2
     rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
     e = err_range(rps.antenna, rps.range, data.truth)
+    # a lone point decomposes to within 0.7 mm (curvature left after the
+    # range-walk alignment, measured on single ellipsoids); 2 mm leaves room for
+    # the two echoes' leakage into each other's windows
     assert np.mean(e <= 0.002) >= 0.95
     for c in (0, 1):  # each cluster's ranges follow one target only
         sel = rps.cluster == c
@@ -79,14 +82,16 @@ def test_human_body_meets_the_paper(body, dev32):
     assert s["rpm_within_50mm"] >= 0.95 * s["rpm_total"]
     assert s["rpm_within_50mm"] >= 1155
     assert res.image.points.shape[1] == 3
-    # every body part is imaged: points within 20 mm of each ellipsoid's surface
+    # every body part is imaged: points within 20 mm of each ellipsoid's
+    # surface (measured: 155-219 per part; 20 is a floor far below that which
+    # still fails if a part's cluster is lost)
     e = err_rpm(res.image.points, data.truth)
     for t in preset.scene.targets:
         local = (res.image.points - t.center) @ t.rotation
         k = np.linalg.norm(local / t.semi_axes, axis=1)  # 1 on the surface
         near = np.abs(k - 1) * t.semi_axes.min() <= 0.02
         assert near.sum() >= 20, t
-    assert np.median(e) < 0.01
+    assert np.median(e) < 0.01  # measured 3-4 mm; 10 mm is the paper's finest threshold
 
 
 def test_float32_and_float64_choose_the_same_points(body, dev32, dev64):

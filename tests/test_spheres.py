@@ -1,6 +1,7 @@
 """3-D RPM: sphere-triplet kernel against its float64 reference, neighbour lists."""
 
 import numpy as np
+import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
@@ -190,3 +191,20 @@ def test_round_trip_recovers_scatterer(px, py, pz, dx, dz, ang):
     # float64 rounding of R (~1e-16 R) amplified by R^2 / (baseline area).
     tol = 1e-14 * py**2 * (dx + dz) / (dx * dz * np.sin(ang)) + 1e-12
     np.testing.assert_allclose(cand[:, 0, 0], [px, py, pz], atol=tol * max(1.0, py))
+
+
+def test_device_refuses_chunks_outside_the_arrays(dev32, rng):
+    """The kernels have no bounds checks; the host must refuse what the
+    reference would index out of range (a device read past the end once
+    crashed the process)."""
+    from rpm_cl.data import InputError
+
+    x, z, r, amp, ant, st_, ct = planar_cluster(rng, [10])
+    nbr, nn = lists(x, z, ant, st_, ct)
+    for kw in (dict(i0=8, n=50), dict(i0=-1, n=2)):
+        with pytest.raises(InputError):
+            dev32.rpm_spheres(x, z, r, amp, nbr, nn, 0.03, 0.02, **kw)
+    with pytest.raises(InputError):
+        dev32.rpm_spheres(x, z, r, amp, nbr + 100, nn, 0.03, 0.02)
+    with pytest.raises(InputError):
+        dev32.rpm_circles(x, r, amp, np.zeros(10, int), np.full(10, 15), 10, 0.1, 0.05)

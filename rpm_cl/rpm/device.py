@@ -12,9 +12,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..cl import CLEnv, get_kernels
+from ..data import InputError
 from .reference import EPS_DET, pair_table
 
 __all__ = ["DeviceRPM"]
+
+
+def _check_chunk(total: int, i0: int, n: int) -> None:
+    """The kernels index main RPs i0 .. i0+n-1 without bounds checks: refuse a
+    chunk outside the arrays (the reference would raise IndexError)."""
+    if i0 < 0 or n < 0 or i0 + n > total:
+        raise InputError(f"main RPs {i0}..{i0 + n - 1} are outside the {total} RPs given")
 
 
 def _round_up(n: int, m: int = 64) -> int:
@@ -121,7 +129,14 @@ class DeviceRPM:
 
     # -- kernels on device buffers ----------------------------------------
     def _intersect(self, x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
-        n = int(np.size(x)) - i0 if n is None else int(n)
+        total = int(np.size(x))
+        n = total - i0 if n is None else int(n)
+        _check_chunk(total, int(i0), n)
+        cs, cc = np.asarray(cstart), np.asarray(ccount)
+        if (any(np.size(v) != total for v in (r, amp, cs, cc))
+                or (total and (cs.min() < 0 or cc.min() < 0 or (cs + cc).max() > total))):
+            raise InputError("x, r, amp, cstart, ccount must have one entry per RP, and every "
+                             "cluster must lie within the RPs")
         # Subtract a common origin on the host in float64 so that float32
         # kernels see small coordinates; the outputs are in each main
         # antenna's frame, so they do not depend on it.
@@ -151,8 +166,17 @@ class DeviceRPM:
         x = np.asarray(x, np.float64)
         z = np.asarray(z, np.float64)
         n = x.size - i0 if n is None else int(n)
-        nbr = np.asarray(nbr).reshape(x.size, -1)
+        _check_chunk(x.size, int(i0), n)
+        nbr = np.asarray(nbr)
+        nnbr = np.asarray(nnbr)
+        if nbr.ndim != 2 or nbr.shape[0] != x.size or nnbr.shape != (x.size,):
+            raise InputError(f"nbr must be (N, kmax) and nnbr (N,) for N = {x.size} RPs")
         kmax = nbr.shape[1]
+        used = np.arange(kmax)[None, :] < nnbr[:, None]
+        if x.size and (nnbr.min() < 0 or nnbr.max() > kmax
+                       or (used.any() and (nbr[used].min() < 0 or nbr[used].max() >= x.size))
+                       or any(np.size(v) != x.size for v in (z, r, amp))):
+            raise InputError("nnbr must be in 0..kmax and the listed neighbours valid RP indices")
         maxc = _stride(kmax * (kmax - 1) // 2)
         # common origin removed in float64 (outputs are in each main antenna's frame)
         x0 = float(np.mean(x)) if x.size else 0.0
