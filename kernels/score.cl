@@ -104,6 +104,8 @@ __kernel void argmax_candidates(
     }
     best[i] = b;
     best_score[i] = bs;
+    /* index clamped: the compiler may load both arms of the select */
+    const long bk = row + (b >= 0 ? b : 0);
     for (int d = 0; d < DIM; ++d)
-        point[(long)d * n + i] = b >= 0 ? cand[d * plane + row + b] : (REAL)0;
+        point[(long)d * n + i] = b >= 0 ? cand[d * plane + bk] : (REAL)0;
 }
