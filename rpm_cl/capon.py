@@ -37,24 +37,30 @@ all in one cluster (as :func:`rpm_cl.rangepoints.rps_from_profiles` does for
 the matched filter); the RP amplitude is ``sqrt(P)`` at the refined peak.
 
 Defaults, measured (Err_range <= 10 mm; 20 dB pooled over seeds 0-4 for
-paper-2d, 0-1 for human-body; ``min_weight`` / sub-band rule / loading):
+paper-2d; ``min_weight`` / sub-band rule / loading; the same with 1 and 2
+BLAS threads, see :func:`frequency_samples`):
 
 =====================  ================  ==================  ==================
 setting                paper-2d, inf     paper-2d, 20 dB     human-body, inf
 =====================  ================  ==================  ==================
-0.01 / L//3 / 1e-9     94 % (17/18)      68 % (42/62)        100 % (388/388)
-0.01 / L//3 / 1e-6     100 % (4/4)       68 % (42/62)        98 % (423/430)
-0.01 / L//4 / 1e-9     80 % (4/5)        62 % (50/80)        99 % (469/473)
-0.01 / L//2 / 1e-9     87 % (13/15)      73 % (32/44)        100 % (232/232)
-0.1 / L//3 / 1e-9      100 % (2/2)       61 % (44/72)        99 % (411/414)
-0.1 / L//2 / 1e-9      85 % (17/20)      69 % (29/42)        100 % (242/242)
+0.01 / L//3 / 1e-9     89 % (16/18)      69 % (43/62)        100 % (388/388)
+0.01 / L//3 / 1e-6     100 % (4/4)       69 % (43/62)        98 % (423/430)
+0.01 / L//4 / 1e-9     100 % (2/2)       62 % (50/80)        99 % (469/473)
+0.01 / L//2 / 1e-9     87 % (13/15)      70 % (31/44)        100 % (232/232)
+0.1 / L//3 / 1e-9      78 % (7/9)        57 % (40/70)        99 % (411/414)
+0.1 / L//2 / 1e-9      79 % (15/19)      72 % (28/39)        100 % (242/242)
 matched filter         65 % (11/17)      64 % (54/85)        65 % (181/278)
 =====================  ================  ==================  ==================
 
-The default (first row) is the one accurate on both presets with a useful
-number of RPs; the paper-2d column moves by whole RPs between neighbouring
-settings (its three echoes lie within 0.05-0.15 of a resolution of each
-other, at the edge of what Capon resolves).
+Over more noise: the default gives 70 % (84/120) on paper-2d at 20 dB over
+seeds 0-9, and on human-body 100 % (388/388) noise-free, 59 % (1698/2890) at
+20 dB over seeds 0-9.  The default (first row) is the one accurate on both
+presets with a useful number of RPs; the paper-2d column moves by whole RPs
+between neighbouring settings (its three echoes lie within 0.05-0.15 of a
+resolution of each other, at the edge of what Capon resolves), and with the
+band-limited fit's cutoff (noise-free RPs, within 10 mm / all: 2/3 with the
+cutoff at 1e-13 or below, 13/14 at 1e-12, 16/18 from 1e-11 to 1e-10, 17/19
+at 1e-9, 17/21 at 1e-8, 7/9 at 1e-7; the 20 dB pool stays at 64-70 %).
 """
 
 from __future__ import annotations
@@ -81,6 +87,103 @@ MIN_WEIGHT_DEFAULT = 0.01
 #: Default shortest fitted range period, in range resolutions ``c/2B`` (see
 #: :func:`frequency_samples`).
 MIN_PERIOD_CELLS_DEFAULT = 10.0
+
+
+#: Relative singular-value cutoff of the band-limited fit (see
+#: :func:`frequency_samples`): components of the model below ``FIT_RCOND``
+#: times the largest singular value are dropped (truncated SVD).
+FIT_RCOND = 3e-11
+#: Antennas per block of the fit's matrix product (temporaries stay small).
+_FIT_CHUNK = 4096
+
+
+def _fit_rcond(dtype) -> float:
+    """Cutoff for data of ``dtype``: FIT_RCOND, or twice the unit roundoff
+    when that is coarser (complex64 data are only known to 2**-24)."""
+    eps = np.finfo(np.result_type(dtype, np.float32)).eps  # 2 * unit roundoff
+    return max(FIT_RCOND, float(eps))
+
+
+def _householder_qr(a: np.ndarray):
+    """Householder QR of a tall matrix with NumPy reductions only (no BLAS).
+
+    Parameters
+    ----------
+    a : ndarray, complex, shape (m, n), m >= n
+
+    Returns
+    -------
+    vs : list of ndarray
+        Unit Householder vectors, ``vs[j]`` of shape (m - j,) (None where the
+        column below the diagonal is already zero).
+    r : ndarray, complex128, shape (n, n)
+        Upper triangular, ``a = Q [r; 0]`` with ``Q = H_0 H_1 ... H_{n-1}``,
+        ``H_j = I - 2 v_j v_j^H``.
+    """
+    r = np.array(a, np.complex128)
+    m, n = r.shape
+    vs = []
+    for j in range(n):
+        x = r[j:, j]
+        norm = np.sqrt(np.sum(x.real ** 2 + x.imag ** 2))
+        if norm == 0:
+            vs.append(None)
+            continue
+        v = x.copy()
+        v[0] += (x[0] / abs(x[0]) if x[0] != 0 else 1.0) * norm  # no cancellation
+        v /= np.sqrt(np.sum(v.real ** 2 + v.imag ** 2))
+        r[j:, j:] -= 2.0 * v[:, None] * np.sum(v.conj()[:, None] * r[j:, j:], axis=0)
+        vs.append(v)
+    return vs, np.triu(r[:n])
+
+
+def _band_limited_fit(nr: int, step: float, k: np.ndarray, rcond: float) -> np.ndarray:
+    """Truncated-SVD pseudo-inverse of ``A[n, i] = exp(2 pi j n k_i step)``.
+
+    ``A = Q R`` (Householder, :func:`_householder_qr`), ``R = U S V^H``
+    (LAPACK on the small ``len(k)`` square matrix), singular values below
+    ``rcond * S[0]`` dropped: ``A^+ = V S^-1 U^H Q^H`` on the kept ones.  With
+    fewer range gates than frequencies (a wide matrix) the same is done on
+    ``A^H``, whose pseudo-inverse is that of ``A`` transposed and conjugated
+    (the minimum-norm fit, as ``lstsq`` gave).
+    Every product is a NumPy reduction or ``einsum`` and the only LAPACK call
+    is on a matrix far below BLAS's threading thresholds, so the operator is
+    the same bit for bit whatever the number of BLAS threads (``lstsq`` on the
+    tall matrix was not: its QR runs threaded BLAS, and with the full rank
+    kept, rounding amplified by 1e14 changed the RPs).
+
+    Parameters
+    ----------
+    nr : int
+        Range gates (rows).
+    step : float
+        ``dr / T``: range gate over the fitted period.
+    k : ndarray of int, shape (n,)
+        Frequency indices (columns), n <= nr.
+    rcond : float
+        Relative singular-value cutoff.
+
+    Returns
+    -------
+    ndarray, complex128, shape (n, nr)
+        ``coef = op @ s`` fits ``s`` (nr,) by ``A coef``.
+    """
+    a = np.exp(2j * np.pi * np.outer(np.arange(nr), k) * step)
+    tall = nr >= k.size
+    mat = a if tall else a.conj().T  # (p, q), p >= q
+    p, q = mat.shape
+    vs, r = _householder_qr(mat)
+    u, sv, vh = np.linalg.svd(r)
+    keep = sv > rcond * sv[0]
+    # the first q columns of Q: the reflections applied, last first, to [I; 0]
+    q1 = np.eye(p, q, dtype=np.complex128)
+    for j in range(q - 1, -1, -1):
+        v = vs[j]
+        if v is not None:
+            q1[j:] -= 2.0 * v[:, None] * np.sum(v.conj()[:, None] * q1[j:], axis=0)
+    inner = np.einsum("ki,i,ji->kj", vh[keep].conj().T, 1.0 / sv[keep], u[:, keep].conj())
+    op = np.einsum("kj,rj->kr", inner, q1.conj())  # mat's pseudo-inverse, (q, p)
+    return op if tall else op.conj().T
 
 
 def matched_filter_weight(f, bandwidth: float) -> np.ndarray:
@@ -127,16 +230,48 @@ def frequency_samples(data: RadarData, *, min_weight: float = MIN_WEIGHT_DEFAULT
     - *Band-limited extrapolation* -- a shorter window cuts the responses
       (the paper-2d preset: 1.5 m, 2 resolutions of 750 mm, targets 0.45 m
       from R = 0), and its 3 in-band FFT bins are wrong by 25-35 %.  The
-      coefficients are then the least-squares fit (``numpy.linalg.lstsq``,
-      default ``rcond``) on the whole band ``|f| < B`` with the period ``T``:
-      paper-2d's noise-free spectrum is fitted to 8e-3 (relative) with 5
-      resolutions and 4e-4 with 10, the default (Capon's super-resolution
-      needs the latter).  The fit is ill-conditioned (condition number 4e3
-      at 5, ~1e14 at 10 resolutions; ``rcond`` drops what falls below
-      rounding), so it also amplifies noise: at 20 dB paper-2d's samples are
-      off by 8 % (against 37 % for human-body's FFT samples, whose S/N per
-      echo is lower), and Capon results on such data measure this
-      extrapolation as well as the filter.
+      coefficients are then the least-squares fit on the whole band
+      ``|f| < B`` with the period ``T``, by a truncated-SVD pseudo-inverse
+      (below).  A lone echo's spectrum (paper-2d's waveform and window) is
+      fitted to 1.1e-2 with 5 resolutions and 1.2e-4 with 10, the default
+      (at most 2.3e-4 for echoes anywhere in the window; absolute errors of
+      samples of unit modulus; Capon's super-resolution needs the latter).
+      The fit amplifies noise: at 20 dB
+      paper-2d's samples are off by 7 % rms (against 36 % for human-body's
+      FFT samples, whose S/N per echo is lower), and Capon results on such
+      data measure this extrapolation as well as the filter.
+
+    *Cutoff of the fit.*  The model matrix ``A[n, k] = exp(+j 4 pi f_k n dr /
+    c)`` is ill-conditioned: its singular values fall geometrically (paper-2d,
+    10 resolutions: 19 columns, ``s_min / s_max = 6e-15``; 5 resolutions:
+    2e-4).  A component with singular value ``s_i`` changes the fitted window
+    by ``s_i / s_max`` of its share of the spectrum, so below the data's
+    relative precision it is not determined by the data, only by their
+    rounding, amplified ``s_max / s_i`` times.  ``numpy.linalg.lstsq``
+    (``rcond=None``, cutoff 1.3e-13) kept such components, and its QR runs
+    threaded BLAS, so the samples changed by 2e-4 with the number of BLAS
+    threads (1 or 2) and paper-2d's noise-free RPs from 18 to 20.  Here the
+    pseudo-inverse drops singular values below ``FIT_RCOND = 3e-11`` of the
+    largest, which
+
+    - bounds the amplification of rounding (1.1e-16 in complex128) at 4e-6,
+      50 times below the fit's own error (2.3e-4 above);
+    - lies in the middle of the measured plateau: the lone echo's worst
+      error over the window is 2.3e-4 for cutoffs from 1e-11 to 1e-10,
+      3.4e-4 at 1e-12 and 1.1e-3 at 1e-13 (rounding amplified), 2.1e-3 at
+      3e-10 and 1.5e-2 at 1e-8 (signal dropped); paper-2d keeps 16 of 19
+      components, the nearest singular values (1.1e-10 and 5.8e-12) 4 and 5
+      times from the cutoff;
+    - is raised to twice the unit roundoff (1.2e-7) for complex64 data,
+      which hold 7 significant digits: with ``lstsq`` their rounding,
+      amplified up to 1e13 times, left nothing to fit (0 RPs on noise-free
+      paper-2d); now 3 of 4 RPs are within 10 mm and a lone echo is fitted
+      to 1.2e-1, what 7 digits allow for this extrapolation.
+
+    The operator is computed once per call by a Householder QR in NumPy
+    reductions and an SVD of the small triangular factor, and applied with
+    ``einsum``: no step runs threaded BLAS, so the samples, and the RPs, are
+    the same bit for bit whatever ``OPENBLAS_NUM_THREADS`` is.
 
     Parameters
     ----------
@@ -197,8 +332,10 @@ def frequency_samples(data: RadarData, *, min_weight: float = MIN_WEIGHT_DEFAULT
         # normalisation sum_k W(f_k) is 1/zero_pad of the fine grid's
         coef = np.fft.fft(s, n=n_fft, axis=1)[:, k_all % n_fft] / (nr * zero_pad)
     else:
-        a = np.exp(2j * np.pi * np.outer(np.arange(nr), k_all) * (dr / period))
-        coef = np.linalg.lstsq(a, s.T.astype(np.complex128), rcond=None)[0].T
+        op = _band_limited_fit(nr, dr / period, k_all, _fit_rcond(s.dtype))
+        coef = np.empty((s.shape[0], k_all.size), np.complex128)
+        for lo in range(0, s.shape[0], _FIT_CHUNK):  # bounded temporaries
+            coef[lo:lo + _FIT_CHUNK] = np.einsum("ar,kr->ak", s[lo:lo + _FIT_CHUNK], op)
     w_all = matched_filter_weight(f_all, bw)
     keep = w_all >= min_weight
     if keep.sum() < 2:
@@ -234,7 +371,7 @@ class CaponParams:
         themselves with their noise floor, and noise-free data need the
         smallest loading that keeps ``Rxx`` (rank min(K, echoes)) invertible,
         because paper-2d's echoes lie 0.05 of a resolution apart: at 1e-6 only
-        4 of its noise-free RPs pass the -10 dB threshold instead of 18 (the
+        4 of its noise-free RPs pass the -10 dB threshold instead of 16 (the
         peaks' heights spread), and human-body's accuracy drops from 100 % to
         98 %.
         ``P`` is computed from the eigen-decomposition as a sum of positive
@@ -244,8 +381,8 @@ class CaponParams:
         resolves more than 0.1 (``|f| <= 0.62 B``) on both presets.
     min_period_cells : float
         Shortest fitted range period, see :func:`frequency_samples`; 10
-        resolutions fit paper-2d's noise-free spectrum to 4e-4 (5: 8e-3,
-        too coarse for Capon's super-resolution).
+        resolutions fit a lone echo's spectrum in paper-2d's window to 1.2e-4
+        (5: 1.1e-2, too coarse for Capon's super-resolution).
     """
 
     n_sub: int | None = None

@@ -41,11 +41,35 @@ near-field beamformer map ``|sum_X w(X) s(X, R) conj(a_p(X))|`` over
    0.5 dB or no map peak is left above ``peak_threshold_db``;
 4. (u, R) and the phase are polished with the real-amplitude model.
 
+Bounds (the search on input with no targets in it -- noise, a lone sample
+-- otherwise ran to 8 centres and 20-25 s):
+
+- fewer than ``MIN_SEARCH_GATES`` (3) range gates above the threshold and
+  inside the axis give no cluster (3 range samples leave one; a one-sample
+  spike is one gate);
+- at most ``N // (2 SEARCH_TERMS)`` centres for N antennas (5 for the
+  paper's 21), so that half the data's degrees of freedom stay for the
+  residual: beyond that the 0.5 dB test passes on noise;
+- at most ``FIT_BUDGET`` (3 M) candidate fits per search (the paper's sparse
+  case spends 0.64 M, a 5-target scene on the same array about 3 M): when
+  it is spent the search stops with the centres it has (every step checks
+  before its next scan, so it overshoots by one scan at most, 14641 fits);
+- at most ``POLISH_MAX_NFEV`` (100) residual evaluations in the final
+  polish (the paper's case converges in 10).
+
+Worst case measured on one core of the reference machine: white noise on
+the paper's sparse array (21 antennas, 600 gates) 2.8 s (5 clusters, budget
+spent); band-limited noise 2.6 s on 21 antennas, 4.0 s on 32 (a fit costs
+about linearly more with N; with more antennas noise stops earlier, as one
+more centre's gain on noise falls below 0.5 dB); 3 range samples or a
+one-sample spike: no search (milliseconds).
+
 The decomposed signal of cluster m is its term of the joint least-squares fit
 over every range gate: the clusters are separated jointly, so the part of one
 target that a window around another's k would also pass is not counted twice.
 The search costs about 0.7 s for the paper's sparse case on one core of the
-reference machine (the paper: 2 s); the plane-wave path is untouched.
+reference machine (the paper: 2 s; worst case above); the plane-wave path is
+untouched.
 
 Only the decomposition changes: RPs are still the local maxima of each
 decomposed envelope along R (eq. 5) and the image is still RPM (eq. 6).
@@ -72,8 +96,24 @@ SEARCH_TERMS = 2
 CANDIDATES = 3
 #: A new centre must lower the residual energy by this much, dB.
 MIN_GAIN_DB = 0.5
-#: Most clusters.
+#: Most clusters.  Fewer with few antennas: at most ``N // (2 SEARCH_TERMS)``
+#: centres for N antennas (see :meth:`_Search.max_centres`).
 MAX_CLUSTERS = 8
+#: Fewest range gates searched (above the map threshold, not at the axis's
+#: ends): a centre's range is where the focused map peaks along R, which
+#: takes a gate on each side of the peak.
+MIN_SEARCH_GATES = 3
+#: Budget of candidate fits per search (one per centre position tried by a
+#: grid scan, one per pair of positions by a pair scan, one per cost).
+#: The paper's sparse case spends 0.64 M (20 dB: 0.77 M); when the budget
+#: is spent the search stops where it is (see the module docstring).
+FIT_BUDGET = 3_000_000
+#: Most residual evaluations of the final (u, R, phase) polish
+#: (``max_nfev`` of ``scipy.optimize.least_squares``; the finite-difference
+#: Jacobians come on top).  The paper's sparse case converges in 10-11
+#: (seeds 0-4 at 20 dB too); pure noise took 448 (1.3 s for 5 centres) and
+#: a constant signal ran to scipy's own cap, 100 per parameter.
+POLISH_MAX_NFEV = 100
 #: Largest |sin theta| searched.
 U_MAX = 0.985
 #: Pairs of centres whose waves correlate above this are re-placed jointly.
@@ -122,6 +162,7 @@ class _Model:
         self.x, self.k0, self.sc = x, k0, sc
         self.b = _basis(x, terms).astype(complex)
         self.energy = float(np.sum(np.abs(sc) ** 2))
+        self.fits = 0  # candidate fits evaluated (see FIT_BUDGET)
 
     def columns(self, centres):
         n = self.x.size
@@ -137,6 +178,7 @@ class _Model:
         return s - q @ (q.conj().T @ s)
 
     def cost(self, centres):
+        self.fits += 1
         return float(np.sum(np.abs(self.residual(centres)) ** 2))
 
     def _projector(self, fixed):
@@ -152,6 +194,7 @@ class _Model:
 
     def scan(self, others, u, r):
         """Residual energy with the centres ``others`` and one more at each (u[i], r[i])."""
+        self.fits += np.size(u)
         proj = self._projector(self.columns(others))
         sp = proj(self.sc)
         a = self._atoms(u, r, proj)                      # (N, n, t)
@@ -164,6 +207,7 @@ class _Model:
     def scan_pair(self, others, um, rm, un, rn):
         """Residual energy with ``others`` and two more centres, for every
         combination of one of (um, rm) and one of (un, rn): shape (len(um), len(un))."""
+        self.fits += np.size(um) * np.size(un)
         proj = self._projector(self.columns(others))
         sp = proj(self.sc)
         am, an = self._atoms(um, rm, proj), self._atoms(un, rn, proj)
@@ -257,6 +301,22 @@ class _Search:
                     2 * int(np.ceil(0.5 * self.res_r / (step * self.dr))) + 1]
         self.gmax = float(self.focus_map(self.s_det).max())
 
+    @property
+    def spent(self) -> bool:
+        """True once the search has evaluated FIT_BUDGET candidate fits."""
+        return self.model.fits >= FIT_BUDGET
+
+    def max_centres(self) -> int:
+        """Most centres for this array: MAX_CLUSTERS, and no more than leave
+        half the antennas' degrees of freedom to the residual (each centre
+        takes SEARCH_TERMS per gate).  Beyond that the 0.5 dB gain test
+        passes on noise: fitting t more complex terms to noise in N - m t
+        dimensions gains ``10 log10((N - m t) / (N - (m + 1) t))`` dB, which
+        is 0.54 dB for the 3rd centre on 21 antennas (measured on pure
+        noise: 0.59), and with ``m t = N`` the fit is exact whatever the
+        centres (4 antennas and 2 centres of 2 terms).  21 antennas: 5."""
+        return max(1, min(MAX_CLUSTERS, self.n // (2 * SEARCH_TERMS)))
+
     def dof(self, r):
         """Depth of focus at range r: the range change that bends the edge phase by pi."""
         return min(4 * np.pi * r * r / (self.k0 * self.aperture ** 2), 0.5 * self.res_r)
@@ -291,6 +351,8 @@ class _Search:
         for _ in range(sweeps):
             moved = False
             for m, (u0, r0) in enumerate(centres):
+                if self.spent:
+                    return centres
                 uu, rr = self._grid((u0, r0), EACH_GRID)
                 i = int(np.argmin(self.model.scan(centres[:m] + centres[m + 1:], uu, rr)))
                 moved |= abs(uu[i] - u0) > 0.05 * self.du or abs(rr[i] - r0) > 0.05 * self.dof(r0)
@@ -309,6 +371,8 @@ class _Search:
                     ak = _steer(self.x, centres[k][0], centres[k][1], self.k0)[:, 0]
                     if abs(np.vdot(am, ak)) / self.n < PAIR_CORRELATION:
                         continue
+                    if self.spent:
+                        return centres
                     rest = [c for i, c in enumerate(centres) if i not in (m, k)]
                     um, rm = self._grid(centres[m], PAIR_GRID)
                     uk, rk = self._grid(centres[k], PAIR_GRID)
@@ -341,6 +405,8 @@ class _Search:
         (centres, cost, peak), or None without candidates."""
         best = None
         for u0, r0, value in self.candidates(fixed):
+            if self.spent:
+                break
             trial = self.place_each(fixed + [[u0, r0]])
             if len(trial) > 1:
                 trial = self.place_pairs(trial)
@@ -353,7 +419,9 @@ class _Search:
         """Centres [(u, r)] and their map peaks."""
         centres, peaks = [], []
         cost = self.model.energy
-        for _ in range(MAX_CLUSTERS):
+        for _ in range(self.max_centres()):
+            if self.spent:
+                break
             best = self.best_with(centres)
             if best is None:
                 break
@@ -366,6 +434,8 @@ class _Search:
             for _ in range(RESEAT_CYCLES if len(centres) > 1 else 0):
                 changed = False
                 for m in range(len(centres)):
+                    if self.spent:
+                        break
                     alt = self.best_with(centres[:m] + centres[m + 1:])
                     if alt is not None and alt[1] < cost * (1 - 1e-3):
                         centres, cost = alt[0], alt[1]
@@ -403,7 +473,7 @@ def decompose_near_field(data, params, spectrum):
     if not np.any(data.signal):
         return Decomposition(k_axes, mag, ())
     search = _Search(data, 10.0 ** (params.peak_threshold_db / 20.0), params.pad)
-    if search.gates.size == 0:
+    if search.gates.size < MIN_SEARCH_GATES:
         return Decomposition(k_axes, mag, ())
     centres, peaks = search.run()
     if not centres:
@@ -424,7 +494,8 @@ def decompose_near_field(data, params, spectrum):
     ub = np.column_stack([th0[:, 0] + 0.2 * du, th0[:, 1] + f / 6, inf]).ravel()
     sol = least_squares(lambda v: _real_fit(x, k0, v.reshape(-1, 3), t, s_c)[2].ravel(),
                         th0.ravel(), bounds=(lb, ub),
-                        x_scale=np.tile([0.1 * du, 1e-3, 0.1], len(th0)), diff_step=1e-7)
+                        x_scale=np.tile([0.1 * du, 1e-3, 0.1], len(th0)), diff_step=1e-7,
+                        max_nfev=POLISH_MAX_NFEV)
     th = sol.x.reshape(-1, 3)
 
     # the decomposition: the joint fit over every gate, one term per cluster

@@ -27,11 +27,32 @@ __all__ = ["load_result", "view"]
 def load_result(path) -> dict:
     """Read an image result written by :func:`rpm_cl.imaging.save_result`.
 
+    Everything the pictures use is checked here, so that an odd file (edited by
+    hand, or written by another tool) gives one :class:`InputError` rather than
+    a traceback from matplotlib or pyvista.  Malformed true targets in
+    ``meta["scene"]`` are rejected, not skipped: ``rpm-cl image`` always writes
+    them whole, so one that is not means the file was altered, and drawing the
+    rest would show a truth that is not the one the data were simulated from.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A result ``.npz``.
+
     Returns
     -------
     dict
-        ``points`` (M, 2|3), ``cluster`` (M,), ``rp_x`` (K,), ``rp_z`` (K,)
-        or None, ``meta`` (dict), ``scene`` (dict, ``{}`` when absent).
+        ``points`` (M, 2|3) float64, ``cluster`` (M,) int64, ``rp_x`` (K,)
+        float64, ``rp_z`` (K,) float64 or None, ``meta`` (dict), ``scene``
+        (dict, ``{}`` when absent) and ``targets`` (list of
+        :class:`~rpm_cl.scene.PointTarget` / :class:`~rpm_cl.scene.Ellipsoid`
+        built from ``scene``).
+
+    Raises
+    ------
+    InputError
+        The file is missing or unreadable, or a field has the wrong type or
+        shape; the message names the field.
     """
     path = os.fspath(path)
     try:
@@ -44,30 +65,96 @@ def load_result(path) -> dict:
     except KeyError as exc:
         raise InputError(f"{path}: not an rpm-cl image result (missing {exc})") from None
     except Exception as exc:
-        raise InputError(f"{path}: not a readable result file ({type(exc).__name__}: {exc})") from None
+        raise InputError(f"{path}: not a readable result file ({type(exc).__name__}: "
+                         f"{_oneline(exc)})") from None
     pts = out["points"]
-    if pts.ndim != 2 or pts.shape[1] not in (2, 3) or not np.all(np.isfinite(pts)):
+    if (pts.ndim != 2 or pts.shape[1] not in (2, 3) or not _is_real(pts)
+            or not np.all(np.isfinite(pts))):
         raise InputError(f"{path}: points must be a finite (M, 2) or (M, 3) array")
+    out["points"] = pts.astype(np.float64)
+    m = len(pts)
+    cl = out["cluster"]
+    if cl.shape != (m,) or not (np.issubdtype(cl.dtype, np.integer) or cl.dtype == bool):
+        raise InputError(f"{path}: cluster must be an integer array of shape ({m},) like "
+                         f"points, got {cl.dtype} {cl.shape}")
+    out["cluster"] = cl.astype(np.int64)
+    for key in ("rp_x", "rp_z"):
+        a = out[key]
+        if a is None:
+            continue
+        if a.ndim != 1 or not _is_real(a) or not np.all(np.isfinite(a)):
+            raise InputError(f"{path}: {key} must be a finite 1-D array, got {a.dtype} {a.shape}")
+        out[key] = a.astype(np.float64)
+    if out["rp_z"] is not None and out["rp_z"].shape != out["rp_x"].shape:
+        raise InputError(f"{path}: rp_x and rp_z must have the same length, got "
+                         f"{out['rp_x'].size} and {out['rp_z'].size}")
+    if not isinstance(meta, dict):
+        raise InputError(f"{path}: meta must be a JSON object, got {type(meta).__name__}")
+    scene = meta.get("scene") or {}
+    if not isinstance(scene, dict):
+        raise InputError(f"{path}: meta.scene must be a JSON object, got {type(scene).__name__}")
     out["meta"] = meta
-    out["scene"] = meta.get("scene") or {}
+    out["scene"] = scene
+    out["targets"] = _targets(path, scene)
     return out
 
 
-def _surfaces_3d(scene: dict):
-    """pyvista meshes of the true targets (ellipsoids; points as 5 mm spheres)."""
+def _oneline(exc: BaseException) -> str:
+    """An OS error as one line: its strerror, else its text with newlines folded."""
+    return getattr(exc, "strerror", None) or " ".join(str(exc).split()) or type(exc).__name__
+
+
+def _is_real(a: np.ndarray) -> bool:
+    return np.issubdtype(a.dtype, np.integer) or np.issubdtype(a.dtype, np.floating)
+
+
+def _targets(path: str, scene: dict) -> list:
+    """The true targets of ``scene`` as scene objects; InputError names a bad one."""
+    from .scene import Ellipsoid, PointTarget
+
+    targets = scene.get("targets", [])
+    if not isinstance(targets, list):
+        raise InputError(f"{path}: meta.scene.targets must be a list, got {type(targets).__name__}")
+    need = {"point": ("position",), "ellipsoid": ("center", "semi_axes")}
+    out = []
+    for i, t in enumerate(targets):
+        where = f"{path}: meta.scene.targets[{i}]"
+        if not isinstance(t, dict):
+            raise InputError(f"{where} must be a JSON object, got {type(t).__name__}")
+        kind = t.get("type")
+        if kind not in need:
+            raise InputError(f"{where}: unknown type {kind!r} (expected 'point' or 'ellipsoid')")
+        missing = [k for k in need[kind] if k not in t]
+        if missing:
+            raise InputError(f"{where}: the {kind} target has no {' or '.join(missing)}")
+        try:
+            if kind == "point":
+                out.append(PointTarget(t["position"]))
+            else:
+                out.append(Ellipsoid(t["center"], t["semi_axes"], t.get("angles", (0.0,))))
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"{where}: not numeric ({_oneline(exc)})") from None
+    return out
+
+
+def _surfaces_3d(targets: list):
+    """pyvista meshes of the true 3-D targets (ellipsoids; points as 5 mm spheres)."""
     import pyvista as pv
 
-    from .scene import _rotation
+    from .scene import Ellipsoid
 
     meshes = []
-    for t in scene.get("targets", []):
-        if t.get("type") == "ellipsoid" and len(t["center"]) == 3:
-            m = pv.ParametricEllipsoid(*t["semi_axes"], u_res=40, v_res=40, w_res=40)
-            rot = _rotation(3, t["angles"])
-            m.points = m.points @ rot.T + np.asarray(t["center"])
+    for t in targets:
+        if t.dim != 3:
+            continue
+        if isinstance(t, Ellipsoid):
+            m = pv.ParametricEllipsoid(*t.semi_axes, u_res=40, v_res=40, w_res=40)
+            m.points = m.points @ t.rotation.T + t.center
             meshes.append(m)
-        elif t.get("type") == "point" and len(t["position"]) == 3:
-            meshes.append(pv.Sphere(0.005, t["position"]))
+        else:
+            meshes.append(pv.Sphere(0.005, t.position))
     return meshes
 
 
@@ -81,12 +168,12 @@ def _render_3d(res: dict, png, size) -> None:
         raise InputError("pictures of 3-D results need pyvista: pip install 'rpm-cl[view]'") from None
     plotter = pv.Plotter(off_screen=png is not None, window_size=size)
     plotter.set_background("white")
-    for mesh in _surfaces_3d(res["scene"]):
+    for mesh in _surfaces_3d(res["targets"]):
         plotter.add_mesh(mesh, color="lightgrey", opacity=0.15)
     pts = res["points"]
     if len(pts):
         cloud = pv.PolyData(pts)
-        cloud["cluster"] = res["cluster"].astype(np.int64)
+        cloud["cluster"] = res["cluster"]
         plotter.add_mesh(cloud, scalars="cluster", cmap="tab20", point_size=6,
                          render_points_as_spheres=True, show_scalar_bar=False)
     if res["rp_z"] is not None and len(res["rp_x"]):
@@ -113,17 +200,18 @@ def _render_2d(res: dict, png, size) -> None:
         import matplotlib.pyplot as plt
     except ImportError:
         raise InputError("pictures of 2-D results need matplotlib: pip install 'rpm-cl[view]'") from None
-    from .scene import Ellipsoid, PointTarget, boundary_samples
+    from .scene import Ellipsoid, boundary_samples
 
     fig, ax = plt.subplots(figsize=(size[0] / 100, size[1] / 100), dpi=100)
     truth_label = "true boundary"
-    for t in res["scene"].get("targets", []):
-        if t.get("type") == "ellipsoid" and len(t["center"]) == 2:
-            b = boundary_samples(Ellipsoid(t["center"], t["semi_axes"], t["angles"]), 1e-3)
+    for t in res["targets"]:
+        if t.dim != 2:
+            continue
+        if isinstance(t, Ellipsoid):
+            b = boundary_samples(t, 1e-3)
             ax.plot(1e3 * b[:, 0], 1e3 * b[:, 1], ".", color="lightgrey", ms=1, label=truth_label)
-        elif t.get("type") == "point" and len(t["position"]) == 2:
-            p = PointTarget(t["position"]).position
-            ax.plot(1e3 * p[0], 1e3 * p[1], "kx", ms=10, label=truth_label)
+        else:
+            ax.plot(1e3 * t.position[0], 1e3 * t.position[1], "kx", ms=10, label=truth_label)
         truth_label = None  # one legend entry
     pts = res["points"]
     cmap = plt.get_cmap("tab10")
@@ -158,6 +246,13 @@ def view(path, png=None, size=(1000, 800)) -> None:
         Output picture (written atomically); None opens a window.
     size : (int, int)
         Picture size in pixels.
+
+    Raises
+    ------
+    InputError
+        The result is unreadable or malformed (see :func:`load_result`), the
+        picture is not a ``.png``, or its folder is missing or not writable;
+        no picture and no temporary file are left behind.
     """
     res = load_result(path)
     render = _render_3d if res["points"].shape[1] == 3 else _render_2d
@@ -172,13 +267,20 @@ def view(path, png=None, size=(1000, 800)) -> None:
     folder = os.path.dirname(os.path.abspath(png))
     if not os.path.isdir(folder):
         raise InputError(f"{png}: output folder {folder} does not exist")
+    if os.path.isdir(png):
+        raise InputError(f"{png}: is a folder, not a file")
     # render beside the target, then rename: no half-written picture is left
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".png", dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".png", dir=folder)
+    except OSError as exc:
+        raise InputError(f"{png}: cannot write in {folder} ({_oneline(exc)})") from None
     os.close(fd)
     try:
         render(res, tmp, size)
         _usual_mode(tmp)
         os.replace(tmp, png)
+    except OSError as exc:
+        raise InputError(f"{png}: cannot write ({_oneline(exc)})") from None
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)
