@@ -159,7 +159,7 @@ def test_paper_2d_capon_beats_matched_filter_noise_free_and_degrades_with_noise(
     margin asked, 15 points, is half that gap, and at least 12 RPs (more
     than half the 21 antennas) keeps a handful of lucky peaks from passing.
     At 20 dB (seeds 0-2 pooled) the accuracy falls (measured 72 %, 28/39;
-    68 % over seeds 0-9): asked, at least 10 points below noise-free.  The fall is smaller than the
+    70 % over seeds 0-9): asked, at least 10 points below noise-free.  The fall is smaller than the
     paper's (0 %) because Err_range <= 10 mm counts a peak near *any* of
     three echoes 30-110 mm apart, which a peak in the right place by chance
     often is (the matched filter scores 64 % with a single merged peak)."""
