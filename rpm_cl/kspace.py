@@ -31,6 +31,18 @@
    u = -(k~ + n 2 pi / d) / (2 k_c): when the array is sparser than a quarter
    wavelength, k~ is aliased and the alias n whose alignment gives the largest
    coherent peak is taken.
+5. Near-field focusing (``focus``, default: when needed).  After the
+   alignment a target's phase still carries the wavefront curvature,
+   2 k_c (|dX|^2 - (u . dX)^2) / (2 R), which spreads its k content over
+   about 2 k_c L / R: a window sized for a small aperture then cuts a large
+   one's edges (measured: a 32 x 32 array at 7.5 mm found 5814 of 11264 RPs).
+   With focusing, the alignment's offsets include that curvature term at the
+   cluster's range R~ (the envelopes of a target there line up across the
+   whole aperture, not only to first order) and the signal is multiplied by
+   the conjugate of its phase (a plane wave again).  On by default when the curvature phase at the array's
+   corners exceeds pi (the array is in the targets' near field: the
+   Fraunhofer criterion); not for the paper's 11 x 17 array (2.1 rad), where
+   it measured slightly worse (RPM <= 10 mm 75 % against 83.5 %).
 
 A linear array sampled coarser than half a wavelength (the paper's sparse
 case) aliases the k axis and bends each target's wave across the aperture
@@ -82,6 +94,10 @@ class KSpaceParams:
     near_field : bool or None
         Use the near-field decomposition (:mod:`rpm_cl.nearfield`, linear
         arrays only); None = where the pitch exceeds half a wavelength.
+    focus : bool or None
+        Remove each aligned cluster's wavefront curvature (step 5 of the
+        module notes).  None (default): where the curvature phase at the
+        array's corners exceeds pi at the cluster's range.
     """
 
     window_x: float = 417.0
@@ -92,6 +108,7 @@ class KSpaceParams:
     detect_taper: bool = True
     align: bool | None = None
     near_field: bool | None = None
+    focus: bool | None = None
 
     def __post_init__(self):
         for name in ("window_x", "window_z", "range_gate"):
@@ -270,7 +287,11 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
         offset = np.zeros(arr.shape)
         u = np.zeros(n_k)
         if align:
-            u, offset, sig = _align(data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi)
+            focus = params.focus
+            if focus is None:
+                focus = _max_curvature(axes_x, kc_w, float(data.range[ir])) > np.pi
+            r_c = float(data.range[ir]) if focus else None
+            u, offset, sig = _align(data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c)
             part = sfft.fftn(sig, s=spec.shape[:n_k], axes=tuple(range(n_k)))
         else:
             part = spec[..., lo:hi]
@@ -285,13 +306,33 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
 ALIAS_MARGIN = 1.05
 
 
-def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi):
+def _curvature(u, axes_x, r_c: float) -> np.ndarray:
+    """q(X) = (|dX|^2 - (u . dX)^2) / (2 r_c), m: the curvature term of the
+    range of a target at range r_c with range slope u (step 5)."""
+    centres = [0.5 * (ax[0] + ax[-1]) for ax in axes_x]
+    grids = np.meshgrid(*[ax - c for ax, c in zip(axes_x, centres)], indexing="ij")
+    d2 = sum(g * g for g in grids)
+    ud = sum(u[a] * grids[a] for a in range(len(u)))
+    return (d2 - ud * ud) / (2.0 * max(r_c, 1e-9))
+
+
+def _max_curvature(axes_x, kc_w: float, r_c: float) -> float:
+    """Curvature phase at the array's corners for a broadside target, rad."""
+    half2 = sum((0.5 * (ax[-1] - ax[0])) ** 2 for ax in axes_x)
+    return 2 * kc_w * half2 / (2.0 * max(r_c, 1e-9))
+
+
+def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=None):
     """Range-walk alignment of one cluster (module notes, step 4).
 
     ``coeffs`` are the cubic-spline coefficients of the real and imaginary
     parts of the profiles (n_antennas, nr) along R; the shifted profiles are
     interpolated from them (a local interpolator: a Fourier shift would ring
     where a profile does not vanish at the ends of the range axis).
+
+    With ``r_c`` (focusing, step 5) the offsets include the curvature term
+    q(X) at that range, and the signal's curvature phase exp(-j 2 k_c q) is
+    removed.
 
     Returns the range slopes u = dR_t/dX, the per-antenna offsets delta(X) (m)
     and the aligned signal over range gates ``lo:hi``.
@@ -324,6 +365,9 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi):
             shp = [1] * n_k
             shp[a] = -1
             delta = delta + (u[a] * (axes_x[a] - centres[a])).reshape(shp)
+        q = _curvature(u, axes_x, r_c) if r_c is not None else None
+        if q is not None:
+            delta = delta + q
         rows = np.arange(delta.size)[:, None] + np.zeros((1, hi - lo))
         cols = np.arange(lo, hi)[None, :] + (delta.ravel() / data.dr)[:, None]
         sig = (ndimage.map_coordinates(coeffs[0], [rows, cols], order=3, mode="nearest",
@@ -331,6 +375,8 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi):
                + 1j * ndimage.map_coordinates(coeffs[1], [rows, cols], order=3, mode="nearest",
                                               prefilter=False))
         sig = sig.reshape(data.array.shape + (hi - lo,))
+        if q is not None:
+            sig = sig * np.exp(2j * kc_w * q)[..., None]
         # coherent sum over the antennas (elementwise: BLAS threads cost more
         # than they save on a few hundred antennas)
         beam = (sig.reshape(steer.size, -1) * steer.reshape(-1, 1)).sum(axis=0)

@@ -134,3 +134,24 @@ def test_chunked_rpm_equals_one_chunk(body, dev32):
     chunked = run_method("kspace-rpm", data, small, dev32).image
     np.testing.assert_array_equal(whole.rp_index, chunked.rp_index)
     np.testing.assert_array_equal(whole.points, chunked.points)
+
+
+def test_near_field_focusing_keeps_a_large_aperture_whole():
+    """32 x 32 antennas at 7.5 mm (0.23 m) see a point 0.6 m away with ~19 rad
+    of wavefront curvature at the corners: without focusing the 100 rad/m
+    window cuts the aperture's edges (fewer RPs, worse ranges); with it
+    (the default there) nearly every antenna gives an accurate RP."""
+    from dataclasses import replace
+
+    arr = Array((np.arange(32) - 15.5) * 7.5e-3, (np.arange(32) - 15.5) * 7.5e-3)
+    data = simulate(Scene((PointTarget((0.05, 0.6, -0.03)),)), arr, Waveform(20e9, 3e9),
+                    np.arange(0.4, 0.9, 2.5e-3), boundary_spacing=1e-3)
+    params = default_params(data, pad=2)
+    got = {}
+    for focus in (None, False):
+        ks = replace(params.kspace, focus=focus)
+        rps = rps_from_decomposition(data, decompose(data, ks), params.rp_threshold_db)
+        e = err_range(rps.antenna, rps.range, data.truth)
+        got[focus] = int(np.sum(e <= 0.002))
+    assert got[None] >= 0.95 * 1024  # measured 997 RPs, all within 2 mm (median 0.05 mm)
+    assert got[None] > got[False]
