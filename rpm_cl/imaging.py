@@ -69,9 +69,14 @@ class RPMParams:
         antenna are not paired (their weight in eq. 11 is below
         exp(-pair_cutoff^2 / 2)); inf pairs the whole cluster.
     max_neighbours : int
-        3-D: at most this many sub RPs (the nearest) per main RP; the triplet
-        candidates per main RP are their pairs, max_neighbours^2 / 2, and the
-        scoring work per main RP grows as their square.
+        3-D: at most this many sub RPs per main RP; the triplet candidates per
+        main RP are their pairs, max_neighbours^2 / 2, and the scoring work per
+        main RP grows as their square.
+    near_neighbours : int or None
+        3-D: how many of those are the nearest (within ``pair_cutoff *
+        sigma_x``); the rest are spread evenly over the cluster by distance
+        rank (long, well-conditioned baselines; see
+        :mod:`rpm_cl.rpm.neighbours`).  None: all nearest.
     """
 
     sigma_x: float = 0.10
@@ -81,6 +86,7 @@ class RPMParams:
     chunk_slots: int = 1 << 22
     pair_cutoff: float = 2.0
     max_neighbours: int = 24
+    near_neighbours: int | None = 4
 
     def __post_init__(self):
         for name in ("sigma_x", "sigma_r"):
@@ -94,6 +100,8 @@ class RPMParams:
             raise InputError(f"pair_cutoff must be > 0 (inf allowed), got {self.pair_cutoff}")
         if not (2 <= self.max_neighbours <= 4096):
             raise InputError(f"max_neighbours must be in 2..4096, got {self.max_neighbours}")
+        if self.near_neighbours is not None and not (0 <= self.near_neighbours <= self.max_neighbours):
+            raise InputError(f"near_neighbours must be in 0..max_neighbours, got {self.near_neighbours}")
         if self.chunk_slots < 1 or self.max_cluster_rps < self.min_cluster_rps:
             raise InputError("chunk_slots must be >= 1 and max_cluster_rps >= min_cluster_rps")
 
@@ -126,7 +134,7 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     ----------
     data : RadarData
     overrides : keyword arguments
-        ``sigma_x``, ``sigma_r``, ``pair_cutoff``, ``max_neighbours``,
+        ``sigma_x``, ``sigma_r``, ``pair_cutoff``, ``max_neighbours``, ``near_neighbours``,
         ``rp_threshold_db``, ``window_x``, ``window_z`` and any other
         :class:`KSpaceParams` field.  None means "the default".
     """
@@ -137,7 +145,7 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     else:
         sigma_x = float(arr.x[-1] - arr.x[0])
     rpm_kw = {"sigma_x": ov.pop("sigma_x", sigma_x), "sigma_r": ov.pop("sigma_r", SIGMA_R_DEFAULT)}
-    for k in ("pair_cutoff", "max_neighbours"):
+    for k in ("pair_cutoff", "max_neighbours", "near_neighbours"):
         if k in ov:
             rpm_kw[k] = ov.pop(k)
     rp_thr = ov.pop("rp_threshold_db", RP_THRESHOLD_DB_DEFAULT)
@@ -240,7 +248,8 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
     else:
         z = np.asarray(rps.z, np.float64)[idx]
         nbr, nnbr = neighbour_lists(x, z, np.asarray(rps.antenna)[idx], start, count,
-                                    params.pair_cutoff * params.sigma_x, params.max_neighbours)
+                                    params.pair_cutoff * params.sigma_x, params.max_neighbours,
+                                    params.near_neighbours)
         if nbr.shape[1] >= 2:
             maxc = nbr.shape[1] * (nbr.shape[1] - 1) // 2
             for i0, n in _chunks(idx.size, maxc, params.chunk_slots):

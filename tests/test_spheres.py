@@ -208,3 +208,21 @@ def test_device_refuses_chunks_outside_the_arrays(dev32, rng):
         dev32.rpm_spheres(x, z, r, amp, nbr + 100, nn, 0.03, 0.02)
     with pytest.raises(InputError):
         dev32.rpm_circles(x, r, amp, np.zeros(10, int), np.full(10, 15), 10, 0.1, 0.05)
+
+
+def test_neighbour_lists_near_plus_spread(rng):
+    """near + spread lists: the first entries are the nearest within the
+    radius, the rest distinct RPs of the same cluster at other antennas,
+    spread over the distance ranks up to the farthest."""
+    x, z, r, amp, ant, st_, ct = planar_cluster(rng, [60, 40], dup=False)
+    nbr, nn = neighbour_lists(x, z, ant, st_, ct, 0.03, 12, near=4)
+    for i in range(x.size):
+        lst = nbr[i, :nn[i]]
+        lo, hi = st_[i], st_[i] + ct[i]
+        assert len(set(lst.tolist())) == len(lst) and np.all((lst >= lo) & (lst < hi))
+        assert np.all(ant[lst] != ant[i]) and nn[i] == min(12, ct[i] - 1)
+        d = np.hypot(x[lst] - x[i], z[lst] - z[i])
+        dall = np.sort(np.hypot(x[lo:hi] - x[i], z[lo:hi] - z[i]))[1:]  # without itself
+        k = int(min(4, np.sum(dall <= 0.03)))
+        np.testing.assert_allclose(d[:k], dall[:k])  # the nearest part
+        assert d[-1] == pytest.approx(dall[-1])  # the spread part reaches the farthest
