@@ -13,8 +13,8 @@ Which RPs it holds matters:
   ``kmax - near`` RPs spread evenly, by distance rank, over the rest of the
   cluster approximates the exhaustive eq. 10 far better than the ``kmax``
   nearest: on the human body (S/N 20 dB) 94 % of points within 10 mm with 4
-  near + 20 spread, against 84 % for the 24 nearest and 98 % exhaustive
-  (which takes 1700 times longer), all at 100 % within 50 mm
+  near + 20 spread, against 84 % for the 24 nearest and 97 % exhaustive
+  (which takes 1500 times longer), all at 100 % within 50 mm
   (``benchmarks/RESULTS.md``).
 """
 
