@@ -196,7 +196,8 @@ class DeviceRPM:
     def _score(self, dim, n, maxc, cand, w, valid, sigma_r):
         score = self._out((n, maxc))
         self._run2(self._k[f"score{dim}"], maxc, n, cand, w, valid,
-                   np.int32(n), np.int32(maxc), self.dtype.type(1.0 / (2.0 * sigma_r**2)), score)
+                   np.int32(n), np.int32(maxc), self.dtype.type(np.log2(np.e) / (2.0 * sigma_r**2)),
+                   score)
         if self.timing:  # valid candidates each sum over their whole row
             self.kernel_evals += int(np.count_nonzero(self._read(valid, (n, maxc), np.int8))) * maxc
         return score
