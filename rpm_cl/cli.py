@@ -82,25 +82,21 @@ def _bind_negative_values(argv: list) -> list:
     return out
 
 
-def _budget_gb(text):
-    try:
-        v = float(text)
-    except ValueError:
-        v = float("nan")
-    if not (np.isfinite(v) and 1e-3 <= v <= 1e6):
-        raise argparse.ArgumentTypeError(f"memory budget must be between 0.001 and 1e6 GB, "
-                                         f"got {text!r}")
-    return v
+def _bounded_float(lo: float, hi: float, what: str):
+    """argparse type: a finite float in [lo, hi], else one line naming ``what``."""
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            v = float("nan")
+        if not (np.isfinite(v) and lo <= v <= hi):
+            raise argparse.ArgumentTypeError(f"{what}, got {text!r}")
+        return v
+    return parse
 
 
-def _metres(text):
-    try:
-        v = float(text)
-    except ValueError:
-        v = float("nan")
-    if not (np.isfinite(v) and abs(v) <= 1e4):
-        raise argparse.ArgumentTypeError(f"must be a length in m within +-1e4, got {text!r}")
-    return v
+_budget_gb = _bounded_float(1e-3, 1e6, "memory budget must be between 0.001 and 1e6 GB")
+_metres = _bounded_float(-1e4, 1e4, "must be a length in m within +-1e4")
 
 
 def _positive_int(text):

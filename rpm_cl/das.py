@@ -451,14 +451,9 @@ def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = 
     import tempfile
     import zipfile
 
-    from .data import _usual_mode
+    from .data import _usual_mode, output_path
 
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise InputError(f"{path}: output folder {folder} does not exist")
-    if os.path.isdir(path):
-        raise InputError(f"{path}: is a folder, not a file")
+    path, folder = output_path(path)
     need = grid.size * np.dtype(dtype).itemsize
     free = _free_bytes(folder)
     if free is not None and 2.2 * need > free:

@@ -331,6 +331,29 @@ def _usual_mode(path) -> None:
     os.chmod(path, 0o666 & ~umask)
 
 
+def output_path(path):
+    """Check an output path before anything is computed or written.
+
+    Returns
+    -------
+    path : str
+    folder : str
+        Its (existing) folder, where temporary files go.
+
+    Raises
+    ------
+    InputError
+        The folder does not exist, or ``path`` is a folder.
+    """
+    path = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise InputError(f"{path}: output folder {folder} does not exist")
+    if os.path.isdir(path):
+        raise InputError(f"{path}: is a folder, not a file")
+    return path, folder
+
+
 def _atomic_write(path, write) -> None:
     """Call ``write(fh)`` on a temporary file beside ``path``, then rename it.
 
@@ -341,12 +364,7 @@ def _atomic_write(path, write) -> None:
     InputError
         The folder does not exist or cannot be written.
     """
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(folder):
-        raise InputError(f"{path}: output folder {folder} does not exist")
-    if os.path.isdir(path):
-        raise InputError(f"{path}: is a folder, not a file")
+    path, folder = output_path(path)
     try:
         fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
     except OSError as exc:

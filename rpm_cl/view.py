@@ -19,7 +19,7 @@ import os
 
 import numpy as np
 
-from .data import InputError, _usual_mode
+from .data import InputError, _usual_mode, output_path
 
 __all__ = ["load_result", "view"]
 
@@ -264,11 +264,7 @@ def view(path, png=None, size=(1000, 800)) -> None:
     png = os.fspath(png)
     if not png.lower().endswith(".png"):
         raise InputError(f"{png}: the picture must be a .png file")
-    folder = os.path.dirname(os.path.abspath(png))
-    if not os.path.isdir(folder):
-        raise InputError(f"{png}: output folder {folder} does not exist")
-    if os.path.isdir(png):
-        raise InputError(f"{png}: is a folder, not a file")
+    png, folder = output_path(png)
     # render beside the target, then rename: no half-written picture is left
     try:
         fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".png", dir=folder)
