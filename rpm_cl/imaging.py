@@ -39,6 +39,7 @@ __all__ = [
     "ImagingParams",
     "RPMParams",
     "default_params",
+    "pair_windows",
     "rpm_image",
     "run_method",
     "save_result",
@@ -72,6 +73,13 @@ class RPMParams:
         3-D: at most this many sub RPs per main RP; the triplet candidates per
         main RP are their pairs, max_neighbours^2 / 2, and the scoring work per
         main RP grows as their square.
+    pair_cutoff_2d : float
+        2-D: sub RPs farther than ``pair_cutoff_2d * sigma_x`` from the main
+        antenna are not paired (their weight exp(-D^2 / 2 sigma_x^2) in eq. 6
+        is below exp(-8) = 3.4e-4 at the default 4); the slots per main RP are
+        then the RPs of its cluster within that distance, not the whole
+        cluster.  The paper's 2-D scenes (sigma_x = the aperture) pair
+        exhaustively either way.  inf pairs the whole cluster.
     near_neighbours : int or None
         3-D: how many of those are the nearest (within ``pair_cutoff *
         sigma_x``); the rest are spread evenly over the cluster by distance
@@ -87,6 +95,7 @@ class RPMParams:
     pair_cutoff: float = 2.0
     max_neighbours: int = 24
     near_neighbours: int | None = 4
+    pair_cutoff_2d: float = 4.0
 
     def __post_init__(self):
         for name in ("sigma_x", "sigma_r"):
@@ -96,8 +105,9 @@ class RPMParams:
                 raise InputError(f"{name} must be between 1e-6 and 1e3 m, got {v}")
         if self.min_cluster_rps < 2:
             raise InputError(f"min_cluster_rps must be >= 2, got {self.min_cluster_rps}")
-        if not (self.pair_cutoff > 0):
-            raise InputError(f"pair_cutoff must be > 0 (inf allowed), got {self.pair_cutoff}")
+        for name in ("pair_cutoff", "pair_cutoff_2d"):
+            if not (getattr(self, name) > 0):
+                raise InputError(f"{name} must be > 0 (inf allowed), got {getattr(self, name)}")
         if not (2 <= self.max_neighbours <= 4096):
             raise InputError(f"max_neighbours must be in 2..4096, got {self.max_neighbours}")
         if self.near_neighbours is not None and not (0 <= self.near_neighbours <= self.max_neighbours):
@@ -208,6 +218,40 @@ def _prepare(rps: RangePoints, params: RPMParams):
     return idx, amp / scale, scale, start, count
 
 
+def pair_windows(x, start, count, cutoff: float):
+    """2-D: the sub RPs of each main RP, those of its cluster whose antenna
+    lies within ``cutoff`` of its own (``RPMParams.pair_cutoff_2d``).
+
+    Parameters
+    ----------
+    x : ndarray, shape (N,)
+        Antenna x of each RP, m, non-decreasing within each cluster.
+    start, count : ndarray, shape (N,)
+        Each RP's cluster, as index range ``start .. start + count``.
+    cutoff : float
+        Largest antenna distance paired, m; inf pairs the whole cluster.
+
+    Returns
+    -------
+    start, count : ndarray, shape (N,)
+        Each RP's window of sub RPs (a sub-range of its cluster).
+    """
+    start = np.asarray(start, np.int64)
+    count = np.asarray(count, np.int64)
+    if not np.isfinite(cutoff) or start.size == 0:
+        return start, count
+    x = np.asarray(x, np.float64)
+    # one sorted key over all clusters: cluster rank * span + x
+    span = float(x.max() - x.min()) + 4.0 * cutoff + 1.0
+    rank = np.cumsum(np.r_[0, np.diff(start) != 0])
+    key = rank * span + (x - x.min())
+    if np.any(np.diff(key) < 0):  # not sorted by antenna within a cluster: pair them all
+        return start, count
+    lo = np.maximum(np.searchsorted(key, key - cutoff, "left"), start)
+    hi = np.minimum(np.searchsorted(key, key + cutoff, "right"), start + count)
+    return lo, hi - lo
+
+
 def _chunks(total: int, maxc: int, chunk_slots: int):
     step = max(1, chunk_slots // max(1, maxc))
     return [(i0, min(step, total - i0)) for i0 in range(0, total, step)]
@@ -241,6 +285,7 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
     x, r = np.asarray(rps.x, np.float64)[idx], np.asarray(rps.range, np.float64)[idx]
     parts = []
     if dim == 2:
+        start, count = pair_windows(x, start, count, params.pair_cutoff_2d * params.sigma_x)
         maxc = int(count.max())
         for i0, n in _chunks(idx.size, maxc, params.chunk_slots):
             parts.append(engine.rpm_circles(x, r, amp, start, count, maxc, params.sigma_x,

@@ -10,6 +10,15 @@
    the largest value within a quarter window period in k and half a range
    resolution in R (closer centres would decompose nearly the same signal).
    The decomposition itself uses the untapered spectrum.
+   Skips: a centre must also exceed the noise floor (``noise_pfa``: the
+   level pure noise reaches anywhere in the map with that probability, from
+   a known or estimated noise power, :func:`noise_floor`), and range gates
+   that cannot hold a centre are not transformed or searched at all: the sum
+   over the array of |w s(X, R)| bounds max_k |S(k, R)| from above, the
+   strongest gate's spectrum bounds the global maximum from below, and a gate
+   whose bound is under both thresholds is skipped (exact: the centres are
+   those of a full search).  An all-zero input costs one pass over the data;
+   a lone target, the gates around it.
 3. For each centre, a raised-cosine window ``W`` of full width (period) ``T``
    in each k axis, ``W(dk) = (1 + cos(2 pi dk / T)) / 2`` for ``|dk| < T/2``
    (``dk`` wrapped onto the periodic k axis), and an inverse FFT gives the
@@ -98,6 +107,21 @@ class KSpaceParams:
         Remove each aligned cluster's wavefront curvature (step 5 of the
         module notes).  None (default): where the curvature phase at the
         array's corners exceeds pi at the cluster's range.
+    noise_pfa : float or None
+        Noise floor of the centre search (step 2 of the module notes): the
+        probability that pure noise yields a cluster anywhere in the (k, R)
+        map; a centre must also exceed that floor.  None: no floor, only
+        ``peak_threshold_db``.
+    noise_power : float or None
+        Noise power per sample of the range profiles (mean |noise|^2, in the
+        signal's units squared), e.g. measured on an empty frame.  None:
+        estimated from the data where that is sound (the range axis spans at
+        least :data:`NOISE_ESTIMATE_CELLS` range resolutions, so that most
+        gates hold no echo), else no floor.
+    skip_gates : bool
+        Skip the range gates that cannot hold a centre (module notes, step 2;
+        exact).  False transforms and searches every gate: the reference the
+        skip is tested and benchmarked against.
     """
 
     window_x: float = 417.0
@@ -109,6 +133,9 @@ class KSpaceParams:
     align: bool | None = None
     near_field: bool | None = None
     focus: bool | None = None
+    noise_pfa: float | None = 1e-3
+    noise_power: float | None = None
+    skip_gates: bool = True
 
     def __post_init__(self):
         for name in ("window_x", "window_z", "range_gate"):
@@ -119,6 +146,11 @@ class KSpaceParams:
             raise InputError(f"pad must be an integer >= 1, got {self.pad}")
         if not (np.isfinite(self.peak_threshold_db) and self.peak_threshold_db < 0):
             raise InputError(f"peak_threshold_db must be < 0, got {self.peak_threshold_db}")
+        if self.noise_pfa is not None and not (0 < self.noise_pfa < 1):
+            raise InputError(f"noise_pfa must be in (0, 1) or None, got {self.noise_pfa}")
+        if self.noise_power is not None and not (np.isfinite(self.noise_power)
+                                                 and self.noise_power >= 0):
+            raise InputError(f"noise_power must be >= 0 or None, got {self.noise_power}")
         if self.near_field not in (None, True, False):
             raise InputError(f"near_field must be True, False or None, got {self.near_field!r}")
 
@@ -176,7 +208,17 @@ class Decomposition:
     clusters: tuple
 
 
-def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False):
+def _taper(shape: tuple) -> np.ndarray:
+    """Hann taper across the array axes, shape ``shape + (1,)``."""
+    w = np.ones(tuple(shape) + (1,))
+    for a, n in enumerate(shape):
+        shp = [1] * (len(shape) + 1)
+        shp[a] = n
+        w = w * np.hanning(n + 2)[1:-1].reshape(shp)
+    return w
+
+
+def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=None):
     """Zero-padded FFT of the data along the array axes (eq. 2/7).
 
     Parameters
@@ -186,31 +228,123 @@ def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False):
         Zero-padding factor per array axis.
     taper : bool
         Multiply by a Hann window across each array axis first.
+    gates : slice or None
+        Range gates to transform (default: all).
 
     Returns
     -------
-    spectrum : ndarray, complex, shape (pad*nx[, pad*nz], nr)
+    spectrum : ndarray, complex, shape (pad*nx[, pad*nz], n_gates)
     k_axes : tuple of ndarray
         Wavenumber grids (FFT order), rad/m.
     """
     arr = data.array
     axes = tuple(range(arr.dim - 1))
     shape = tuple(pad * n for n in arr.shape)
-    sig = data.signal
+    sig = data.signal if gates is None else data.signal[..., gates]
     if taper:
-        for a, n in enumerate(arr.shape):
-            shp = [1] * sig.ndim
-            shp[a] = n
-            sig = sig * np.hanning(n + 2)[1:-1].reshape(shp)
+        sig = sig * _taper(arr.shape)
     spec = sfft.fftn(sig, s=shape, axes=axes)
     steps = (arr.dx,) if not arr.planar else (arr.dx, arr.dz)
     k_axes = tuple(2 * np.pi * np.fft.fftfreq(n, d) for n, d in zip(shape, steps))
     return spec, k_axes
 
 
+#: The noise power is estimated from the data only where the range axis spans
+#: at least this many range resolutions (c / 2B): the median over gates of the
+#: power is then that of gates without echoes for scenes up to half that deep.
+#: The paper's 2-D scene spans 2 (0.2 GHz: one echo covers the whole axis),
+#: the human body 20.
+NOISE_ESTIMATE_CELLS = 8
+
+
+def noise_floor(data: RadarData, weights: np.ndarray, pfa: float,
+                noise_power: float | None = None) -> float:
+    """Level of |S(k, R)| that pure noise exceeds with probability ``pfa``
+    anywhere in the map (module notes, step 2).
+
+    The noise power per sample is ``noise_power`` if given, else the median
+    over range gates of the mean power across the array where the range axis
+    spans at least :data:`NOISE_ESTIMATE_CELLS` resolutions (robust while
+    fewer than half the gates hold echoes), else unknown (floor 0).  A k cell
+    then holds complex Gaussian noise of power
+    ``sum(weights**2) * sigma2``, whose magnitude exceeds ``T`` with
+    probability ``exp(-T**2 / (sum(weights**2) * sigma2))``; the cells are
+    counted as ``n_antennas * n_gates`` independent ones.
+
+    Parameters
+    ----------
+    data : RadarData
+    weights : ndarray, shape (nx[, nz], 1)
+        Taper applied across the array before the FFT.
+    pfa : float
+        Probability of a false cluster on a noise-only input.
+    noise_power : float or None
+        Known noise power per sample, signal units squared.
+
+    Returns
+    -------
+    float
+        The floor, in the units of |S|; 0 where the noise power is unknown,
+        or for noise-free data whose echoes leave most gates empty.
+    """
+    if noise_power is not None:
+        sigma2 = float(noise_power)
+    elif data.range[-1] - data.range[0] >= NOISE_ESTIMATE_CELLS * data.waveform.range_resolution:
+        axes = tuple(range(data.array.dim - 1))
+        sigma2 = float(np.median(np.mean(np.abs(data.signal) ** 2, axis=axes)))
+    else:
+        return 0.0
+    cells = data.array.n * data.range.size
+    return float(np.sqrt(np.sum(weights**2) * sigma2 * np.log(cells / pfa)))
+
+
+def _runs(mask: np.ndarray):
+    """Contiguous runs of True in a 1-D mask, as (start, stop) pairs."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.nonzero(d == 1)[0], np.nonzero(d == -1)[0]))
+
+
+def _search_gates(data: RadarData, weights, taper: bool, pad: int, rel: float, floor: float,
+                  margin: int):
+    """Range gates that can hold a cluster centre, dilated by ``margin``.
+
+    ``A(R) = sum_X w(X) |s(X, R)|`` bounds ``max_k |S(k, R)|`` from above
+    (triangle inequality), and the strongest gate's spectrum bounds the global
+    maximum from below (``L``); a gate with ``A(R) < max(rel L, floor)``
+    cannot hold a centre, so skipping it changes nothing (step 2 of the
+    module notes).  Returns a boolean mask over the range gates.
+    """
+    axes = tuple(range(data.array.dim - 1))
+    bound = np.sum(np.abs(data.signal) * weights, axis=axes)
+    if bound.size == 0 or not bound.max() > 0:
+        return np.zeros(data.range.size, bool)
+    top = int(np.argmax(bound))
+    lower = float(np.abs(kspace_spectrum(data, pad, taper, slice(top, top + 1))[0]).max())
+    active = bound >= max(rel * lower, floor)
+    return ndimage.binary_dilation(active, iterations=margin) if margin > 0 else active
+
+
 def _window(k: np.ndarray, k0: float, period: float, k_period: float) -> np.ndarray:
     dk = (k - k0 + 0.5 * k_period) % k_period - 0.5 * k_period  # wrapped
     return np.where(np.abs(dk) < 0.5 * period, 0.5 * (1 + np.cos(2 * np.pi * dk / period)), 0.0)
+
+
+def _centres(det: np.ndarray, size: list, n_k: int, threshold: float, g0: int, nr: int):
+    """Local maxima of ``det`` (one run of range gates starting at gate g0)
+    at or above ``threshold``: (indices with global gates, values)."""
+    mode = ["wrap"] * n_k + ["nearest"]
+    local = det == ndimage.maximum_filter(det, size=size, mode=mode)
+    # a strict maximum along R (a flat run of equal values, e.g. a constant
+    # signal, is not a peak: every gate of it would pass the test above)
+    strict = np.zeros_like(local)
+    strict[..., 1:-1] = (det[..., 1:-1] > det[..., :-2]) & (det[..., 1:-1] >= det[..., 2:])
+    local &= strict & (det >= threshold) & (det > 0)
+    idx = np.argwhere(local)
+    vals = det[tuple(idx.T)]
+    idx[:, -1] += g0
+    # a peak on the first or last range gate is the edge of the axis, not a maximum
+    keep = (idx[:, -1] > 0) & (idx[:, -1] < nr - 1)
+    return idx[keep], vals[keep]
 
 
 def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decomposition:
@@ -224,43 +358,77 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
     Returns
     -------
     Decomposition
+        ``magnitude`` is computed on the range gates searched and 0 elsewhere
+        (gates that cannot hold a centre are skipped, step 2 of the module
+        notes).
     """
     arr = data.array
     n_k = arr.dim - 1
-    spec, k_axes = kspace_spectrum(data, params.pad)
-    mag = np.abs(spec)
-    gmax = float(mag.max()) if mag.size else 0.0
-    if gmax == 0.0:
-        return Decomposition(k_axes, mag, ())
     if params.near_field or (params.near_field is None and near_field_wanted(data)):
         if arr.planar:
             raise InputError("the near-field decomposition handles linear arrays only")
+        spec, k_axes = kspace_spectrum(data, params.pad)
+        mag = np.abs(spec)
+        if not mag.max() > 0:
+            return Decomposition(k_axes, mag, ())
         return decompose_near_field(data, params, (mag, k_axes))
-    det = np.abs(kspace_spectrum(data, params.pad, True)[0]) if params.detect_taper else mag
     gate = params.range_gate or data.waveform.range_resolution
     dr = data.dr
+    nr = data.range.size
     periods = (params.window_x,) if n_k == 1 else (params.window_x, params.window_z or params.window_x)
+    k_axes = kspace_spectrum(data, params.pad, gates=slice(0, 0))[1]
     # non-maximum suppression neighbourhood: a quarter window period in k,
     # half a range resolution in R; k axes periodic, R not.
     size = [2 * int(np.ceil(0.25 * periods[a] / abs(k_axes[a][1] - k_axes[a][0]))) + 1
             for a in range(n_k)]
-    size = [min(s_, n) for s_, n in zip(size, det.shape)]
-    size.append(2 * int(np.ceil(0.5 * data.waveform.range_resolution / dr)) + 1)
-    mode = ["wrap"] * n_k + ["nearest"]
-    local = det == ndimage.maximum_filter(det, size=size, mode=mode)
-    # a strict maximum along R (a flat run of equal values, e.g. a constant
-    # signal, is not a peak: every gate of it would pass the test above)
-    strict = np.zeros_like(local)
-    strict[..., 1:-1] = (det[..., 1:-1] > det[..., :-2]) & (det[..., 1:-1] >= det[..., 2:])
-    local &= strict
-    local &= det >= float(det.max()) * 10.0 ** (params.peak_threshold_db / 20.0)
-    local &= det > 0
-    # a peak on the first or last range gate is the edge of the axis, not a maximum
-    local[..., 0] = False
-    local[..., -1] = False
-    idx = np.argwhere(local)
-    idx = idx[np.argsort(-det[tuple(idx.T)])]
+    size = [min(s_, len(k)) for s_, k in zip(size, k_axes)]
+    half_r = int(np.ceil(0.5 * data.waveform.range_resolution / dr))
+    size.append(2 * half_r + 1)
+    weights = _taper(arr.shape) if params.detect_taper else np.ones(arr.shape + (1,))
+    rel = 10.0 ** (params.peak_threshold_db / 20.0)
+    floor = (noise_floor(data, weights, params.noise_pfa, params.noise_power)
+             if params.noise_pfa is not None else 0.0)
+    # gates searched: those that can hold a centre, with room for the
+    # neighbourhood and the strict test (half_r + 1) and for each cluster's
+    # range interval (gate / dr + 1)
+    margin = max(half_r + 1, int(np.ceil(gate / dr)) + 1)
+    need = (_search_gates(data, weights, params.detect_taper, params.pad, rel, floor, margin)
+            if params.skip_gates else np.ones(nr, bool))
+    shape = tuple(len(k) for k in k_axes) + (nr,)
+    det = np.zeros(shape)
+    for g0, g1 in _runs(need):
+        det[..., g0:g1] = np.abs(kspace_spectrum(data, params.pad, params.detect_taper,
+                                                 slice(g0, g1))[0])
+    dmax = float(det.max())
+    threshold = max(dmax * rel, floor)
+    # second pass: only gates whose spectrum reaches the threshold (and their
+    # neighbourhood) are searched and get the untapered spectrum
+    hot = det.reshape(-1, nr).max(axis=0) >= threshold if dmax > 0 else np.zeros(nr, bool)
+    if params.skip_gates:
+        need = ndimage.binary_dilation(hot, iterations=margin) & need
+    spec = np.zeros(shape, complex)
+    mag = np.zeros(shape)
+    found = []
+    for g0, g1 in _runs(need):
+        part = kspace_spectrum(data, params.pad, gates=slice(g0, g1))[0]
+        spec[..., g0:g1] = part
+        mag[..., g0:g1] = np.abs(part)
+        found.append((det[..., g0:g1] if params.detect_taper else mag[..., g0:g1], g0))
+    if not found:
+        return Decomposition(k_axes, mag, ())
+    peaks = [_centres(d, size, n_k, threshold, g0, nr) for d, g0 in found]
+    idx = np.concatenate([p[0] for p in peaks])
+    vals = np.concatenate([p[1] for p in peaks])
+    idx = idx[np.argsort(-vals, kind="stable")]
+    return Decomposition(k_axes, mag, tuple(_clusters(data, params, spec, mag, k_axes, periods,
+                                                      idx, gate)))
 
+
+def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods, idx, gate):
+    """One :class:`Cluster` per centre ``idx`` (window, alignment, inverse FFT)."""
+    arr = data.array
+    n_k = arr.dim - 1
+    dr = data.dr
     steps = (arr.dx,) if n_k == 1 else (arr.dx, arr.dz)
     k_periods = [2 * np.pi / st for st in steps]
     axes_x = [arr.x] if n_k == 1 else [arr.x, arr.z]
@@ -299,7 +467,7 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
         sub = sub[tuple(slice(0, n) for n in arr.shape)]
         clusters.append(Cluster(kc, float(data.range[ir]), slice(lo, hi), sub,
                                 float(mag[tuple(ind)]), offset, u))
-    return Decomposition(k_axes, mag, tuple(clusters))
+    return clusters
 
 
 #: A non-principal alias must give a coherent peak this much larger (module notes, step 4).
