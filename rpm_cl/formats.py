@@ -128,10 +128,8 @@ def check_output(path, extensions: tuple, what: str = "output") -> str:
         Unknown extension (the message lists ``extensions``), missing folder,
         or ``path`` is a folder.
     """
-    path = os.fspath(path)
-    ext = _need_ext(path, tuple(extensions), what)
-    output_path(path)
-    return ext
+    path, _ = output_path(path)  # a missing folder or a folder first: the plainer message
+    return _need_ext(path, tuple(extensions), what)
 
 
 def _h5py():
