@@ -8,6 +8,7 @@ __version__ = "0.1.0"
 
 from .cl import CLEnv, NoOpenCLError, create_env, list_devices
 from .data import Array, InputError, RadarData, Truth, Waveform, load_npz, save_npz
+from .formats import frame_count, load_data, range_compress, save_data, save_result
 from .imaging import METHODS, ImagingParams, RPMParams, default_params, run_method
 from .kspace import KSpaceParams, decompose
 from .metrics import err_range, err_rpm, summary
@@ -37,11 +38,16 @@ __all__ = [
     "default_params",
     "err_range",
     "err_rpm",
+    "frame_count",
     "get_preset",
     "list_devices",
+    "load_data",
     "load_npz",
+    "range_compress",
     "run_method",
+    "save_data",
     "save_npz",
+    "save_result",
     "simulate",
     "simulate_preset",
     "summary",

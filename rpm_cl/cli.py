@@ -99,6 +99,16 @@ _budget_gb = _bounded_float(1e-3, 1e6, "memory budget must be between 0.001 and 
 _metres = _bounded_float(-1e4, 1e4, "must be a length in m within +-1e4")
 
 
+def _frame(text):
+    try:
+        v = int(text)
+    except ValueError:
+        v = -1
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"frame must be an integer >= 0, got {text!r}")
+    return v
+
+
 def _positive_int(text):
     try:
         v = int(text)
@@ -125,11 +135,12 @@ def cmd_info(args) -> int:
 
 
 def cmd_simulate(args) -> int:
-    from .data import save_npz
+    from .formats import DATA_EXTENSIONS, check_output, save_data
     from .simulate import simulate_preset
 
+    check_output(args.output, DATA_EXTENSIONS, "data output")
     data, _ = simulate_preset(args.scene, args.snr, args.seed)
-    save_npz(args.output, data)
+    save_data(args.output, data)
     print(f"wrote {args.output}: {args.scene}, signal {data.signal.shape}, "
           f"S/N {'inf' if args.snr is None else f'{args.snr:g} dB'}")
     return 0
@@ -143,16 +154,18 @@ def _params(args, data):
 
 
 def cmd_image(args) -> int:
-    from .data import load_npz
-    from .imaging import run_method, save_result
+    from .formats import RESULT_EXTENSIONS, check_output, load_data, save_result
+    from .imaging import run_method
     from .metrics import summary
 
-    data = load_npz(args.input)
+    check_output(args.output, RESULT_EXTENSIONS, "result")
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
     params = _params(args, data)
     engine, env = _engine(args)
     result = run_method(args.method, data, params, engine)
     meta = {"version": __version__, "device": env.name, "precision": args.precision,
-            "input": args.input, "params": asdict(params)}
+            "input": args.input, "frame": args.frame, "range_window": args.range_window,
+            "params": asdict(params)}
     if data.truth is not None and data.truth.scene not in ("", "{}"):
         meta["scene"] = json.loads(data.truth.scene)  # for `rpm-cl view`
     save_result(args.output, result, meta)
@@ -271,10 +284,11 @@ def cmd_view(args) -> int:
 def cmd_das(args) -> int:
     import time
 
-    from .das import DeviceDAS, das_numpy, parse_grid, write_image
-    from .data import load_npz
+    from .das import DeviceDAS, das_numpy, parse_grid
+    from .formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
 
-    data = load_npz(args.input)
+    check_output(args.output, VOLUME_EXTENSIONS, "image")
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
     grid = parse_grid(args.grid)
     if grid.dim != data.array.dim:
         raise CLIError(f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
@@ -306,8 +320,9 @@ def cmd_das(args) -> int:
 
     meta = {"version": __version__, "method": "das", "backend": args.backend, "device": device,
             "precision": args.precision if args.backend == "opencl" else "float64",
-            "input": args.input, "grid": args.grid, "timing": timing}
-    write_image(args.output, grid, fill, dtype, meta)
+            "input": args.input, "frame": args.frame, "range_window": args.range_window,
+            "grid": args.grid, "timing": timing}
+    write_volume(args.output, grid, fill, dtype, meta)
     sec = timing.get("seconds", float("nan"))
     print(f"das ({args.backend}): image {grid.shape} from {data.array.n} antennas in {sec:.3f} s "
           f"({n_bp / sec:.3g} back-projections/s); wrote {args.output}")
@@ -317,10 +332,11 @@ def cmd_das(args) -> int:
 def cmd_rma(args) -> int:
     import time
 
-    from .data import atomic_savez, load_npz
+    from .data import atomic_savez
+    from .formats import load_data
     from .rma import rma_image
 
-    data = load_npz(args.input)
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
     t0 = time.perf_counter()
@@ -350,6 +366,7 @@ def cmd_bench(args) -> int:
 # --------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
     from .bench import SCENES
+    from .formats import RANGE_WINDOWS
     from .imaging import METHODS
     from .reproduce import CASES
     from .scene import PRESETS
@@ -364,18 +381,26 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("--precision", choices=("float32", "float64"), default="float32",
                         help="kernel arithmetic (default float32)")
 
+    def input_opts(sp):
+        sp.add_argument("--frame", type=_frame, help="frame N (from 0) of a stacked input "
+                        "(signal/spectrum with a leading frame axis)")
+        sp.add_argument("--range-window", choices=sorted(RANGE_WINDOWS), default="hann",
+                        help="window of the range compression of frequency-domain input "
+                        "(spectrum + frequency; default hann)")
+
     sp = sub.add_parser("info", help="list OpenCL platforms/devices and the one chosen")
     sp.add_argument("--device")
     sp.set_defaults(func=cmd_info)
 
-    sp = sub.add_parser("simulate", help="simulate a preset scene to an .npz")
+    sp = sub.add_parser("simulate", help="simulate a preset scene to an .npz or .h5")
     sp.add_argument("scene", choices=sorted(PRESETS))
     sp.add_argument("-o", "--output", required=True)
     sp.add_argument("--snr", type=_snr, default=None, help="S/N in dB (default: noise-free)")
     sp.add_argument("--seed", type=_seed, default=0)
     sp.set_defaults(func=cmd_simulate)
 
-    sp = sub.add_parser("image", help="image an .npz (input contract in the README)")
+    sp = sub.add_parser("image", help="image an .npz or .h5 (input schema in the README); "
+                        "-o .npz, .h5, .ply or .vtp")
     sp.add_argument("input")
     sp.add_argument("-o", "--output", required=True)
     sp.add_argument("--method", choices=sorted(METHODS), default="kspace-rpm")
@@ -385,6 +410,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--window-x", type=float, help="k_x window period, rad/m (default 417 for "
                     "linear arrays, 100 for planar ones)")
     sp.add_argument("--window-z", type=float, help="k_z window period, rad/m")
+    input_opts(sp)
     device_opts(sp)
     sp.set_defaults(func=cmd_image)
 
@@ -410,7 +436,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.set_defaults(func=cmd_demo)
 
     sp = sub.add_parser("view", help="draw an image result (3-D: pyvista; 2-D: matplotlib)")
-    sp.add_argument("input", help="a result .npz of `rpm-cl image`")
+    sp.add_argument("input", help="a result .npz or .h5 of `rpm-cl image`")
     sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
     sp.set_defaults(func=cmd_view)
 
@@ -423,6 +449,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--backend", choices=("opencl", "numpy"), default="opencl")
     sp.add_argument("--memory-budget", type=_budget_gb, default=2.0,
                     help="GB the back-projection may hold (default 2)")
+    input_opts(sp)
     device_opts(sp)
     sp.set_defaults(func=cmd_das)
 
@@ -433,6 +460,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--y-max", type=_metres, help="crop the image to y <= this, m")
     sp.add_argument("--upsample-x", type=_positive_int, default=1,
                     help="x pixels per array pitch (default 1)")
+    input_opts(sp)
     sp.set_defaults(func=cmd_rma)
 
     sp = sub.add_parser("bench", help="time each method and stage on the paper's scenes")

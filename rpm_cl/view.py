@@ -37,7 +37,7 @@ def load_result(path) -> dict:
     Parameters
     ----------
     path : str or path-like
-        A result ``.npz``.
+        A result ``.npz``, or ``.h5`` / ``.hdf5`` (the same names).
 
     Returns
     -------
@@ -56,10 +56,13 @@ def load_result(path) -> dict:
     """
     path = os.fspath(path)
     try:
-        with np.load(path, allow_pickle=False) as npz:
-            out = {k: np.asarray(npz[k]) for k in ("points", "cluster", "rp_x")}
-            out["rp_z"] = np.asarray(npz["rp_z"]) if "rp_z" in npz.files else None
-            meta = json.loads(str(npz["meta"])) if "meta" in npz.files else {}
+        if os.path.splitext(path)[1].lower() in (".h5", ".hdf5"):
+            out, meta = _read_h5(path)
+        else:
+            with np.load(path, allow_pickle=False) as npz:
+                out = {k: np.asarray(npz[k]) for k in ("points", "cluster", "rp_x")}
+                out["rp_z"] = np.asarray(npz["rp_z"]) if "rp_z" in npz.files else None
+                meta = json.loads(str(npz["meta"])) if "meta" in npz.files else {}
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except KeyError as exc:
@@ -97,6 +100,23 @@ def load_result(path) -> dict:
     out["scene"] = scene
     out["targets"] = _targets(path, scene)
     return out
+
+
+def _read_h5(path: str):
+    """The fields :func:`load_result` uses, from an HDF5 result
+    (:func:`rpm_cl.formats.save_result`: the ``.npz`` names as root datasets)."""
+    import h5py
+
+    if not os.path.exists(path):
+        raise FileNotFoundError(path)
+    with h5py.File(path, "r") as f:
+        for k in ("points", "cluster", "rp_x"):
+            if k not in f:
+                raise KeyError(k)
+        out = {k: np.asarray(f[k][()]) for k in ("points", "cluster", "rp_x")}
+        out["rp_z"] = np.asarray(f["rp_z"][()]) if "rp_z" in f else None
+        meta = f["meta"][()] if "meta" in f else b"{}"
+    return out, json.loads(meta.decode("utf-8") if isinstance(meta, bytes) else str(meta))
 
 
 def _oneline(exc: BaseException) -> str:

@@ -1,0 +1,825 @@
+"""File formats in and out: ``.npz`` and HDF5 inputs, results by extension.
+
+Inputs (:func:`load_data`, :func:`frame_count`)
+-----------------------------------------------
+One schema, two containers: the names of the ``.npz`` input contract
+(:mod:`rpm_cl.data`) are members of an ``.npz`` or datasets at the root of an
+HDF5 file (``.h5`` / ``.hdf5``; scalars as 0-d datasets, ``truth_scene`` as a
+string dataset).  Either
+
+- **time domain**: ``signal`` (nx[, nz], nr) complex with its ``range`` (nr,)
+  axis, ``fc`` and ``bandwidth``; or
+- **frequency domain** (stepped-frequency or dechirped FMCW samples):
+  ``spectrum`` (nx[, nz], nf) complex with its ``frequency`` (nf,) axis, Hz
+  (uniform, strictly increasing, > 0); ``fc`` and ``bandwidth`` optional.
+  :func:`range_compress` turns it into the time-domain form.
+
+``signal`` / ``spectrum`` may carry one leading frame axis (a *stack*,
+``(n_frames, nx[, nz], n)``); ``frame=i`` reads frame ``i`` only (an HDF5
+hyperslab; for an ``.npz`` the frame's bytes of the member).
+
+Range compression of a spectrum
+-------------------------------
+With ``f_n = f_0 + n df`` (n = 0 .. nf-1), a window ``w_n`` and ``fc``::
+
+    s(R) = sum_n w_n Y(f_n) exp(+j 4 pi (f_n - fc) R / c) / sum_n w_n
+
+so a lone echo ``Y(f) = a exp(-j 4 pi f R_t / c)`` peaks at ``|s(R_t)| = a``
+with phase ``exp(-j 2 k_c R_t)``, ``k_c = 2 pi fc / c``: the time-domain
+contract.  It is evaluated by an inverse FFT zero-padded to
+``N = next_fast_len(RANGE_OVERSAMPLE * nf)`` points: range gates of
+``dr = c / (2 df N)`` (at most 1/:data:`RANGE_OVERSAMPLE` of the resolution
+``c / (2 nf df)`` of the whole band) over the unambiguous range
+``[0, c / (2 df))``; echoes beyond it alias.
+
+When omitted, ``fc = (f_0 + f_last) / 2`` (the band centre) and ``bandwidth``
+= the full width at half amplitude of the window over the band,
+``nf df`` times the fraction of the window above half its peak (rect:
+``nf df``; hann: ``nf df / 2``): the engine's ``bandwidth`` is that width (the
+simulator's ``P(f) = cos^2(pi f / 2B)``, a Hann window over ``2B``, has it).
+
+Outputs by extension (:func:`save_result`, :func:`save_data`, :func:`write_volume`)
+-----------------------------------------------------------------------------------
+Image results: ``.npz``, ``.h5`` (same arrays; ``meta`` a JSON string
+dataset), ``.ply`` and ``.vtp`` point clouds with per-point ``cluster`` and
+``score``.  Radar data (``rpm-cl simulate``): ``.npz``, ``.h5``.  DAS images:
+``.npz``, ``.h5`` (chunked), ``.vti`` (VTK ImageData).  Every file is written
+to a temporary file beside the target and renamed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+
+import numpy as np
+
+from .data import (
+    C0,
+    Array,
+    InputError,
+    RadarData,
+    Truth,
+    Waveform,
+    _usual_mode,
+    atomic_savez,
+    output_path,
+)
+
+__all__ = [
+    "DATA_EXTENSIONS",
+    "RANGE_OVERSAMPLE",
+    "RANGE_WINDOWS",
+    "RESULT_EXTENSIONS",
+    "VOLUME_EXTENSIONS",
+    "check_output",
+    "frame_count",
+    "load_data",
+    "range_compress",
+    "result_arrays",
+    "save_data",
+    "save_result",
+    "window_bandwidth",
+    "write_volume",
+]
+
+#: Input / radar-data extensions.
+DATA_EXTENSIONS = (".npz", ".h5", ".hdf5")
+#: Image-result extensions of :func:`save_result`.
+RESULT_EXTENSIONS = (".npz", ".h5", ".hdf5", ".ply", ".vtp")
+#: DAS image extensions of :func:`write_volume`.
+VOLUME_EXTENSIONS = (".npz", ".h5", ".hdf5", ".vti")
+#: Range windows of :func:`range_compress` -> scipy.signal.windows names.
+RANGE_WINDOWS = {"rect": "boxcar", "hann": "hann", "hamming": "hamming",
+                 "blackman": "blackman", "taylor": "taylor"}
+#: Zero-padding of the range FFT: at least this many range gates per
+#: resolution cell ``c / (2 nf df)`` of the whole band.
+RANGE_OVERSAMPLE = 16
+
+_H5_EXT = (".h5", ".hdf5")
+
+
+def _ext(path: str) -> str:
+    return os.path.splitext(path)[1].lower()
+
+
+def _need_ext(path: str, allowed: tuple, what: str) -> str:
+    ext = _ext(path)
+    if ext not in allowed:
+        raise InputError(f"{path}: unknown {what} extension {ext or '(none)'!r}; supported: "
+                         f"{', '.join(allowed)}")
+    return ext
+
+
+def check_output(path, extensions: tuple, what: str = "output") -> str:
+    """Check an output path before anything is computed: a known extension
+    (one of ``extensions``) and an existing folder.
+
+    Returns
+    -------
+    str
+        The extension, lower case.
+
+    Raises
+    ------
+    InputError
+        Unknown extension (the message lists ``extensions``), missing folder,
+        or ``path`` is a folder.
+    """
+    path, _ = output_path(path)  # a missing folder or a folder first: the plainer message
+    return _need_ext(path, tuple(extensions), what)
+
+
+def _h5py():
+    try:
+        import h5py
+    except ImportError:  # a core dependency; only a broken install lands here
+        raise InputError("HDF5 files need h5py: pip install h5py") from None
+    return h5py
+
+
+# --------------------------------------------------------------------------
+# sources: one interface over .npz members and HDF5 root datasets
+class _NpzSource:
+    """Members of an ``.npz``, read through their ``.npy`` headers, so that a
+    frame of a stack is read without the rest."""
+
+    def __init__(self, path: str):
+        self.path = path
+        self.zf = zipfile.ZipFile(path)
+        self.names = {n[:-4]: n for n in self.zf.namelist() if n.endswith(".npy")}
+
+    def keys(self):
+        return set(self.names)
+
+    def __contains__(self, key):
+        return key in self.names
+
+    def _header(self, fh):
+        version = np.lib.format.read_magic(fh)
+        if version == (1, 0):
+            return np.lib.format.read_array_header_1_0(fh)
+        return np.lib.format.read_array_header_2_0(fh)
+
+    def shape_dtype(self, key):
+        with self.zf.open(self.names[key]) as fh:
+            shape, _, dtype = self._header(fh)
+        return tuple(shape), np.dtype(dtype)
+
+    def read(self, key):
+        with self.zf.open(self.names[key]) as fh:
+            return np.lib.format.read_array(fh, allow_pickle=False)
+
+    def read_frame(self, key, i):
+        with self.zf.open(self.names[key]) as fh:
+            shape, fortran, dtype = self._header(fh)
+            if fortran or dtype.hasobject:
+                return np.lib.format.read_array(fh, allow_pickle=False)[i]
+            n = int(np.prod(shape[1:])) * dtype.itemsize
+            fh.seek(fh.tell() + i * n)
+            buf = fh.read(n)
+        if len(buf) != n:
+            raise InputError(f"{self.path}: {key} is truncated")
+        return np.frombuffer(buf, dtype).reshape(shape[1:]).copy()
+
+    def text(self, key):
+        return str(self.read(key))
+
+    def close(self):
+        self.zf.close()
+
+
+class _H5Source:
+    """Datasets at the root of an HDF5 file; a frame is one hyperslab."""
+
+    def __init__(self, path: str):
+        self.path = path
+        self.f = _h5py().File(path, "r")
+
+    def keys(self):
+        return set(self.f.keys())
+
+    def __contains__(self, key):
+        return key in self.f
+
+    def _ds(self, key):
+        ds = self.f[key]
+        if not isinstance(ds, _h5py().Dataset):
+            raise InputError(f"{self.path}: {key} must be a dataset at the file root, not a group")
+        return ds
+
+    def shape_dtype(self, key):
+        ds = self._ds(key)
+        return tuple(ds.shape), ds.dtype
+
+    def read(self, key):
+        return np.asarray(self._ds(key)[()])
+
+    def read_frame(self, key, i):
+        return np.asarray(self._ds(key)[i])
+
+    def text(self, key):
+        v = self._ds(key)[()]
+        if isinstance(v, bytes):
+            return v.decode("utf-8")
+        if isinstance(v, np.ndarray) and v.dtype.kind in "OSU" and v.ndim == 0:
+            v = v.item()
+            return v.decode("utf-8") if isinstance(v, bytes) else str(v)
+        return str(v)
+
+    def close(self):
+        self.f.close()
+
+
+def _open(path) -> tuple[str, object]:
+    path = os.fspath(path)
+    ext = _need_ext(path, DATA_EXTENSIONS, "input")
+    if not os.path.exists(path):
+        raise InputError(f"{path}: no such file")
+    try:
+        src = _H5Source(path) if ext in _H5_EXT else _NpzSource(path)
+    except InputError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - OSError (not HDF5, truncated), BadZipFile ...
+        kind = "HDF5" if ext in _H5_EXT else ".npz"
+        raise InputError(f"{path}: not a readable {kind} file ({_oneline(exc)})") from None
+    return path, src
+
+
+def _oneline(exc: BaseException) -> str:
+    text = getattr(exc, "strerror", None) or " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _guarded(path: str, fn):
+    """Run ``fn()``; every failure becomes one InputError line naming ``path``."""
+    try:
+        return fn()
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(path) else f"{path}: {msg}") from None
+    except MemoryError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - truncated member or dataset, bad header ...
+        raise InputError(f"{path}: cannot read ({_oneline(exc)})") from None
+
+
+def _frames(src, key: str, n_axes: int) -> int | None:
+    """Frames in ``key``: None for a single frame, else the stack's length."""
+    shape, dtype = src.shape_dtype(key)
+    if not np.issubdtype(dtype, np.complexfloating):
+        raise InputError(f"{key} must be complex (complex64/complex128), got dtype {dtype}")
+    if len(shape) == n_axes:
+        return None
+    if len(shape) == n_axes + 1:
+        return int(shape[0])
+    raise InputError(f"{key} must have {n_axes} axes (or {n_axes + 1} for a stack of frames), "
+                     f"got shape {shape}")
+
+
+def _data_key(src) -> str:
+    if "signal" in src and "spectrum" in src:
+        raise InputError("holds both signal and spectrum; keep one")
+    if "signal" in src:
+        return "signal"
+    if "spectrum" in src:
+        return "spectrum"
+    raise InputError("missing key 'signal' (time domain) or 'spectrum' (frequency domain)")
+
+
+def _n_axes(src) -> int:
+    return 3 if "z" in src else 2
+
+
+def _need(src, key):
+    if key not in src:
+        raise InputError(f"missing key {key!r}")
+    return src.read(key)
+
+
+def frame_count(path) -> int:
+    """Frames in an input file: the stack's length, 1 for a single frame.
+
+    Parameters
+    ----------
+    path : str or path-like
+        An ``.npz`` or HDF5 input (see :func:`load_data`).
+
+    Raises
+    ------
+    InputError
+        The file is unreadable, or has no complex ``signal``/``spectrum`` of a
+        valid number of axes.
+    """
+    path, src = _open(path)
+    try:
+        n = _guarded(path, lambda: _frames(src, _data_key(src), _n_axes(src)))
+    finally:
+        src.close()
+    return 1 if n is None else n
+
+
+def _select(src, key: str, n_axes: int, frame):
+    n = _frames(src, key, n_axes)
+    if frame is not None and (isinstance(frame, bool) or not isinstance(frame, (int, np.integer))):
+        raise InputError(f"frame must be an integer, got {frame!r}")
+    if n is None:
+        if frame not in (None, 0):
+            raise InputError(f"frame {frame} out of range: the file holds a single frame")
+        return src.read(key)
+    if frame is None:
+        raise InputError(f"{key} is a stack of {n} frames; choose one with frame= (--frame N, "
+                         f"0..{n - 1})")
+    if not 0 <= frame < n:
+        raise InputError(f"frame {frame} out of range: the stack holds {n} frames (0..{n - 1})")
+    return src.read_frame(key, int(frame))
+
+
+def _truth(src):
+    if "truth_boundary" not in src:
+        return None
+    scene = src.text("truth_scene") if "truth_scene" in src else "{}"
+    return Truth(_need(src, "truth_rp_antenna"), _need(src, "truth_rp_range"),
+                 src.read("truth_boundary"), scene)
+
+
+def _build(src, frame, range_window: str) -> RadarData:
+    key = _data_key(src)
+    z = src.read("z") if "z" in src else None
+    array = Array(_need(src, "x"), z)
+    values = _select(src, key, _n_axes(src), frame)
+    truth = _truth(src)
+    if key == "signal":
+        if "frequency" in src:
+            raise InputError("'frequency' goes with 'spectrum', not with 'signal'")
+        waveform = Waveform(_need(src, "fc"), _need(src, "bandwidth"))
+        return RadarData(values, array, _need(src, "range"), waveform, truth)
+    if "range" in src:
+        raise InputError("'range' goes with 'signal'; a spectrum's range axis comes from "
+                         "'frequency'")
+    freq = _frequency_axis(_need(src, "frequency"))
+    fc = src.read("fc") if "fc" in src else None
+    bw = src.read("bandwidth") if "bandwidth" in src else None
+    signal, rng, waveform = _compress_checked(values, freq, fc, bw, range_window, array)
+    return RadarData(signal, array, rng, waveform, truth)
+
+
+def load_data(path, *, frame: int | None = None, range_window: str = "hann") -> RadarData:
+    """Read and validate radar data from an ``.npz`` or HDF5 file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        ``.npz``, ``.h5`` or ``.hdf5`` following the input schema (README,
+        "Input schema"): time domain (``signal``, ``range``) or frequency
+        domain (``spectrum``, ``frequency``).
+    frame : int, optional
+        Frame of a stack (``signal``/``spectrum`` with a leading frame axis);
+        required for a stack, 0 or None for a single-frame file.
+    range_window : str
+        Window of the range compression of a ``spectrum``, one of
+        :data:`RANGE_WINDOWS` (ignored for time-domain data).
+
+    Returns
+    -------
+    RadarData
+        Validated; a spectrum comes back range-compressed (see
+        :func:`range_compress`).
+
+    Raises
+    ------
+    InputError
+        One line naming the file and the problem: unknown extension,
+        unreadable or truncated file, missing key, wrong shape or dtype,
+        non-uniform axis, NaN/Inf, a stack without ``frame``, ``frame`` out of
+        range, an unknown window.
+    """
+    _window_name(range_window)
+    path, src = _open(path)
+    try:
+        return _guarded(path, lambda: _build(src, frame, range_window))
+    finally:
+        src.close()
+
+
+# --------------------------------------------------------------------------
+# frequency domain -> range profiles
+def _window_name(name) -> str:
+    if name not in RANGE_WINDOWS:
+        raise InputError(f"unknown range window {name!r}; choose from {', '.join(RANGE_WINDOWS)}")
+    return RANGE_WINDOWS[name]
+
+
+def _window(name: str, n: int) -> np.ndarray:
+    from scipy.signal import windows
+
+    return np.asarray(windows.get_window(_window_name(name), n, fftbins=False), np.float64)
+
+
+def _frequency_axis(values) -> np.ndarray:
+    f = np.asarray(values)
+    if f.ndim != 1 or f.size < 2:
+        raise InputError(f"frequency must be 1-D with at least 2 values, got shape {f.shape}")
+    if not np.issubdtype(f.dtype, np.number) or np.iscomplexobj(f):
+        raise InputError(f"frequency must be real numbers, got dtype {f.dtype}")
+    eps = np.finfo(f.dtype).eps if np.issubdtype(f.dtype, np.floating) else 0.0
+    f = f.astype(np.float64)
+    if not np.all(np.isfinite(f)):
+        raise InputError("frequency contains NaN or Inf")
+    if f[0] <= 0:
+        raise InputError(f"frequency must be > 0 Hz, starts at {f[0]:g} Hz")
+    step = np.diff(f)
+    if np.any(step <= 0):
+        raise InputError("frequency must be strictly increasing")
+    tol = 1e-6 * step.mean() + 8 * eps * f[-1]
+    if np.max(np.abs(step - step.mean())) > tol:
+        raise InputError(f"frequency must be uniformly spaced (steps vary from {step.min():.9g} "
+                         f"to {step.max():.9g} Hz)")
+    return f
+
+
+def window_bandwidth(frequency, window: str = "hann") -> float:
+    """The ``bandwidth`` a spectrum gets when the file gives none, Hz.
+
+    The full width at half amplitude of the window over the band: ``nf df``
+    times the fraction of the (finely sampled, continuous) window at or above
+    half its peak.  rect: ``nf df``; hann: ``nf df / 2``; hamming: 0.53;
+    blackman: 0.41; taylor (scipy's defaults, nbar 4, 30 dB): 0.64 (x ``nf df``).
+
+    Parameters
+    ----------
+    frequency : ndarray, shape (nf,)
+        Uniform frequency axis, Hz.
+    window : str
+        A key of :data:`RANGE_WINDOWS`.
+    """
+    f = np.asarray(frequency, np.float64)
+    span = f.size * float(f[1] - f[0])
+    w = _window(window, 4001)
+    return span * float(np.mean(w >= 0.5 * w.max()))
+
+
+def range_compress(spectrum, frequency, fc: float, window: str = "hann"):
+    """Range profiles of frequency-domain samples (the time-domain contract).
+
+    ``s(R) = sum_n w_n Y_n exp(+j 4 pi (f_n - fc) R / c) / sum_n w_n`` on the
+    gates ``R_m = m c / (2 df N)``, ``N = next_fast_len(RANGE_OVERSAMPLE nf)``,
+    ``m = 0 .. N-1``: an inverse FFT along the last axis.
+
+    Parameters
+    ----------
+    spectrum : ndarray, complex, shape (..., nf)
+        Samples ``Y(f_n)``; an echo of range ``R`` and amplitude ``a`` is
+        ``a exp(-j 4 pi f_n R / c)``.
+    frequency : ndarray, shape (nf,)
+        Uniform, strictly increasing, > 0, Hz.
+    fc : float
+        Centre frequency the baseband phase refers to, Hz.
+    window : str
+        A key of :data:`RANGE_WINDOWS` (``w_n``, symmetric over the band).
+
+    Returns
+    -------
+    signal : ndarray, complex, shape (..., N)
+        complex64 for complex64 input, else complex128; a lone echo peaks at
+        ``|s| = a`` with phase ``exp(-j 2 k_c R)``.
+    range_axis : ndarray, shape (N,)
+        m, from 0 to just below the unambiguous range ``c / (2 df)``.
+    """
+    from scipy import fft
+
+    y = np.asarray(spectrum)
+    f = _frequency_axis(frequency)
+    nf = f.size
+    if y.shape[-1] != nf:
+        raise InputError(f"spectrum's last axis ({y.shape[-1]}) must match frequency ({nf})")
+    df = float(f[1] - f[0])
+    n = fft.next_fast_len(RANGE_OVERSAMPLE * nf)
+    w = _window(window, nf)
+    rng = np.arange(n) * (C0 / (2.0 * df * n))
+    out_dtype = np.complex64 if y.dtype == np.complex64 else np.complex128
+    # sum_n (w_n Y_n) exp(+j 2 pi n m / N) = N ifft(w Y)[m]; the band's offset
+    # from fc is one phase ramp in R
+    s = fft.ifft(y * (w / w.sum()), n=n, axis=-1) * n
+    s *= np.exp(4j * np.pi * (f[0] - fc) * rng / C0)
+    return s.astype(out_dtype, copy=False), rng
+
+
+def _compress_checked(values, freq, fc, bw, window, array):
+    y = np.asarray(values)
+    want = array.shape + (freq.size,)
+    if y.shape != want:
+        raise InputError(f"spectrum must have shape {want} (array {array.shape} x frequency "
+                         f"{freq.size}), got {y.shape}")
+    if not np.all(np.isfinite(y)):
+        raise InputError("spectrum contains NaN or Inf")
+    fc = float((freq[0] + freq[-1]) / 2) if fc is None else fc
+    bw = window_bandwidth(freq, window) if bw is None else bw
+    waveform = Waveform(fc, bw)
+    signal, rng = range_compress(y, freq, waveform.fc, window)
+    return signal, rng, waveform
+
+
+# --------------------------------------------------------------------------
+# writing
+def _atomic_file(path, write, ext: str | None = None) -> None:
+    """Call ``write(tmp_path)`` on a temporary file beside ``path``, then
+    rename it (for writers that want a file name: h5py, VTK).  An interrupted
+    run never leaves ``path`` or the temporary file behind."""
+    path, folder = output_path(path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=ext or _ext(path), dir=folder)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot write ({exc.strerror})") from None
+    os.close(fd)
+    try:
+        write(tmp)
+        _usual_mode(tmp)
+        os.replace(tmp, path)
+    except BaseException as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if isinstance(exc, OSError):
+            raise InputError(f"{path}: cannot write ({_oneline(exc)})") from None
+        raise
+
+
+def _h5_write_arrays(tmp: str, arrays: dict) -> None:
+    h5py = _h5py()
+    with h5py.File(tmp, "w") as f:
+        for k, v in arrays.items():
+            v = np.asarray(v)
+            if v.dtype.kind == "U":  # JSON strings: UTF-8 string datasets
+                f.create_dataset(k, data=str(v), dtype=h5py.string_dtype("utf-8"))
+            else:
+                f.create_dataset(k, data=v)
+
+
+def save_data(path, data: RadarData) -> None:
+    """Write radar data (time domain, with its truth) as ``.npz`` or HDF5.
+
+    Parameters
+    ----------
+    path : str or path-like
+        ``.npz``, ``.h5`` or ``.hdf5``; the same names either way.
+    data : RadarData
+    """
+    from .data import save_npz
+
+    path = os.fspath(path)
+    ext = _need_ext(path, DATA_EXTENSIONS, "data output")
+    if ext == ".npz":
+        save_npz(path, data)
+        return
+    out = {"signal": data.signal, "x": data.array.x, "range": data.range,
+           "fc": np.float64(data.waveform.fc), "bandwidth": np.float64(data.waveform.bandwidth)}
+    if data.array.z is not None:
+        out["z"] = data.array.z
+    if data.truth is not None:
+        out.update(truth_rp_antenna=data.truth.rp_antenna, truth_rp_range=data.truth.rp_range,
+                   truth_boundary=data.truth.boundary, truth_scene=np.array(data.truth.scene))
+    _atomic_file(path, lambda tmp: _h5_write_arrays(tmp, out))
+
+
+def result_arrays(result, meta: dict | None = None) -> dict:
+    """The arrays of an image result, by name (the ``.npz`` / HDF5 content).
+
+    ``points`` (M, 2|3) m, ``cluster``, ``score``, ``rp_index`` (M,), the RPs
+    ``rp_x`` (``rp_z``), ``rp_range``, ``rp_amp``, ``rp_cluster``,
+    ``rp_antenna`` (K,), and ``meta``: a JSON string (method, stage timings,
+    and ``meta``: version, device, parameters ...).
+    """
+    rps, img = result.rps, result.image
+    out = {"points": img.points, "cluster": img.cluster, "score": img.score,
+           "rp_index": img.rp_index, "rp_x": rps.x, "rp_range": rps.range, "rp_amp": rps.amp,
+           "rp_cluster": rps.cluster, "rp_antenna": rps.antenna}
+    if rps.z is not None:
+        out["rp_z"] = rps.z
+    info = {"method": result.method, "timings": result.timings, **(meta or {})}
+    out["meta"] = np.array(json.dumps(info, default=str))
+    return out
+
+
+def _points3(points: np.ndarray) -> np.ndarray:
+    p = np.asarray(points, np.float64)
+    if p.shape[1] == 2:  # (x, y) of a linear array: the z = 0 plane
+        p = np.column_stack([p, np.zeros(len(p))])
+    return np.ascontiguousarray(p)
+
+
+def _write_ply(tmp: str, arrays: dict) -> None:
+    """Binary little-endian PLY: vertices x, y, z (double), cluster (int),
+    score (double); the meta JSON as a comment line."""
+    pts = _points3(arrays["points"])
+    rec = np.zeros(len(pts), [("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("cluster", "<i4"),
+                              ("score", "<f8")])
+    rec["x"], rec["y"], rec["z"] = pts.T
+    rec["cluster"] = arrays["cluster"]
+    rec["score"] = arrays["score"]
+    meta = " ".join(str(arrays["meta"]).split())
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"comment rpm-cl {meta}\n"
+              f"element vertex {len(pts)}\n"
+              "property double x\nproperty double y\nproperty double z\n"
+              "property int cluster\nproperty double score\nend_header\n")
+    with open(tmp, "wb") as fh:
+        fh.write(header.encode("utf-8"))
+        fh.write(rec.tobytes())
+
+
+def _pyvista():
+    try:
+        import pyvista as pv
+    except ImportError:
+        raise InputError("VTK outputs (.vtp, .vti) need pyvista: pip install 'rpm-cl[view]'") \
+            from None
+    return pv
+
+
+def _write_vtp(tmp: str, arrays: dict) -> None:
+    pv = _pyvista()
+    cloud = pv.PolyData(_points3(arrays["points"]))
+    cloud.point_data["cluster"] = np.asarray(arrays["cluster"], np.int64)
+    cloud.point_data["score"] = np.asarray(arrays["score"], np.float64)
+    cloud.field_data["meta"] = [str(arrays["meta"])]
+    cloud.save(tmp, binary=True)
+
+
+def save_result(path, result, meta: dict | None = None) -> None:
+    """Write an image result; the format follows the extension.
+
+    - ``.npz``: :func:`result_arrays` (the same file as
+      :func:`rpm_cl.imaging.save_result`);
+    - ``.h5`` / ``.hdf5``: the same names as root datasets, ``meta`` a UTF-8
+      string dataset;
+    - ``.ply``: a binary point cloud, vertex properties ``x y z`` (m; z = 0
+      for 2-D results), ``cluster``, ``score``, and the meta JSON as a comment;
+    - ``.vtp``: a VTK PolyData point cloud with point arrays ``cluster`` and
+      ``score`` and the field ``meta`` (needs pyvista).
+
+    The RPs are kept by ``.npz`` and HDF5 only.
+
+    Parameters
+    ----------
+    path : str or path-like
+    result : rpm_cl.imaging.ImageResult
+    meta : dict, optional
+        Run metadata (version, device, parameters ...), stored as JSON.
+
+    Raises
+    ------
+    InputError
+        Unknown extension (the message lists the supported ones), the
+        folder is missing or not writable, pyvista missing for ``.vtp``.
+    """
+    path = os.fspath(path)
+    ext = _need_ext(path, RESULT_EXTENSIONS, "result")
+    arrays = result_arrays(result, meta)
+    if ext == ".npz":
+        atomic_savez(path, **arrays)
+    elif ext in _H5_EXT:
+        _atomic_file(path, lambda tmp: _h5_write_arrays(tmp, arrays))
+    elif ext == ".ply":
+        _atomic_file(path, lambda tmp: _write_ply(tmp, arrays))
+    else:
+        _pyvista()  # fail before anything is written
+        _atomic_file(path, lambda tmp: _write_vtp(tmp, arrays))
+
+
+# --------------------------------------------------------------------------
+# DAS volumes
+def _grid_geometry(path: str, grid):
+    """Origin and spacing (3 values each) of a uniform grid, m."""
+    axes = list(grid.axes) + ([np.zeros(1)] if grid.dim == 2 else [])
+    steps = []
+    for name, a in zip("xyz", axes):
+        if a.size >= 2:
+            d = np.diff(a)
+            if np.max(np.abs(d - d.mean())) > 1e-6 * abs(d.mean()):
+                raise InputError(f"{path}: a .vti needs a uniform grid; axis {name} is not")
+            steps.append(float(d.mean()))
+        else:
+            steps.append(None)
+    known = [s for s in steps if s is not None] or [1.0]
+    # a single-sample axis (a section) gets the spacing of the first axis that has one
+    spacing = tuple(s if s is not None else known[0] for s in steps)
+    origin = tuple(float(a[0]) for a in axes)
+    return origin, spacing
+
+
+def _slab_rows(shape, itemsize: int, target: int = 64 << 20) -> int:
+    per = int(np.prod(shape[1:])) * itemsize
+    return max(1, min(shape[0], target // max(1, per)))
+
+
+def _fill_memmap(folder: str, grid, fill, dtype, tmps: list):
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npy", dir=folder)
+    os.close(fd)
+    tmps.append(tmp)
+    out = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=grid.shape)
+    fill(out)
+    out.flush()
+    del out
+    return np.load(tmp, mmap_mode="r")
+
+
+def _write_volume_h5(path, folder, grid, fill, dtype, meta):
+    h5py = _h5py()
+    tmps = []
+
+    def write(tmp):
+        img = _fill_memmap(folder, grid, fill, dtype, tmps)
+        rows = _slab_rows(grid.shape, np.dtype(dtype).itemsize)
+        inner = tuple(min(n, 256) for n in grid.shape[1:])  # chunks of at most ~4 MB
+        per = int(np.prod(inner)) * np.dtype(dtype).itemsize
+        chunks = (max(1, min(grid.shape[0], (4 << 20) // per)),) + inner
+        with h5py.File(tmp, "w") as f:
+            ds = f.create_dataset("image", shape=grid.shape, dtype=dtype, chunks=chunks)
+            for r0 in range(0, grid.shape[0], rows):  # slab by slab: one slab in memory
+                ds[r0:r0 + rows] = img[r0:r0 + rows]
+            for name, a in zip("xyz", grid.axes):
+                f.create_dataset(name, data=a)
+            f.create_dataset("meta", data=json.dumps(meta or {}, default=str),
+                             dtype=h5py.string_dtype("utf-8"))
+        del img
+
+    try:
+        _atomic_file(path, write)
+    finally:
+        for t in tmps:
+            if os.path.exists(t):
+                os.remove(t)
+
+
+def _write_volume_vti(path, folder, grid, fill, dtype, meta):
+    pv = _pyvista()
+    origin, spacing = _grid_geometry(path, grid)
+    tmps = []
+
+    def write(tmp):
+        img = _fill_memmap(folder, grid, fill, dtype, tmps)
+        dims = grid.shape + ((1,) if grid.dim == 2 else ())
+        vol = pv.ImageData(dimensions=dims, spacing=spacing, origin=origin)
+        flat = np.asarray(img).reshape(dims).ravel(order="F")  # VTK: x fastest
+        vol.point_data["magnitude"] = np.abs(flat)
+        vol.point_data["real"] = flat.real.copy()
+        vol.point_data["imag"] = flat.imag.copy()
+        vol.field_data["meta"] = [json.dumps(meta or {}, default=str)]
+        del flat, img
+        vol.save(tmp, binary=True)
+
+    try:
+        _atomic_file(path, write)
+    finally:
+        for t in tmps:
+            if os.path.exists(t):
+                os.remove(t)
+
+
+def write_volume(path, grid, fill, dtype=np.complex64, meta: dict | None = None) -> None:
+    """Write a DAS image by extension, atomically.
+
+    ``fill(out)`` writes the image into ``out``, an array of shape
+    ``grid.shape`` (a memory map in a temporary ``.npy`` beside ``path``).
+
+    - ``.npz``: :func:`rpm_cl.das.write_image` (``image``, ``x``, ``y``
+      [, ``z``], ``meta``), streamed from the memory map;
+    - ``.h5`` / ``.hdf5``: the same names; ``image`` a chunked dataset
+      copied from the memory map slab by slab (64 MB at a time);
+    - ``.vti``: VTK ImageData (pyvista) with point arrays ``magnitude``
+      (``|image|``), ``real``, ``imag``; origin and spacing from the grid (a
+      single-sample axis takes the spacing of the first axis that has one; 2-D
+      images are one slice thick in z).  VTK holds it in memory: about 1.5x
+      the complex image.
+
+    Parameters
+    ----------
+    path : str or path-like
+    grid : rpm_cl.das.Grid
+    fill : callable
+    dtype : numpy dtype
+        complex64 or complex128.
+    meta : dict, optional
+        Stored as JSON (``meta``).
+    """
+    from .das import _free_bytes, write_image
+
+    path = os.fspath(path)
+    ext = _need_ext(path, VOLUME_EXTENSIONS, "image")
+    if ext == ".npz":
+        write_image(path, grid, fill, dtype, meta)
+        return
+    path, folder = output_path(path)
+    need = grid.size * np.dtype(dtype).itemsize
+    free = _free_bytes(folder)
+    if free is not None and 2.2 * need > free:
+        raise InputError(f"{path}: the image needs {2 * need / 1e9:.1f} GB of disk while written, "
+                         f"{free / 1e9:.1f} GB free")
+    if ext in _H5_EXT:
+        _write_volume_h5(path, folder, grid, fill, dtype, meta)
+    else:
+        _write_volume_vti(path, folder, grid, fill, dtype, meta)
