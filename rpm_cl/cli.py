@@ -358,7 +358,7 @@ def cmd_das(args) -> int:
         device, dtype = env.name, dev.cplx
 
         def fill(out):
-            with callback(None, desc="das", unit="voxel") as bar:
+            with callback(None, total=grid.size, desc="das", unit="voxel") as bar:
                 t0 = time.perf_counter()
                 dev.backproject(data, grid, out=out, progress=bar)
                 timing["seconds"] = time.perf_counter() - t0
@@ -366,7 +366,7 @@ def cmd_das(args) -> int:
         device, dtype = "numpy (float64)", np.complex128
 
         def fill(out):
-            with callback(None, desc="das", unit="voxel") as bar:
+            with callback(None, total=grid.size, desc="das", unit="voxel") as bar:
                 t0 = time.perf_counter()
                 das_numpy(data, grid, budget, out=out, progress=bar)
                 timing["seconds"] = time.perf_counter() - t0

@@ -365,10 +365,11 @@ def add_flags(parser, sections=("kspace", "rpm", "imaging")) -> None:
                 f"{titles.get(s.section, s.section)} parameters ([{s.section}] of --config)")
         doc = s.doc.replace("%", "%%")
         default = "auto" if s.default is None else s.default
+        kind = {float: "X", int: "N", bool: "BOOL", str: "TEXT"}[s.kind]
         groups[s.section].add_argument(
             s.flag, dest=s.dest, type=s.parse, default=argparse.SUPPRESS,
-            choices=s.choices, metavar=None if s.choices else s.kind.__name__.upper(),
-            help=f"{doc} (default: {default}, or derived from the data)")
+            choices=s.choices, metavar=None if s.choices else kind + ("|auto" if s.optional else ""),
+            help=f"{doc} (default {default}; `rpm-cl params IN` shows the value for IN)")
 
 
 def flag_values(args) -> dict:
