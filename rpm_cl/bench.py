@@ -129,14 +129,21 @@ def bench_rma(preset: str, snr, repeats: int = 3, seed: int = 0):
             "rpm100": cumulative(e, 0.10)[0] / n}
 
 
-def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: bool = False) -> str:
+def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: bool = False,
+              bar: bool | None = False) -> str:
     """All methods on :data:`SCENES` (or the labels in ``scenes``); the table as text.
 
     With ``das`` (a :class:`rpm_cl.das.DeviceDAS`), the DAS rows of each scene
     follow, with their back-projections per second; ``volume`` adds the
-    human body's full 2 m x 2 m x 2 m volume at 3 mm (minutes).
+    human body's full 2 m x 2 m x 2 m volume at 3 mm (minutes).  ``bar``: a
+    progress bar over scenes x methods on stderr (False none, the default;
+    None on a terminal; True always; :func:`rpm_cl.progress.progress`).
     """
+    from .progress import progress
+
     chosen = [sc for sc in SCENES if scenes is None or sc[0] in scenes]
+    pbar = progress(total=len(chosen) * (len(METHODS) + 1 + (das is not None)), desc="bench",
+                    enabled=bar, unit="row")
     lines = [f"device: {env.name} | precision: {getattr(engine, 'precision', 'float64')} | "
              f"host: {platform.processor() or platform.machine()} | "
              f"median of {repeats} runs after warm-up",
@@ -146,7 +153,9 @@ def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: boo
     t0 = time.perf_counter()
     for label, preset, snr in chosen:
         for method in METHODS:
+            pbar.set_postfix_str(f"{label} {method}")
             b = bench_case(engine, preset, snr, method, repeats)
+            pbar.update()
             lines.append(
                 f"{label:12s} {'inf' if snr is None else f'{snr:g}':>4s} {method:11s} "
                 f"{b['total_ms']:8.2f} {b.get('decompose_ms', 0.0):7.2f} "
@@ -155,6 +164,7 @@ def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: boo
                 f"{b['rp10']:9.0%} {b['rpm50']:8.0%} {b['rpm100']:9.0%} "
                 f"{b.get('kernel_evals_per_s', float('nan')):15.3g}")
         rma = bench_rma(preset, snr, max(1, min(repeats, 5)))
+        pbar.update()
         if rma is not None:
             lines.append(
                 f"{label:12s} {'inf' if snr is None else f'{snr:g}':>4s} {'rma':11s} "
@@ -162,12 +172,16 @@ def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: boo
                 f"{rma['rpm50']:8.0%} {rma['rpm100']:9.0%} {'':17s}  "
                 f"({rma['label']}, {rma['points']} points)")
         if das is not None:
-            for b in bench_das(das, preset, snr, max(1, min(repeats, 5)), volume=volume):
+            pbar.set_postfix_str(f"{label} das")
+            rows_das = bench_das(das, preset, snr, max(1, min(repeats, 5)), volume=volume)
+            pbar.update()
+            for b in rows_das:
                 lines.append(
                     f"{label:12s} {'inf' if snr is None else f'{snr:g}':>4s} {'das':11s} "
                     f"{b['total_ms']:8.1f} {'':7s} {'':6s} {'':7s} {'':6s} {'':7s} {'-':>9s} "
                     f"{b['rpm50']:8.0%} {b['rpm100']:9.0%} {b['bp_per_s']:12.3g} bp/s  "
                     f"({b['label']}, {b['points']} points)")
+    pbar.close()
     lines.append(f"(wall time of the benchmark: {time.perf_counter() - t0:.1f} s.  Times in ms: "
                  "total, decomp(osition), RPs (extraction) and RPM are stage medians; isect and "
                  "score are the intersection and scoring kernels of one extra run with each "

@@ -1,13 +1,20 @@
-"""Command line: ``rpm-cl {info,simulate,image,das,rma,view,reproduce,demo,bench}``.
+"""Command line: ``rpm-cl {info,simulate,image,params,das,rma,view,reproduce,demo,bench}``.
 
 Every error the user can cause (bad input file, bad option, no OpenCL) is
 reported as one line ``rpm-cl: error: ...`` on stderr with exit code 2.
+Every subcommand takes ``-v/--verbose`` (resolved parameters and stage
+timings on stderr, through the ``rpm_cl`` logger) and ``-q/--quiet`` (nothing
+but errors); those that image take ``--config FILE.toml`` and a flag per
+parameter (:mod:`rpm_cl.config`).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
+import logging
 import sys
 from dataclasses import asdict
 
@@ -17,6 +24,8 @@ from . import __version__
 from .cl import NoOpenCLError
 
 __all__ = ["main"]
+
+log = logging.getLogger("rpm_cl")
 
 
 class CLIError(Exception):
@@ -146,14 +155,42 @@ def cmd_simulate(args) -> int:
     return 0
 
 
-def _params(args, data):
-    from .imaging import default_params
+def _params(args, data, base=None):
+    """Imaging parameters: flags over --config over ``base`` (a preset's
+    values) over the defaults derived from ``data``."""
+    from .config import dump_toml, flag_values, merge, resolve, settings
 
-    return default_params(data, sigma_x=args.sigma_x, sigma_r=args.sigma_r,
-                          window_x=args.window_x, window_z=args.window_z)
+    flags = flag_values(args)
+    sources = {k: str(args.config) for k in args.cfg_file}
+    sources.update({(s.section, s.name): s.flag for s in settings() if (s.section, s.name) in flags})
+    params = resolve(data, merge(args.cfg_file, flags), base, sources)
+    if log.isEnabledFor(logging.INFO):
+        log.info("resolved parameters:\n%s", dump_toml(params, comments=False).rstrip())
+    return params
+
+
+def _load_config(args) -> None:
+    """--config read into ``args.cfg_file``; --device/--precision resolved
+    (flag, else file, else default) into ``args.device``/``args.precision``."""
+    from .config import flag_values, load_config, merge, resolve_engine
+
+    args.cfg_file = load_config(args.config) if args.config else {}
+    flags = flag_values(args)
+    sources = {k: str(args.config) for k in args.cfg_file}
+    engine = resolve_engine(merge(args.cfg_file, flags), sources)
+    args.device, args.precision = engine.device, engine.precision
+    args.engine_params = engine
+
+
+def _imaging_config_unused(args, what: str) -> None:
+    if any(k[0] != "engine" for k in args.cfg_file):
+        log.warning("%s: only the [engine] section of %s applies (%s uses the paper's "
+                    "parameters of each scene)", args.command, args.config, what)
 
 
 def cmd_image(args) -> int:
+    import time
+
     from .formats import RESULT_EXTENSIONS, check_output, load_data, save_result
     from .imaging import run_method
     from .metrics import summary
@@ -162,19 +199,46 @@ def cmd_image(args) -> int:
     data = load_data(args.input, frame=args.frame, range_window=args.range_window)
     params = _params(args, data)
     engine, env = _engine(args)
+    verbose = log.isEnabledFor(logging.INFO) and hasattr(engine, "kernel_times")
+    if verbose:  # each kernel waited for and timed
+        engine.timing = True
     result = run_method(args.method, data, params, engine)
     meta = {"version": __version__, "device": env.name, "precision": args.precision,
             "input": args.input, "frame": args.frame, "range_window": args.range_window,
             "params": asdict(params)}
     if data.truth is not None and data.truth.scene not in ("", "{}"):
         meta["scene"] = json.loads(data.truth.scene)  # for `rpm-cl view`
+    t0 = time.perf_counter()
     save_result(args.output, result, meta)
+    stages = {**result.timings, "write": time.perf_counter() - t0}
+    if verbose:
+        stages.update({f"rpm.{k}": v for k, v in engine.kernel_times.items()})
+    log.info("stage timings (ms): %s", ", ".join(f"{k} {1e3 * v:.1f}" for k, v in stages.items()))
     print(f"{args.method}: {len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} "
           f"clusters -> {len(result.image.points)} points, "
           f"{1e3 * result.timings['total']:.1f} ms; wrote {args.output}")
     if data.truth is not None:
         s = summary(result.rps, result.image, data.truth)
         print(_accuracy_line(s))
+    return 0
+
+
+def cmd_params(args) -> int:
+    from .config import dump_toml
+    from .data import atomic_write_text
+    from .formats import load_data
+
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
+    params = _params(args, data)
+    text = dump_toml(params, args.engine_params,
+                     header=f"rpm-cl {__version__}: parameters resolved for {args.input}\n"
+                            "(derived from the data, then --config, then flags); read back "
+                            "with --config.\n\"auto\" stands for None: see each key's comment.")
+    if args.output:
+        atomic_write_text(args.output, text)
+        print(f"wrote {args.output}")
+    else:
+        print(text, end="")
     return 0
 
 
@@ -189,15 +253,16 @@ def _accuracy_line(s: dict) -> str:
 def cmd_reproduce(args) -> int:
     from .reproduce import format_table, reproduce, write_json
 
+    _imaging_config_unused(args, "reproduce")
     engine, env = _engine(args)
-    progress = (lambda m: print(f"  running {m}", file=sys.stderr)) if args.verbose else None
+    progress = (lambda m: log.info("running %s", m)) if log.isEnabledFor(logging.INFO) else None
     das = None
     if not args.no_das:
         from .das import DeviceDAS
 
         das = DeviceDAS(env, args.precision)
     rows = reproduce(args.name, engine, trials=args.trials, seed=args.seed, progress=progress,
-                     das=das, skip_volume=args.skip_volume, rma=not args.no_rma)
+                     das=das, skip_volume=args.skip_volume, rma=not args.no_rma, bar=None)
     print(f"{args.name} on {env.name} ({args.precision}); noisy rows pooled over "
           f"{args.trials} noise realisations")
     print(format_table(rows))
@@ -210,14 +275,14 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from .imaging import default_params, timed_run
+    from .imaging import timed_run
     from .metrics import summary
     from .simulate import simulate_preset
 
     engine, env = _engine(args)
     print(f"rpm-cl {__version__} demo on {env.name}")
     data, preset = simulate_preset("paper-2d", None, seed=args.seed)
-    params = default_params(data, **preset.defaults)
+    params = _params(args, data, preset.defaults)
     print("\npaper-2d: 3 point targets within 80 mm of range (0.1 of the 750 mm range "
           "resolution), 21 antennas at 5 mm, noise-free")
     for method in ("kspace-rpm", "mf-rpm"):
@@ -225,8 +290,8 @@ def cmd_demo(args) -> int:
         print(f"  {method:10s}: {len(r.rps):3d} RPs -> {len(r.image.points):3d} points in "
               f"{1e3 * sec:6.2f} ms | {_accuracy_line(summary(r.rps, r.image, data.truth))}")
 
-    data, preset = simulate_preset("human-body", args.snr, seed=args.seed)
-    params = default_params(data, **preset.defaults)
+    data, preset = simulate_preset("human-body", args.snr, seed=args.seed, progress=None)
+    params = _params(args, data, preset.defaults)
     res, sec, stages = timed_run("kspace-rpm", data, params, engine)
     label = "noise-free" if args.snr is None else f"S/N {args.snr:g} dB"
     print(f"\nhuman-body: 11 ellipsoids about 1 m away, 20 GHz / 3 GHz, 11 x 17 antennas "
@@ -286,6 +351,7 @@ def cmd_das(args) -> int:
 
     from .das import DeviceDAS, das_numpy, parse_grid
     from .formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
+    from .progress import callback
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
     data = load_data(args.input, frame=args.frame, range_window=args.range_window)
@@ -307,16 +373,18 @@ def cmd_das(args) -> int:
         device, dtype = env.name, dev.cplx
 
         def fill(out):
-            t0 = time.perf_counter()
-            dev.backproject(data, grid, out=out)
-            timing["seconds"] = time.perf_counter() - t0
+            with callback(None, total=grid.size, desc="das", unit="voxel") as bar:
+                t0 = time.perf_counter()
+                dev.backproject(data, grid, out=out, progress=bar)
+                timing["seconds"] = time.perf_counter() - t0
     else:
         device, dtype = "numpy (float64)", np.complex128
 
         def fill(out):
-            t0 = time.perf_counter()
-            das_numpy(data, grid, budget, out=out)
-            timing["seconds"] = time.perf_counter() - t0
+            with callback(None, total=grid.size, desc="das", unit="voxel") as bar:
+                t0 = time.perf_counter()
+                das_numpy(data, grid, budget, out=out, progress=bar)
+                timing["seconds"] = time.perf_counter() - t0
 
     meta = {"version": __version__, "method": "das", "backend": args.backend, "device": device,
             "precision": args.precision if args.backend == "opencl" else "float64",
@@ -352,6 +420,7 @@ def cmd_rma(args) -> int:
 def cmd_bench(args) -> int:
     from .bench import run_bench
 
+    _imaging_config_unused(args, "bench")
     engine, env = _engine(args)
     das = None
     if not args.no_das:
@@ -359,7 +428,7 @@ def cmd_bench(args) -> int:
 
         das = DeviceDAS(env, args.precision)
     print(run_bench(engine, env, repeats=args.repeats, scenes=args.scene, das=das,
-                    volume=args.das_volume))
+                    volume=args.das_volume, bar=None))
     return 0
 
 
@@ -376,10 +445,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     def device_opts(sp):
-        sp.add_argument("--device", help="OpenCL device: 'P:D' indices or a name substring "
-                        "(default: PYOPENCL_CTX, else the first CPU device)")
-        sp.add_argument("--precision", choices=("float32", "float64"), default="float32",
-                        help="kernel arithmetic (default float32)")
+        # --device, --precision: the [engine] section (rpm_cl.config.EngineParams)
+        from .config import add_flags
+
+        sp.add_argument("--config", metavar="FILE.toml",
+                        help="parameters from this TOML file (flags override it; see "
+                             "`rpm-cl params` and examples/config.toml)")
+        add_flags(sp, ("engine",))
 
     def input_opts(sp):
         sp.add_argument("--frame", type=_frame, help="frame N (from 0) of a stacked input "
@@ -404,15 +476,19 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("input")
     sp.add_argument("-o", "--output", required=True)
     sp.add_argument("--method", choices=sorted(METHODS), default="kspace-rpm")
-    sp.add_argument("--sigma-x", type=float, help="sigma_x (sigma_D) of eq. 6/11, m (default: "
-                    "the aperture for linear arrays, 2.5 antenna spacings for planar ones)")
-    sp.add_argument("--sigma-r", type=float, help="sigma_r of eq. 6, m (default 0.05)")
-    sp.add_argument("--window-x", type=float, help="k_x window period, rad/m (default 417 for "
-                    "linear arrays, 100 for planar ones)")
-    sp.add_argument("--window-z", type=float, help="k_z window period, rad/m")
     input_opts(sp)
     device_opts(sp)
+    param_opts(sp)
     sp.set_defaults(func=cmd_image)
+
+    sp = sub.add_parser("params", help="print the parameters resolved for an input as TOML "
+                        "(a starting --config)")
+    sp.add_argument("input")
+    sp.add_argument("-o", "--output", help="write the TOML here instead of stdout")
+    input_opts(sp)
+    device_opts(sp)
+    param_opts(sp)
+    sp.set_defaults(func=cmd_params)
 
     sp = sub.add_parser("reproduce", help="reproduce the paper's tables")
     sp.add_argument("name", choices=sorted(CASES))
@@ -423,7 +499,6 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--skip-volume", action="store_true",
                     help="leave out the full 2 m x 2 m x 2 m DAS volume of paper-3d (minutes)")
     sp.add_argument("--seed", type=_seed, default=0)
-    sp.add_argument("-v", "--verbose", action="store_true")
     device_opts(sp)
     sp.set_defaults(func=cmd_reproduce)
 
@@ -433,6 +508,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "(default: noise-free)")
     sp.add_argument("--png", help="also draw the human-body image here (needs pyvista)")
     device_opts(sp)
+    param_opts(sp)
     sp.set_defaults(func=cmd_demo)
 
     sp = sub.add_parser("view", help="draw an image result (3-D: pyvista; 2-D: matplotlib)")
@@ -472,7 +548,24 @@ def build_parser() -> argparse.ArgumentParser:
                     help="add the human body's full 2 m x 2 m x 2 m DAS volume at 3 mm (minutes)")
     device_opts(sp)
     sp.set_defaults(func=cmd_bench)
+    for sp in sub.choices.values():  # every subcommand, those added later too
+        common_opts(sp)
     return p
+
+
+def common_opts(sp) -> None:
+    """-v/--verbose and -q/--quiet (a group of every subcommand)."""
+    g = sp.add_mutually_exclusive_group()
+    g.add_argument("-v", "--verbose", action="store_true",
+                   help="resolved parameters and stage timings on stderr")
+    g.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
+
+
+def param_opts(sp) -> None:
+    """A flag per imaging parameter ([kspace], [rpm], [imaging] of --config)."""
+    from .config import add_flags
+
+    add_flags(sp, ("kspace", "rpm", "imaging"))
 
 
 def main(argv=None) -> int:
@@ -480,9 +573,23 @@ def main(argv=None) -> int:
     from .data import InputError
 
     argv = _bind_negative_values(list(sys.argv[1:] if argv is None else argv))
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("rpm-cl: %(message)s"))
     try:
         args = build_parser().parse_args(argv)
-        return args.func(args)
+        log.addHandler(handler)
+        log.propagate = False
+        log.setLevel(logging.ERROR if args.quiet else logging.INFO if args.verbose
+                     else logging.WARNING)
+        with contextlib.ExitStack() as stack:
+            if args.quiet:
+                from .progress import bars_off
+
+                stack.enter_context(bars_off())
+                stack.enter_context(contextlib.redirect_stdout(io.StringIO()))
+            if hasattr(args, "config"):
+                _load_config(args)
+            return args.func(args)
     except (CLIError, InputError, NoOpenCLError) as exc:
         print(f"rpm-cl: error: {exc}", file=sys.stderr)
         return 2
@@ -504,6 +611,8 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("rpm-cl: interrupted", file=sys.stderr)
         return 130
+    finally:
+        log.removeHandler(handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

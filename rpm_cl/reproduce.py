@@ -89,8 +89,9 @@ DAS_GRIDS = {
 }
 
 
-def das_points(das, data, grid, kind: str):
-    """Run the DAS kernel on ``grid`` and turn the image into points (m).
+def das_points(das, data, grid, kind: str, progress=False):
+    """Run the DAS kernel on ``grid`` and turn the image into points (m);
+    ``progress`` (the volume's bar) as in :func:`rpm_cl.progress.callback`.
 
     Returns
     -------
@@ -118,9 +119,12 @@ def das_points(das, data, grid, kind: str):
                 best[x] = np.where(better, v, best[x])
                 best_y[x] = np.where(better, iy[sel][k], best_y[x])
 
-        t0 = time.perf_counter()
-        das.backproject(data, grid, reduce=reduce)
-        sec = time.perf_counter() - t0
+        from .progress import callback
+
+        with callback(progress, desc="das volume", unit="voxel") as cb:
+            t0 = time.perf_counter()
+            das.backproject(data, grid, reduce=reduce, progress=cb)
+            sec = time.perf_counter() - t0
         keep = np.nonzero(best >= best.max() * 10 ** (-10 / 20)) if best.max() > 0 else ([], [])
         pts = np.stack([grid.x[keep[0]], grid.y[best_y[keep]], grid.z[keep[1]]], axis=1)
         return pts, sec
@@ -193,7 +197,7 @@ def _rma_rows(case, preset_name, snr, datasets, progress):
                      grid=label, **tot)]
 
 
-def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress):
+def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress, bar=False):
     from .das import parse_grid
     from .metrics import cumulative, err_rpm
 
@@ -207,7 +211,7 @@ def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress)
         tot = dict.fromkeys(("rpm_total", "rpm_within_50mm", "rpm_within_100mm"), 0)
         times = []
         for data, _ in datasets:
-            pts, sec = das_points(das, data, grid, kind)
+            pts, sec = das_points(das, data, grid, kind, bar)
             times.append(sec)
             e = err_rpm(pts, data.truth)
             tot["rpm_total"] += len(e)
@@ -220,7 +224,7 @@ def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress)
 
 def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
               progress=None, das=None, skip_volume: bool = False,
-              rma: bool = True) -> list[ReproRow]:
+              rma: bool = True, bar: bool | None = False) -> list[ReproRow]:
     """Run every case of reproduction ``name`` with every method.
 
     Parameters
@@ -243,24 +247,38 @@ def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
         Leave out the full-volume DAS row (minutes on a CPU).
     rma : bool
         Add the RMA rows of :data:`RMA_IMAGES` (linear arrays).
+    bar : bool or None
+        Progress bars on stderr (rows x trials; the DAS volume):
+        False none (default), None on a terminal, True always
+        (:func:`rpm_cl.progress.progress`).
     """
     if name not in CASES:
         raise InputError(f"unknown reproduction {name!r}; choose from {', '.join(CASES)}")
     if trials < 1:
         raise InputError(f"trials must be >= 1, got {trials}")
+    from .progress import progress as progress_bar
+
     methods = list(methods or METHODS)
     rows = []
+    # one step per (scene, S/N, trial): simulation and every method on it
+    steps = sum(1 if snr is None else trials for _, snrs in CASES[name].values() for snr in snrs)
+    pbar = progress_bar(total=steps * (len(methods) + 1), desc=name, enabled=bar, unit="run")
     for case, (preset_name, snrs) in CASES[name].items():
         for snr in snrs:
             n_trials = 1 if snr is None else trials
-            datasets = [simulate_preset(preset_name, snr, seed + t) for t in range(n_trials)]
+            datasets = []
+            for t in range(n_trials):
+                datasets.append(simulate_preset(preset_name, snr, seed + t))
+                pbar.update()
             for method in methods:
                 if progress:
                     progress(f"{case} {method} S/N={'inf' if snr is None else snr}")
+                pbar.set_postfix_str(f"{case} {method} S/N={'inf' if snr is None else snr}")
                 tot = {"rp_total": 0, "rp_within_10mm": 0, "rpm_total": 0,
                        "rpm_within_50mm": 0, "rpm_within_100mm": 0}
                 times = []
                 for data, preset in datasets:
+                    pbar.update()
                     params = default_params(data, **preset.defaults)
                     res, seconds, _ = timed_run(method, data, params, engine)
                     times.append(seconds)
@@ -270,9 +288,11 @@ def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
                 rows.append(ReproRow(case, method, snr, n_trials, seconds=float(np.median(times)),
                                      **tot))
             if das is not None:
-                rows += _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress)
+                rows += _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress,
+                                       bar)
             if rma:
                 rows += _rma_rows(case, preset_name, snr, datasets, progress)
+    pbar.close()
     return rows
 
 

@@ -155,7 +155,7 @@ def _receiver_grid(waveform: Waveform, r_max: float):
 
 def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_axis,
                snr_db: float | None = None, rng: np.random.Generator | None = None,
-               receiver_fs: float | None = None):
+               receiver_fs: float | None = None, progress: bool | None = False):
     """Matched-filter output of a set of echoes, with optional receiver noise.
 
     Parameters
@@ -179,6 +179,9 @@ def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_a
         Complex sample rate of the received signal, Hz, over which the noise is
         white; default ``max(c / (2 dr), 2 B)`` for the spacing ``dr`` of
         ``range_axis``.  Must be >= 2 B.
+    progress : bool or None
+        Progress bar on stderr (:func:`rpm_cl.progress.progress`): False
+        none (default), None on a terminal, True always.
 
     Returns
     -------
@@ -193,9 +196,18 @@ def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_a
         raise InputError(f"receiver_fs must be >= 2*bandwidth, got {receiver_fs:g} Hz")
     n_rx = receiver_fs * window  # receiver samples in the window (unitary DFT size)
     y = np.zeros((n_antennas, f.size), np.complex128)
-    if len(antenna):
-        phase = np.exp(-2j * np.pi * (waveform.fc + f)[None, :] * (2.0 * np.asarray(rng_e)[:, None] / C0))
-        np.add.at(y, np.asarray(antenna), np.asarray(amp)[:, None] * phase)
+    # the work in blocks (echoes, antennas), each block one step of the bar;
+    # blocks in order, so the sums are the same as without them
+    e_step, a_step, mf_step = max(1, (1 << 22) // max(1, f.size)), 256, 1024
+    steps = (-(-len(antenna) // e_step) + (-(-n_antennas // a_step) if snr_db is not None else 0)
+             + -(-n_antennas // mf_step))
+    bar = _bar(progress, steps)
+    rng_e, amp, antenna = np.asarray(rng_e), np.asarray(amp), np.asarray(antenna)
+    for lo in range(0, len(antenna), e_step):
+        sl = slice(lo, lo + e_step)
+        phase = np.exp(-2j * np.pi * (waveform.fc + f)[None, :] * (2.0 * rng_e[sl, None] / C0))
+        np.add.at(y, antenna[sl], amp[sl, None] * phase)
+        bar.update()
     y *= p
     if snr_db is not None:
         if rng is None:
@@ -205,9 +217,10 @@ def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_a
         # taken on a time grid 16 times finer than 1 / (2 B).
         t = np.arange(int(np.ceil(16 * 2 * waveform.bandwidth * window))) * (window / np.ceil(16 * 2 * waveform.bandwidth * window))
         peak = 0.0
-        for lo in range(0, n_antennas, 256):
-            r_t = y[lo:lo + 256] @ np.exp(2j * np.pi * f[:, None] * t[None, :]) / np.sqrt(n_rx)
+        for lo in range(0, n_antennas, a_step):
+            r_t = y[lo:lo + a_step] @ np.exp(2j * np.pi * f[:, None] * t[None, :]) / np.sqrt(n_rx)
             peak = max(peak, float(np.max(np.abs(r_t) ** 2)) if r_t.size else 0.0)
+            bar.update()
         if peak > 0:
             # white noise of variance sigma2 per receiver sample has variance
             # sigma2 in every bin of the unitary DFT; out-of-band bins are
@@ -216,12 +229,25 @@ def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_a
             noise = rng.standard_normal((n_antennas, f.size, 2)) @ np.array([1.0, 1j])
             y += np.sqrt(sigma2 / 2.0) * noise
     mf = np.conj(p)[:, None] * np.exp(4j * np.pi * f[:, None] * range_axis[None, :] / C0)
-    return (y @ mf) / np.sum(np.abs(p) ** 2)
+    out = np.empty((n_antennas, range_axis.size), np.complex128)
+    for lo in range(0, n_antennas, mf_step):
+        np.matmul(y[lo:lo + mf_step], mf, out=out[lo:lo + mf_step])
+        bar.update()
+    bar.close()
+    out /= np.sum(np.abs(p) ** 2)
+    return out
+
+
+def _bar(progress, total):
+    from .progress import progress as bar
+
+    return bar(total=total, desc="simulate", enabled=progress, unit="block")
 
 
 def simulate(scene: Scene, array: Array, waveform: Waveform, range_axis,
              snr_db: float | None = None, seed: int | None = None,
-             boundary_spacing: float = 1e-3, receiver_fs: float | None = None) -> RadarData:
+             boundary_spacing: float = 1e-3, receiver_fs: float | None = None,
+             progress: bool | None = False) -> RadarData:
     """Simulate a scene: echoes, interference, noise, matched filter, truth.
 
     Parameters
@@ -239,6 +265,8 @@ def simulate(scene: Scene, array: Array, waveform: Waveform, range_axis,
         Spacing of the true-boundary samples stored for Err_RPM, m.
     receiver_fs : float, optional
         See :func:`synthesize`.
+    progress : bool or None
+        See :func:`synthesize`.
 
     Returns
     -------
@@ -249,15 +277,17 @@ def simulate(scene: Scene, array: Array, waveform: Waveform, range_axis,
         raise InputError(f"snr must be finite, got {snr_db}")
     ant, r_e, a_e, _ = echoes(scene, array)
     sig = synthesize(ant, r_e, a_e, array.n, waveform, range_axis, snr_db,
-                     np.random.default_rng(seed), receiver_fs)
+                     np.random.default_rng(seed), receiver_fs, progress)
     sig = sig.reshape(array.shape + (np.size(range_axis),))
     boundary = np.concatenate([boundary_samples(t, boundary_spacing) for t in scene.targets])
     truth = Truth(ant, r_e, boundary, scene.to_json())
     return RadarData(sig, array, range_axis, waveform, truth)
 
 
-def simulate_preset(name: str, snr_db: float | None = None, seed: int | None = None):
-    """Simulate a named preset (:data:`rpm_cl.scene.PRESETS`).
+def simulate_preset(name: str, snr_db: float | None = None, seed: int | None = None,
+                    progress: bool | None = False):
+    """Simulate a named preset (:data:`rpm_cl.scene.PRESETS`); ``progress``
+    as in :func:`synthesize`.
 
     Returns
     -------
@@ -268,5 +298,5 @@ def simulate_preset(name: str, snr_db: float | None = None, seed: int | None = N
 
     preset = get_preset(name)
     data = simulate(preset.scene, preset.array, preset.waveform, preset.range_axis, snr_db, seed,
-                    boundary_spacing=preset.boundary_spacing)
+                    boundary_spacing=preset.boundary_spacing, progress=progress)
     return data, preset
