@@ -57,6 +57,8 @@ PLUGIN_NAME = "rpm-cl-batch-engine"
 #: File suffixes taken as frames in an input folder.
 NPZ_SUFFIXES = (".npz",)
 H5_SUFFIXES = (".h5", ".hdf5")
+#: DAS variants of a batch (see :class:`BatchConfig`).
+DAS_REUSE = ("auto", "plan", "direct")
 
 
 class FrameSource(NamedTuple):
@@ -88,6 +90,12 @@ class BatchConfig:
     memory_budget : float
         Bytes the DAS reuse tables may take per worker; beyond it each frame
         is back-projected directly on the device.
+    das_reuse : {"auto", "plan", "direct"}
+        DAS per frame with the reuse tables (:class:`rpm_cl.das.DASPlan`,
+        built once per worker and geometry), with the direct OpenCL
+        back-projection, or (``auto``) whichever of the two was faster on the
+        worker's first frame of that geometry (the tables are built there and
+        dropped if the kernel wins).
     """
 
     method: str = "kspace-rpm"
@@ -96,6 +104,7 @@ class BatchConfig:
     precision: str = "float32"
     das_grid: str | None = None
     memory_budget: float = 2e9
+    das_reuse: str = "auto"
 
     def __post_init__(self):
         from .imaging import METHODS
@@ -108,6 +117,9 @@ class BatchConfig:
             self.grid()  # validates
         if not (np.isfinite(self.memory_budget) and self.memory_budget > 0):
             raise InputError(f"memory_budget must be > 0 bytes, got {self.memory_budget}")
+        if self.das_reuse not in DAS_REUSE:
+            raise InputError(f"das_reuse must be one of {', '.join(DAS_REUSE)}, "
+                             f"got {self.das_reuse!r}")
 
     def grid(self):
         """The DAS :class:`rpm_cl.das.Grid`, or None."""
@@ -202,14 +214,15 @@ class _WorkerEngine(_WorkerPlugin):
 
     name = PLUGIN_NAME
 
-    def __init__(self, device: str | None, precision: str, das: bool, memory_budget: float):
+    def __init__(self, device: str | None, precision: str, das: bool, memory_budget: float,
+                 das_reuse: str = "auto"):
         self.device, self.precision, self.das = device, precision, das
-        self.memory_budget = memory_budget
+        self.memory_budget, self.das_reuse = memory_budget, das_reuse
 
     def setup(self, worker=None):
         self._lock = threading.Lock()
         self._built = None
-        self._plan = None  # (geometry key, DASPlan or None when over budget)
+        self._plan = None  # (geometry key, "plan" | "direct", DASPlan or None)
 
     def teardown(self, worker=None):
         self._built = self._plan = None
@@ -235,8 +248,8 @@ class _WorkerEngine(_WorkerPlugin):
             return (env, rpm, das, time.perf_counter() - t0)
 
     def das_image(self, das, data: RadarData, grid):
-        """DAS image of ``data``: with the reuse tables of its geometry when
-        they fit the budget (built once per geometry), else direct on the device.
+        """DAS image of ``data`` by the variant chosen for its geometry (the
+        first frame of a geometry chooses, see :class:`BatchConfig`).
 
         Returns
         -------
@@ -244,21 +257,40 @@ class _WorkerEngine(_WorkerPlugin):
         mode : str
             "plan" or "direct".
         """
-        from .das import DASPlan
-
         key = (data.signal.shape, float(data.range[0]), data.dr, data.waveform.fc,
-               data.array.positions().tobytes())
+               data.array.positions().tobytes(), grid.shape, grid.x[0], grid.y[0])
         with self._lock:
             if self._plan is None or self._plan[0] != key:
-                try:
-                    plan = DASPlan(data, grid, self.memory_budget)
-                except InputError:  # over the budget
-                    plan = None
-                self._plan = (key, plan)
-            plan = self._plan[1]
-        if plan is not None:
-            return plan.apply(data), "plan"
-        return das.backproject(data, grid), "direct"
+                self._plan = None  # free the old tables first
+                mode, plan, img = self._choose(das, data, grid)
+                self._plan = (key, mode, plan)
+                return img, mode
+            _, mode, plan = self._plan
+        if mode == "plan":
+            return plan.apply(data), mode
+        return das.backproject(data, grid), mode
+
+    def _choose(self, das, data, grid):
+        """(mode, plan or None, this frame's image)."""
+        from .das import DASPlan
+
+        if self.das_reuse == "direct":
+            return "direct", None, das.backproject(data, grid)
+        try:
+            plan = DASPlan(data, grid, self.memory_budget)
+        except InputError:  # the tables exceed the budget
+            return "direct", None, das.backproject(data, grid)
+        t0 = time.perf_counter()
+        img = plan.apply(data)
+        t_plan = time.perf_counter() - t0
+        if self.das_reuse == "plan":
+            return "plan", plan, img
+        das.backproject(data, grid)  # warm-up: PoCL compiles at the first launch
+        t0 = time.perf_counter()
+        direct = das.backproject(data, grid)
+        if time.perf_counter() - t0 < t_plan:
+            return "direct", None, direct
+        return "plan", plan, img
 
 
 def _error_line(exc: BaseException) -> str:
@@ -486,7 +518,8 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
             t0 = time.perf_counter()
             client.register_plugin(_WorkerEngine(config.device, config.precision,
                                                  config.das_grid is not None,
-                                                 config.memory_budget), name=PLUGIN_NAME)
+                                                 config.memory_budget, config.das_reuse),
+                                   name=PLUGIN_NAME)
             futures = client.map(_image_frame, todo, out_dir=out_dir, config=config,
                                  pure=False, retries=1)
             by_key = {f.key: s for f, s in zip(futures, todo)}

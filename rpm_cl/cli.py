@@ -357,7 +357,7 @@ def cmd_batch(args) -> int:
                                           ("window_x", args.window_x), ("window_z", args.window_z))
                       if v is not None)
     config = BatchConfig(args.method, overrides, args.device, args.precision, args.das_grid,
-                         args.memory_budget * 1e9)
+                         args.memory_budget * 1e9, args.das_reuse)
 
     def progress(rec):
         if args.verbose:
@@ -490,6 +490,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "(as `das --grid`)")
     sp.add_argument("--memory-budget", type=_budget_gb, default=2.0,
                     help="GB per worker for the DAS reuse tables (default 2)")
+    sp.add_argument("--das-reuse", choices=("auto", "plan", "direct"), default="auto",
+                    help="DAS per frame from reuse tables built once per worker, by the direct "
+                    "kernel, or whichever was faster on the first frame (default auto)")
     sp.add_argument("-v", "--verbose", action="store_true", help="one line per frame")
     device_opts(sp)
     sp.set_defaults(func=cmd_batch)
