@@ -31,13 +31,23 @@ def frames_dir(tmp_path_factory):
     return d
 
 
+def _local_cluster(workers=1):
+    import warnings
+
+    from distributed import LocalCluster
+
+    with warnings.catch_warnings():  # "Port 8787 is already in use": another port is taken
+        warnings.filterwarnings("ignore", message="Port .* is already in use")
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                            dashboard_address=None)
+
+
 @pytest.fixture(scope="module")
 def client():
     """One embedded cluster for the tests that do not go through the CLI."""
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as c:
+    with _local_cluster() as cluster, Client(cluster) as c:
         yield c
 
 
@@ -95,6 +105,20 @@ def test_restart_skips_done_frames(frames_dir, tmp_path, client):
     s = run_batch(frames_dir, out)
     assert (s.done, s.skipped, s.workers) == (0, 3, 0)
     assert _summary(out)["skipped"] == 3
+
+
+def test_cli_on_an_existing_scheduler(frames_dir, tmp_path, client, capsys):
+    from rpm_cl.batch import PLUGIN_NAME
+
+    out = tmp_path / "out"
+    assert main(["batch", str(frames_dir), "-o", str(out), "--scheduler",
+                 client.scheduler.address]) == 0
+    assert "3 done" in capsys.readouterr().out
+    s = _summary(out)
+    assert s["scheduler"] == client.scheduler.address and s["workers"] == 1 and s["done"] == 3
+    # the cluster is not ours: the workers' OpenCL state is released afterwards
+    held = client.run(lambda dask_worker: PLUGIN_NAME in dask_worker.plugins)
+    assert held and not any(held.values())
 
 
 def test_das_per_frame_with_reuse_tables(frames_dir, tmp_path, client, cl_env):
@@ -173,14 +197,13 @@ class _KillOnce(distributed.WorkerPlugin):
 
 def test_frame_of_a_dead_worker_is_retried(frames_dir, tmp_path):
     import cloudpickle
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     from rpm_cl.batch import run_batch
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
     marker = tmp_path / "killed"
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as c:
+    with _local_cluster() as cluster, Client(cluster) as c:
         c.register_plugin(_KillOnce(marker), name="kill-once")
         s = run_batch(frames_dir, tmp_path / "out", client=c)
     assert marker.exists()  # a worker did die mid-frame
