@@ -107,10 +107,18 @@ class BatchConfig:
     das_reuse: str = "auto"
 
     def __post_init__(self):
-        from .imaging import METHODS
+        from .imaging import METHODS, RPMParams
+        from .kspace import KSpaceParams
 
         if self.method not in METHODS:
             raise InputError(f"unknown method {self.method!r}; choose from {', '.join(METHODS)}")
+        # the overrides checked once here (as each frame would), not once per frame
+        ov = dict(self.overrides)
+        unknown = set(ov) - {"sigma_x", "sigma_r", "window_x", "window_z"}
+        if unknown:
+            raise InputError(f"unknown imaging parameter(s): {', '.join(sorted(unknown))}")
+        RPMParams(**{k: ov[k] for k in ("sigma_x", "sigma_r") if k in ov})
+        KSpaceParams(**{k: ov[k] for k in ("window_x", "window_z") if k in ov})
         if self.precision not in ("float32", "float64"):
             raise InputError(f"precision must be 'float32' or 'float64', got {self.precision!r}")
         if self.das_grid is not None:
@@ -321,6 +329,10 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
         data = _load_frame(src.path, src.frame)
         timings = {"load": time.perf_counter() - t0}
         params = default_params(data, **dict(config.overrides))
+        grid = config.grid()
+        if grid is not None and grid.dim != data.array.dim:
+            raise InputError(f"{src.path}: --das-grid has {grid.dim} axes; this array needs "
+                             f"{data.array.dim}")
         result = run_method(config.method, data, params, rpm)
         timings.update({k: v for k, v in result.timings.items() if k != "total"})
         meta = {"version": __version__, "device": env.name, "precision": config.precision,
@@ -329,13 +341,9 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
             import json
 
             meta["scene"] = json.loads(data.truth.scene)
-        if config.das_grid is not None:
+        if grid is not None:
             from .das import write_image
 
-            grid = config.grid()
-            if grid.dim != data.array.dim:
-                raise InputError(f"--das-grid has {grid.dim} axes; this array needs "
-                                 f"{data.array.dim}")
             t0 = time.perf_counter()
             img, mode = engine.das_image(das, data, grid)
             timings["das"] = time.perf_counter() - t0

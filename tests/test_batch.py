@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
-from rpm_cl.data import load_npz, save_npz
+from rpm_cl.data import InputError, load_npz, save_npz
 from rpm_cl.imaging import default_params, run_method
 from rpm_cl.simulate import simulate_preset
 
@@ -152,7 +152,7 @@ def _err(capsys, argv):
 
 @pytest.mark.parametrize("case", ["no-input", "empty-dir", "out-parent", "out-file", "out-is-in",
                                   "workers-0", "workers-and-scheduler", "bad-scheduler",
-                                  "bad-grid"])
+                                  "bad-grid", "bad-sigma"])
 def test_user_errors_are_one_line(case, frames_dir, tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     (tmp_path / "file").write_text("x")
@@ -175,6 +175,8 @@ def test_user_errors_are_one_line(case, frames_dir, tmp_path, capsys):
         extra = ["--scheduler", "not a scheduler address"]
     elif case == "bad-grid":
         extra = ["--das-grid", "0:1"]
+    elif case == "bad-sigma":
+        extra = ["--sigma-r", "-0.05"]
     code, err = _err(capsys, ["batch", inp, "-o", out, *extra])
     assert code == 2
     assert err.startswith("rpm-cl: error:") and "\n" not in err
@@ -209,3 +211,32 @@ def test_frame_of_a_dead_worker_is_retried(frames_dir, tmp_path):
     assert marker.exists()  # a worker did die mid-frame
     assert (s.done, s.failed) == (3, [])
     assert len(list((tmp_path / "out").glob("scan*.npz"))) == 3
+
+
+def test_hdf5_frames_named_by_stack_index(tmp_path, monkeypatch):
+    """Frame listing of HDF5 files, through rpm_cl.formats (stand-in here)."""
+    import types
+
+    from rpm_cl.batch import _load_frame, frame_sources
+
+    (tmp_path / "stack.h5").write_bytes(b"")
+    (tmp_path / "single.hdf5").write_bytes(b"")
+    (tmp_path / "a.npz").write_bytes(b"")
+    monkeypatch.setitem(sys.modules, "rpm_cl.formats", None)  # not importable
+    with pytest.raises(InputError, match="HDF5 input needs rpm_cl.formats"):
+        frame_sources(tmp_path)
+    calls = []
+    fake = types.SimpleNamespace(
+        frame_count=lambda p: 3 if p.endswith("stack.h5") else 1,
+        load_data=lambda p, frame=None: calls.append((os.path.basename(p), frame)))
+    monkeypatch.setitem(sys.modules, "rpm_cl.formats", fake)
+    src = frame_sources(tmp_path)
+    assert [(s.name, os.path.basename(s.path), s.frame) for s in src] == [
+        ("a", "a.npz", None), ("single", "single.hdf5", None),
+        ("stack_f0000", "stack.h5", 0), ("stack_f0001", "stack.h5", 1),
+        ("stack_f0002", "stack.h5", 2)]
+    _load_frame(src[3].path, src[3].frame)
+    assert calls == [("stack.h5", 1)]
+    (tmp_path / "single.npz").write_bytes(b"")  # single.npz and single.hdf5: one output name
+    with pytest.raises(InputError, match="same result"):
+        frame_sources(tmp_path)
