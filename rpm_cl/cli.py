@@ -95,6 +95,9 @@ def _bounded_float(lo: float, hi: float, what: str):
     return parse
 
 
+_dynamic_range = _bounded_float(1e-3, 400, "dynamic range must be between 0.001 and 400 dB")
+_iso_db = _bounded_float(-400, -1e-6, "iso-surface level must be below the maximum, in "
+                         "[-400, 0) dB")
 _budget_gb = _bounded_float(1e-3, 1e6, "memory budget must be between 0.001 and 1e6 GB")
 _metres = _bounded_float(-1e4, 1e4, "must be a length in m within +-1e4")
 
@@ -262,7 +265,7 @@ def _points_per_part(points, scene):
 def cmd_view(args) -> int:
     from .view import view
 
-    view(args.input, args.png)
+    view(args.input, args.png, dynamic_range=args.dynamic_range, iso=args.iso)
     if args.png:
         print(f"wrote {args.png}")
     return 0
@@ -412,6 +415,10 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("view", help="draw an image result (3-D: pyvista; 2-D: matplotlib)")
     sp.add_argument("input", help="a result .npz of `rpm-cl image`")
     sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
+    sp.add_argument("--dynamic-range", type=_dynamic_range, default=40.0, metavar="DB",
+                    help="DAS/RMA images: dB below the maximum shown (default 40)")
+    sp.add_argument("--iso", type=_iso_db, metavar="DB", help="3-D DAS images: an iso-surface "
+                    "at this level (dB below the maximum, < 0) instead of slices")
     sp.set_defaults(func=cmd_view)
 
     sp = sub.add_parser("das", help="SAR / delay-and-sum back-projection onto a grid")
