@@ -1,4 +1,4 @@
-"""Command line: ``rpm-cl {info,simulate,image,das,rma,view,reproduce,demo,bench}``.
+"""Command line: ``rpm-cl {info,simulate,image,das,rma,view,figure,reproduce,demo,bench}``.
 
 Every error the user can cause (bad input file, bad option, no OpenCL) is
 reported as one line ``rpm-cl: error: ...`` on stderr with exit code 2.
@@ -271,6 +271,27 @@ def cmd_view(args) -> int:
     return 0
 
 
+def cmd_figure(args) -> int:
+    from .figures import figure
+
+    engine = das = grid = None
+    if args.name == "compare":
+        engine, env = _engine(args)
+        if args.grid:
+            from .das import parse_grid
+
+            grid = parse_grid(args.grid)
+        if args.backend == "opencl":
+            from .das import DeviceDAS
+
+            das = DeviceDAS(env, args.precision)
+    figure(args.name, args.input, args.png, dynamic_range=args.dynamic_range, grid=grid,
+           engine=engine, das=das)
+    if args.png:
+        print(f"wrote {args.png}")
+    return 0
+
+
 def cmd_das(args) -> int:
     import time
 
@@ -420,6 +441,21 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--iso", type=_iso_db, metavar="DB", help="3-D DAS images: an iso-surface "
                     "at this level (dB below the maximum, < 0) instead of slices")
     sp.set_defaults(func=cmd_view)
+
+    sp = sub.add_parser("figure", help="paper-style figures of a data file (matplotlib)")
+    sp.add_argument("name", choices=("kspace", "rps", "compare"),
+                    help="kspace: |S(kx, R)| with the cluster centres; rps: decomposed RPs per "
+                         "cluster over the true RPs; compare: RPM points beside the DAS image")
+    sp.add_argument("input", help="an input .npz (input contract)")
+    sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
+    sp.add_argument("--dynamic-range", type=_dynamic_range, default=40.0, metavar="DB",
+                    help="dB below the maximum shown on the maps (default 40)")
+    sp.add_argument("--grid", help="compare: the DAS grid 'x0:x1:dx,y0:y1:dy', m (default: the "
+                    "scene's box plus 0.15 m, at most 400 pixels a side)")
+    sp.add_argument("--backend", choices=("opencl", "numpy"), default="opencl",
+                    help="compare: where DAS runs")
+    device_opts(sp)
+    sp.set_defaults(func=cmd_figure)
 
     sp = sub.add_parser("das", help="SAR / delay-and-sum back-projection onto a grid")
     sp.add_argument("input")

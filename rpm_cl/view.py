@@ -79,7 +79,7 @@ def load_result(path) -> dict:
         raise InputError(f"{path}: no such file") from None
     except KeyError as exc:
         raise InputError(f"{path}: not an rpm-cl image result (missing {exc})") from None
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is one line
         raise InputError(f"{path}: not a readable result file ({type(exc).__name__}: "
                          f"{_oneline(exc)})") from None
     pts = out["points"]
