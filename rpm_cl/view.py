@@ -283,12 +283,15 @@ class DASImage:
     meta : dict
     mapped : bool
         Whether ``image`` is a memory map (not read into memory).
+    path : str
+        The file, for messages.
     """
 
     image: np.ndarray
     axes: tuple
     meta: dict
     mapped: bool
+    path: str = ""
 
     @property
     def dim(self) -> int:
@@ -373,7 +376,7 @@ def load_das_image(path) -> DASImage:
             raise InputError(f"{path}: {name} must be a finite, strictly increasing axis of "
                              f"{n} values (the image's shape {img.shape}), got {a.dtype} {a.shape}")
     axes = tuple(a.astype(np.float64) for a in axes)
-    return DASImage(img, axes, meta, mapped)
+    return DASImage(img, axes, meta, mapped, path)
 
 
 def _block_max(img: DASImage, max_side: int):
@@ -402,7 +405,7 @@ def _block_max(img: DASImage, max_side: int):
     for r0 in range(0, a.shape[0], rows):
         slab = np.abs(np.asarray(a[r0:r0 + rows])).astype(np.float32)
         if not np.all(np.isfinite(slab)):
-            raise InputError("the image contains NaN or Inf")
+            raise InputError(f"{img.path}: the image contains NaN or Inf")
         j = np.unravel_index(int(np.argmax(slab)), slab.shape)
         if slab[j] > top:
             top, peak = float(slab[j]), (r0 + int(j[0]),) + tuple(int(v) for v in j[1:])
