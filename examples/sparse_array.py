@@ -59,7 +59,7 @@ def main(quick=False, png=None):
         fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
         c = Comparison(rpm.image.points, rpm.image.cluster, grid, das, data.truth.boundary,
                        data.array.x)
-        fig.colorbar(draw_compare(c, axes, 30.0), ax=axes[0], fraction=0.046, pad=0.02)
+        fig.colorbar(draw_compare(c, axes, 30.0), ax=axes[0], shrink=0.7)
         fig.tight_layout()
         fig.savefig(png)
         print(f"wrote {png}")

@@ -102,6 +102,17 @@ _budget_gb = _bounded_float(1e-3, 1e6, "memory budget must be between 0.001 and 
 _metres = _bounded_float(-1e4, 1e4, "must be a length in m within +-1e4")
 
 
+def _picture_size(text):
+    """argparse type: 'WxH' pixels, each 100..10000."""
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        w = h = 0
+    if not (100 <= w <= 10000 and 100 <= h <= 10000):
+        raise argparse.ArgumentTypeError(f"size must be WxH pixels, each 100-10000, got {text!r}")
+    return w, h
+
+
 def _positive_int(text):
     try:
         v = int(text)
@@ -285,8 +296,8 @@ def cmd_figure(args) -> int:
             from .das import DeviceDAS
 
             das = DeviceDAS(env, args.precision)
-    figure(args.name, args.input, args.png, dynamic_range=args.dynamic_range, grid=grid,
-           engine=engine, das=das)
+    figure(args.name, args.input, args.png, size=args.size, dynamic_range=args.dynamic_range,
+           grid=grid, engine=engine, das=das)
     if args.png:
         print(f"wrote {args.png}")
     return 0
@@ -454,6 +465,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "scene's box plus 0.15 m, at most 400 pixels a side)")
     sp.add_argument("--backend", choices=("opencl", "numpy"), default="opencl",
                     help="compare: where DAS runs")
+    sp.add_argument("--size", type=_picture_size, default=(1200, 700), metavar="WxH",
+                    help="picture size in pixels (default 1200x700)")
     device_opts(sp)
     sp.set_defaults(func=cmd_figure)
 

@@ -417,8 +417,11 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         elif name == "rps":
             draw_rps(what, axes[0])
         else:
-            fig.colorbar(draw_compare(what, axes, dynamic_range), ax=axes[0], label="dB",
-                         fraction=0.046, pad=0.02)
+            from mpl_toolkits.axes_grid1 import make_axes_locatable
+
+            im = draw_compare(what, axes, dynamic_range)
+            cax = make_axes_locatable(axes[0]).append_axes("right", size="4%", pad=0.08)
+            fig.colorbar(im, cax=cax, label="dB")
         fig.suptitle(f"{os.path.basename(os.fspath(path))}: {name}", fontsize=11)
         fig.tight_layout()
         _finish_mpl(fig, out)

@@ -13,10 +13,13 @@
 
 Big volumes (:func:`load_das_image`): ``rpm-cl das`` stores the image
 uncompressed in the ``.npz``, so it is opened as a read-only memory map of
-that member and never read whole: the brightest voxel is found slab by slab
-(about 64 MB of |I| at a time), a slice reads one plane, and the iso-surface
-is taken on a copy reduced by block maxima to at most ``max_side`` voxels per
-axis (a 667^3 complex64 volume, 2.4 GB, becomes a 223^3 float32 one, 44 MB).
+that member and never read whole: it is read in slabs of x planes (about
+16 MB of |I| each), each through a mapping of its own released at once, so
+neither copies nor mapped pages accumulate.  One pass finds the brightest
+voxel and the block maxima; the slices are planes through that voxel, at full
+resolution (a second pass collects the y and z planes); the iso-surface is
+taken on the block maxima, at most ``max_side`` voxels per axis (a 667^3
+complex64 volume, 2.4 GB, becomes a 223^3 float32 one, 44 MB).
 A compressed ``.npz`` (``np.savez_compressed``) cannot be mapped and is read
 into memory once.
 
@@ -263,8 +266,9 @@ def _render_2d(res: dict, png, size) -> None:
 # --------------------------------------------------------------------------
 # DAS / RMA images
 
-#: Bytes of |I| (float32) read per slab while scanning a volume.
-SLAB_BYTES = 64 << 20
+#: Bytes of |I| (float32) per slab while scanning a volume; the temporaries of
+#: one slab (the complex rows, |I|, its padded copy) are about 5 times this.
+SLAB_BYTES = 16 << 20
 #: Default dynamic range of image pictures, dB.
 DYNAMIC_RANGE_DEFAULT = 40.0
 
@@ -379,6 +383,45 @@ def load_das_image(path) -> DASImage:
     return DASImage(img, axes, meta, mapped, path)
 
 
+def _slab_rows(img: DASImage, multiple: int = 1) -> int:
+    """Rows (x planes) per slab: about :data:`SLAB_BYTES` of |I|, a multiple of ``multiple``."""
+    plane = int(np.prod(img.image.shape[1:])) * 4
+    return max(multiple, (SLAB_BYTES // max(1, plane)) // multiple * multiple)
+
+
+def _rows(img: DASImage, lo: int, hi: int) -> np.ndarray:
+    """A copy of ``image[lo:hi]``.  A memory-mapped image is read through a
+    mapping of those rows only, released at once, so the pages read do not
+    stay in the process (reading through the whole-file map would keep every
+    page touched resident, up to the whole volume)."""
+    a = img.image
+    hi = min(hi, a.shape[0])
+    if not (isinstance(a, np.memmap) and a.flags.c_contiguous) or hi <= lo:
+        return np.array(a[lo:hi])
+    row = int(np.prod(a.shape[1:])) * a.dtype.itemsize
+    part = np.memmap(img.path, dtype=a.dtype, mode="r", offset=a.offset + lo * row,
+                     shape=(hi - lo,) + a.shape[1:])
+    out = np.array(part)
+    del part
+    return out
+
+
+def _planes(img: DASImage, peak) -> tuple:
+    """The three planes of a volume through the voxel ``peak``: image[i],
+    image[:, j], image[:, :, k], each (n, m), read slab by slab."""
+    i, j, k = peak
+    nx, ny, nz = img.image.shape
+    px = _rows(img, i, i + 1)[0]
+    py = np.empty((nx, nz), img.image.dtype)
+    pz = np.empty((nx, ny), img.image.dtype)
+    step = _slab_rows(img)
+    for r0 in range(0, nx, step):
+        slab = _rows(img, r0, r0 + step)
+        py[r0:r0 + len(slab)] = slab[:, j, :]
+        pz[r0:r0 + len(slab)] = slab[:, :, k]
+    return px, py, pz
+
+
 def _block_max(img: DASImage, max_side: int):
     """|I| reduced by block maxima to at most ``max_side`` samples per axis.
 
@@ -397,20 +440,20 @@ def _block_max(img: DASImage, max_side: int):
     """
     a = img.image
     f = [max(1, -(-n // max_side)) for n in a.shape]
+    rows = _slab_rows(img, f[0])
     out_shape = [-(-n // k) for n, k in zip(a.shape, f)]
     reduced = np.zeros(out_shape, np.float32)
-    plane = int(np.prod(a.shape[1:])) * 4
-    rows = max(f[0], (SLAB_BYTES // max(1, plane)) // f[0] * f[0])
     top, peak = -1.0, (0,) * a.ndim
     for r0 in range(0, a.shape[0], rows):
-        slab = np.abs(np.asarray(a[r0:r0 + rows])).astype(np.float32)
+        slab = np.abs(_rows(img, r0, r0 + rows)).astype(np.float32, copy=False)
         if not np.all(np.isfinite(slab)):
             raise InputError(f"{img.path}: the image contains NaN or Inf")
         j = np.unravel_index(int(np.argmax(slab)), slab.shape)
         if slab[j] > top:
             top, peak = float(slab[j]), (r0 + int(j[0]),) + tuple(int(v) for v in j[1:])
         pad = [(0, -(-n // k) * k - n) for n, k in zip(slab.shape, f)]
-        slab = np.pad(slab, pad)
+        if any(p for _, p in pad):
+            slab = np.pad(slab, pad)
         shp = []
         for n, k in zip(slab.shape, f):
             shp += [n // k, k]
@@ -467,8 +510,21 @@ def _pyvista(png):
     return pv
 
 
+def _pool2(a: np.ndarray, ax0: np.ndarray, ax1: np.ndarray, side: int):
+    """Block maxima of a plane (n0, n1) to at most ``side`` a side, with the
+    blocks' centre coordinates."""
+    f = [max(1, -(-n // side)) for n in a.shape]
+    if f == [1, 1]:
+        return a, ax0, ax1
+    pad = [(0, -(-n // k) * k - n) for n, k in zip(a.shape, f)]
+    b = np.pad(a, pad).reshape(-(-a.shape[0] // f[0]), f[0], -(-a.shape[1] // f[1]), f[1])
+    centres = [np.array([ax[i:i + k].mean() for i in range(0, ax.size, k)])
+               for ax, k in zip((ax0, ax1), f)]
+    return b.max(axis=(1, 3)), centres[0], centres[1]
+
+
 def _render_das_3d(img: DASImage, png, size, dynamic_range: float, iso=None,
-                   max_side: int = 224) -> None:
+                   max_side: int = 224, plane_side: int = 400) -> None:
     pv = _pyvista(png)
     mag, axes, peak, top = _block_max(img, max_side)
     plotter = pv.Plotter(off_screen=png is not None, window_size=size)
@@ -476,14 +532,20 @@ def _render_das_3d(img: DASImage, png, size, dynamic_range: float, iso=None,
     x, y, z = img.axes
     where = tuple(img.axes[k][peak[k]] for k in range(3))
     if iso is None:
-        # three full-resolution planes through the brightest voxel
+        # three planes through the brightest voxel, each as block maxima, at
+        # most plane_side a side: as fine as the picture's pixels, and VTK's
+        # memory stays small for big volumes
         i, j, k = peak
-        planes = ((x[i:i + 1], y, z, np.asarray(img.image[i:i + 1, :, :])),
-                  (x, y[j:j + 1], z, np.asarray(img.image[:, j:j + 1, :])),
-                  (x, y, z[k:k + 1], np.asarray(img.image[:, :, k:k + 1])))
+        mx, my, mz = (np.abs(p) for p in _planes(img, peak))
+        mx, ay, az = _pool2(mx, y, z, plane_side)
+        planes = [(x[i:i + 1], ay, az, mx[None, :, :])]
+        my, ax_, az = _pool2(my, x, z, plane_side)
+        planes.append((ax_, y[j:j + 1], az, my[:, None, :]))
+        mz, ax_, ay = _pool2(mz, x, y, plane_side)
+        planes.append((ax_, ay, z[k:k + 1], mz[:, :, None]))
         for px, py, pz, vals in planes:
             grid = pv.RectilinearGrid(px, py, pz)
-            grid.point_data["dB"] = _db(np.abs(vals), top).ravel(order="F")
+            grid.point_data["dB"] = _db(vals, top).ravel(order="F")
             plotter.add_mesh(grid, scalars="dB", cmap="inferno", clim=(-dynamic_range, 0.0),
                              show_scalar_bar=False)
         what = f"slices through the maximum, {dynamic_range:g} dB range"

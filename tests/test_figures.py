@@ -171,6 +171,12 @@ def test_das_volume_is_memory_mapped_and_reduced_exactly(tmp_path, monkeypatch):
     assert red[5, 7, 3] == pytest.approx(full[15:18, 14:16, 12:16].max())
     assert np.max(red) == pytest.approx(full.max())
     assert np.allclose(axes[0][:2], [g.x[0:3].mean(), g.x[3:6].mean()])
+    # the planes through the maximum, read slab by slab, are the image's planes
+    i, j, k = peak
+    px, py, pz = v._planes(img, peak)
+    vol = np.asarray(img.image)
+    assert np.array_equal(px, vol[i]) and np.array_equal(py, vol[:, j])
+    assert np.array_equal(pz, vol[:, :, k])
 
 
 @pytest.mark.parametrize("iso", [None, -6.0])
