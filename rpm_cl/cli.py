@@ -1,4 +1,4 @@
-"""Command line: ``rpm-cl {info,simulate,image,params,das,rma,view,reproduce,demo,bench,batch}``.
+"""Command line: ``rpm-cl {info,simulate,image,params,das,rma,view,figure,reproduce,demo,bench,batch}``.
 
 Every error the user can cause (bad input file, bad option, no OpenCL) is
 reported as one line ``rpm-cl: error: ...`` on stderr with exit code 2.
@@ -104,6 +104,9 @@ def _bounded_float(lo: float, hi: float, what: str):
     return parse
 
 
+_dynamic_range = _bounded_float(1e-3, 400, "dynamic range must be between 0.001 and 400 dB")
+_iso_db = _bounded_float(-400, -1e-6, "iso-surface level must be below the maximum, in "
+                         "[-400, 0) dB")
 _budget_gb = _bounded_float(1e-3, 1e6, "memory budget must be between 0.001 and 1e6 GB")
 _metres = _bounded_float(-1e4, 1e4, "must be a length in m within +-1e4")
 
@@ -116,6 +119,17 @@ def _frame(text):
     if v < 0:
         raise argparse.ArgumentTypeError(f"frame must be an integer >= 0, got {text!r}")
     return v
+
+
+def _picture_size(text):
+    """argparse type: 'WxH' pixels, each 100..10000."""
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        w = h = 0
+    if not (100 <= w <= 10000 and 100 <= h <= 10000):
+        raise argparse.ArgumentTypeError(f"size must be WxH pixels, each 100-10000, got {text!r}")
+    return w, h
 
 
 def _positive_int(text):
@@ -340,7 +354,28 @@ def _points_per_part(points, scene):
 def cmd_view(args) -> int:
     from .view import view
 
-    view(args.input, args.png)
+    view(args.input, args.png, dynamic_range=args.dynamic_range, iso=args.iso)
+    if args.png:
+        print(f"wrote {args.png}")
+    return 0
+
+
+def cmd_figure(args) -> int:
+    from .figures import figure
+
+    engine = das = grid = None
+    if args.name == "compare":
+        engine, env = _engine(args)
+        if args.grid:
+            from .das import parse_grid
+
+            grid = parse_grid(args.grid)
+        if args.backend == "opencl":
+            from .das import DeviceDAS
+
+            das = DeviceDAS(env, args.precision)
+    figure(args.name, args.input, args.png, size=args.size, dynamic_range=args.dynamic_range,
+           grid=grid, engine=engine, das=das)
     if args.png:
         print(f"wrote {args.png}")
     return 0
@@ -543,7 +578,28 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("view", help="draw an image result (3-D: pyvista; 2-D: matplotlib)")
     sp.add_argument("input", help="a result .npz or .h5 of `rpm-cl image`")
     sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
+    sp.add_argument("--dynamic-range", type=_dynamic_range, default=40.0, metavar="DB",
+                    help="DAS/RMA images: dB below the maximum shown (default 40)")
+    sp.add_argument("--iso", type=_iso_db, metavar="DB", help="3-D DAS images: an iso-surface "
+                    "at this level (dB below the maximum, < 0) instead of slices")
     sp.set_defaults(func=cmd_view)
+
+    sp = sub.add_parser("figure", help="paper-style figures of a data file (matplotlib)")
+    sp.add_argument("name", choices=("kspace", "rps", "compare"),
+                    help="kspace: |S(kx, R)| with the cluster centres; rps: decomposed RPs per "
+                         "cluster over the true RPs; compare: RPM points beside the DAS image")
+    sp.add_argument("input", help="an input .npz (input contract)")
+    sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
+    sp.add_argument("--dynamic-range", type=_dynamic_range, default=40.0, metavar="DB",
+                    help="dB below the maximum shown on the maps (default 40)")
+    sp.add_argument("--grid", help="compare: the DAS grid 'x0:x1:dx,y0:y1:dy', m (default: the "
+                    "scene's box plus 0.15 m, at most 400 pixels a side)")
+    sp.add_argument("--backend", choices=("opencl", "numpy"), default="opencl",
+                    help="compare: where DAS runs")
+    sp.add_argument("--size", type=_picture_size, default=(1200, 700), metavar="WxH",
+                    help="picture size in pixels (default 1200x700)")
+    device_opts(sp)
+    sp.set_defaults(func=cmd_figure)
 
     sp = sub.add_parser("das", help="SAR / delay-and-sum back-projection onto a grid")
     sp.add_argument("input")
