@@ -5,7 +5,7 @@ profiles, ``x`` (nx,) antenna positions (m, uniform), ``range`` (nr,) (m,
 uniform), ``fc`` and ``bandwidth`` (Hz); see the README's input contract.
 Here those arrays are made by hand for two point targets, the way a measured
 scan would be arranged, saved with ``np.savez``, loaded back with
-``rpm_cl.data.load_npz`` (which validates them), imaged and the result saved.
+``rpm_cl.load_data`` (which validates them; .npz or .h5), imaged and the result saved.
 
 To image a real measurement, pass its file:  main("my_scan.npz")
 Run: python examples/measured_data.py [my_scan.npz] [--quick]
@@ -16,7 +16,7 @@ import sys
 import numpy as np
 
 from rpm_cl.cl import create_env
-from rpm_cl.data import load_npz
+from rpm_cl import load_data
 from rpm_cl.imaging import default_params, run_method, save_result
 from rpm_cl.rpm import DeviceRPM
 
@@ -43,7 +43,7 @@ def main(path=None, quick=False, output="measured_result.npz"):
     if path is None:  # no file given: make one (a real scan replaces this line)
         path = "hand_made_scan.npz"
         make_scan(path, 21 if quick else 41)
-    data = load_npz(path)  # validated RadarData, or one-line InputError
+    data = load_data(path)  # validated RadarData, or one-line InputError
     result = run_method("kspace-rpm", data, default_params(data), DeviceRPM(create_env()))
     save_result(output, result, {"input": str(path)})
     print(f"{path}: {len(result.rps)} RPs in {len(np.unique(result.rps.cluster))} clusters -> "

@@ -383,7 +383,7 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         Unknown name, unreadable or invalid input, planar data for
         ``compare``, a bad option or output path.
     """
-    from .data import load_npz
+    from .formats import load_data
     from .view import _atomic_png, _finish_mpl, _pyplot
 
     if name not in FIGURES:
@@ -396,7 +396,7 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         if not os.fspath(png).lower().endswith(".png"):
             raise InputError(f"{os.fspath(png)}: the picture must be a .png file")
         output_path(png)
-    data = load_npz(path)
+    data = load_data(path)
     if name == "kspace":
         what = kspace_map(data)
     elif name == "rps":
