@@ -354,10 +354,12 @@ def output_path(path):
     return path, folder
 
 
-def _atomic_write(path, write) -> None:
-    """Call ``write(fh)`` on a temporary file beside ``path``, then rename it.
+def _atomic_file(path, write, ext: str | None = None) -> None:
+    """Call ``write(tmp_path)`` on a temporary file beside ``path``, then
+    rename it over ``path``.
 
-    An interrupted run never leaves a half-written ``path`` behind.
+    An interrupted run never leaves a half-written ``path`` (nor the
+    temporary file) behind.
 
     Raises
     ------
@@ -366,12 +368,13 @@ def _atomic_write(path, write) -> None:
     """
     path, folder = output_path(path)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(path)[1], dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=ext or os.path.splitext(path)[1],
+                                   dir=folder)
     except OSError as exc:
         raise InputError(f"{path}: cannot write ({exc.strerror})") from None
+    os.close(fd)
     try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
+        write(tmp)
         _usual_mode(tmp)
         os.replace(tmp, path)
     except BaseException as exc:
@@ -380,8 +383,20 @@ def _atomic_write(path, write) -> None:
         except OSError:
             pass
         if isinstance(exc, OSError):
-            raise InputError(f"{path}: cannot write ({exc})") from None
+            text = exc.strerror or " ".join(str(exc).split())
+            raise InputError(f"{path}: cannot write ({type(exc).__name__}: {text})") from None
         raise
+
+
+def _atomic_write(path, write) -> None:
+    """Call ``write(fh)`` on a binary file handle, atomically (see
+    :func:`_atomic_file`)."""
+
+    def to_file(tmp):
+        with open(tmp, "wb") as fh:
+            write(fh)
+
+    _atomic_file(path, to_file)
 
 
 def atomic_savez(path, **arrays) -> None:
@@ -394,8 +409,8 @@ def atomic_write_text(path, text: str) -> None:
     _atomic_write(path, lambda fh: fh.write(text.encode("utf-8")))
 
 
-def save_npz(path, data: RadarData) -> None:
-    """Write ``data`` (and its truth, if any) following the input contract."""
+def data_arrays(data: RadarData) -> dict:
+    """The input contract's arrays of ``data`` (and its truth, if any), by name."""
     out = {
         "signal": data.signal,
         "x": data.array.x,
@@ -412,4 +427,9 @@ def save_npz(path, data: RadarData) -> None:
             truth_boundary=data.truth.boundary,
             truth_scene=np.array(data.truth.scene),
         )
-    atomic_savez(path, **out)
+    return out
+
+
+def save_npz(path, data: RadarData) -> None:
+    """Write ``data`` (and its truth, if any) following the input contract."""
+    atomic_savez(path, **data_arrays(data))

@@ -63,8 +63,9 @@ from .data import (
     RadarData,
     Truth,
     Waveform,
-    _usual_mode,
+    _atomic_file,
     atomic_savez,
+    data_arrays,
     output_path,
 )
 
@@ -524,30 +525,6 @@ def _compress_checked(values, freq, fc, bw, window, array):
 
 # --------------------------------------------------------------------------
 # writing
-def _atomic_file(path, write, ext: str | None = None) -> None:
-    """Call ``write(tmp_path)`` on a temporary file beside ``path``, then
-    rename it (for writers that want a file name: h5py, VTK).  An interrupted
-    run never leaves ``path`` or the temporary file behind."""
-    path, folder = output_path(path)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=ext or _ext(path), dir=folder)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot write ({exc.strerror})") from None
-    os.close(fd)
-    try:
-        write(tmp)
-        _usual_mode(tmp)
-        os.replace(tmp, path)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if isinstance(exc, OSError):
-            raise InputError(f"{path}: cannot write ({_oneline(exc)})") from None
-        raise
-
-
 def _h5_write_arrays(tmp: str, arrays: dict) -> None:
     h5py = _h5py()
     with h5py.File(tmp, "w") as f:
@@ -575,13 +552,7 @@ def save_data(path, data: RadarData) -> None:
     if ext == ".npz":
         save_npz(path, data)
         return
-    out = {"signal": data.signal, "x": data.array.x, "range": data.range,
-           "fc": np.float64(data.waveform.fc), "bandwidth": np.float64(data.waveform.bandwidth)}
-    if data.array.z is not None:
-        out["z"] = data.array.z
-    if data.truth is not None:
-        out.update(truth_rp_antenna=data.truth.rp_antenna, truth_rp_range=data.truth.rp_range,
-                   truth_boundary=data.truth.boundary, truth_scene=np.array(data.truth.scene))
+    out = data_arrays(data)
     _atomic_file(path, lambda tmp: _h5_write_arrays(tmp, out))
 
 

@@ -430,16 +430,8 @@ def save_result(path, result: ImageResult, meta: dict | None = None) -> None:
     ``rp_amp``, ``rp_cluster``, ``rp_antenna``, and ``meta`` (a JSON string:
     method, version, device, parameters, stage timings).
     """
-    import json
-
     from .data import atomic_savez
+    from .formats import result_arrays
 
-    rps, img = result.rps, result.image
-    out = {"points": img.points, "cluster": img.cluster, "score": img.score,
-           "rp_index": img.rp_index, "rp_x": rps.x, "rp_range": rps.range, "rp_amp": rps.amp,
-           "rp_cluster": rps.cluster, "rp_antenna": rps.antenna}
-    if rps.z is not None:
-        out["rp_z"] = rps.z
-    info = {"method": result.method, "timings": result.timings, **(meta or {})}
-    out["meta"] = np.array(json.dumps(info, default=str))
+    out = result_arrays(result, meta)
     atomic_savez(path, **out)
