@@ -77,6 +77,11 @@ class DeviceRPM:
         self._k = dict(get_kernels(env, "circles.cl", ["intersect_circles"], base))
         self._k.update(get_kernels(env, "spheres.cl", ["intersect_spheres"], base))
         self._pairs = {}  # kmax -> device pair table
+        # device buffers by role, reused from call to call (a batch of frames
+        # or the chunks of one image) and grown when a call needs more; the
+        # queue is in order and every call reads its results back before it
+        # returns, so a later call never overwrites what an earlier one uses
+        self._pool = {}
         for dim in (2, 3):
             ks = get_kernels(env, "score.cl", ["score_candidates", "argmax_candidates"],
                              {**base, "DIM": dim})
@@ -84,19 +89,36 @@ class DeviceRPM:
             self._k[f"argmax{dim}"] = ks["argmax_candidates"]
 
     # -- small helpers -----------------------------------------------------
-    def _buf(self, array, dtype=None):
+    def _pooled(self, role: str, nbytes: int):
+        """The device buffer of ``role``, at least ``nbytes`` long."""
+        import pyopencl as cl
+
+        buf = self._pool.get(role)
+        if buf is None or buf.size < nbytes:
+            buf = cl.Buffer(self.env.context, cl.mem_flags.READ_WRITE, max(1, nbytes))
+            self._pool[role] = buf
+        return buf
+
+    def _buf(self, array, dtype=None, role=None):
+        """``array`` copied into the (reused) device buffer of ``role``."""
         import pyopencl as cl
 
         a = np.ascontiguousarray(array, dtype=dtype or self.dtype)
         if a.size == 0:
             a = np.zeros(1, a.dtype)
-        return cl.Buffer(self.env.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
-                         hostbuf=a)
+        if role is None:
+            return cl.Buffer(self.env.context,
+                             cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a)
+        buf = self._pooled(role, a.nbytes)
+        cl.enqueue_copy(self.env.queue, buf, a, is_blocking=True)
+        return buf
 
-    def _out(self, shape, dtype=None):
+    def _out(self, shape, dtype=None, role=None):
         import pyopencl as cl
 
         nbytes = max(1, int(np.prod(shape))) * np.dtype(dtype or self.dtype).itemsize
+        if role is not None:
+            return self._pooled(role, nbytes)
         return cl.Buffer(self.env.context, cl.mem_flags.READ_WRITE, nbytes)
 
     def _read(self, buf, shape, dtype=None):
@@ -143,12 +165,13 @@ class DeviceRPM:
         x = np.asarray(x, np.float64)
         x0 = float(np.mean(x)) if x.size else 0.0
         maxc = _stride(maxc)  # slots >= the cluster size are invalid in the kernel
-        cand = self._out((2, n, maxc))
-        w = self._out((n, maxc))
-        valid = self._out((n, maxc), np.int8)
+        cand = self._out((2, n, maxc), role="cand")
+        w = self._out((n, maxc), role="w")
+        valid = self._out((n, maxc), np.int8, role="valid")
         self._run(self._k["intersect_circles"], n * maxc,
-                  self._buf(x - x0), self._buf(r), self._buf(amp),
-                  self._buf(cstart, np.int32), self._buf(ccount, np.int32),
+                  self._buf(x - x0, role="x"), self._buf(r, role="r"), self._buf(amp, role="amp"),
+                  self._buf(cstart, np.int32, role="cstart"),
+                  self._buf(ccount, np.int32, role="ccount"),
                   np.int32(i0), np.int32(n), np.int32(maxc),
                   self.dtype.type(1.0 / (2.0 * sigma_x**2)), cand, w, valid)
         return cand, w, valid, n, maxc
@@ -181,20 +204,22 @@ class DeviceRPM:
         # common origin removed in float64 (outputs are in each main antenna's frame)
         x0 = float(np.mean(x)) if x.size else 0.0
         z0 = float(np.mean(z)) if z.size else 0.0
-        cand = self._out((3, n, maxc))
-        w = self._out((n, maxc))
-        valid = self._out((n, maxc), np.int8)
+        cand = self._out((3, n, maxc), role="cand")
+        w = self._out((n, maxc), role="w")
+        valid = self._out((n, maxc), np.int8, role="valid")
         pa, pb = self._pair_bufs(kmax)
         self._run(self._k["intersect_spheres"], n * maxc,
-                  self._buf(x - x0), self._buf(z - z0), self._buf(r), self._buf(amp),
-                  self._buf(nbr, np.int32), self._buf(nnbr, np.int32), pa, pb,
+                  self._buf(x - x0, role="x"), self._buf(z - z0, role="z"),
+                  self._buf(r, role="r"), self._buf(amp, role="amp"),
+                  self._buf(nbr, np.int32, role="nbr"), self._buf(nnbr, np.int32, role="nnbr"),
+                  pa, pb,
                   np.int32(i0), np.int32(n), np.int32(kmax), np.int32(maxc),
                   self.dtype.type(1.0 / (2.0 * sigma_d**2)), self.dtype.type(EPS_DET),
                   cand, w, valid)
         return cand, w, valid, n, maxc
 
     def _score(self, dim, n, maxc, cand, w, valid, sigma_r):
-        score = self._out((n, maxc))
+        score = self._out((n, maxc), role="score")
         self._run2(self._k[f"score{dim}"], maxc, n, cand, w, valid,
                    np.int32(n), np.int32(maxc), self.dtype.type(np.log2(np.e) / (2.0 * sigma_r**2)),
                    score)
@@ -203,9 +228,9 @@ class DeviceRPM:
         return score
 
     def _argmax(self, dim, n, maxc, score, cand):
-        best = self._out((n,), np.int32)
-        best_score = self._out((n,))
-        point = self._out((dim, n))
+        best = self._out((n,), np.int32, role="best")
+        best_score = self._out((n,), role="best_score")
+        point = self._out((dim, n), role="point")
         self._run(self._k[f"argmax{dim}"], n, score, cand, np.int32(n), np.int32(maxc),
                   best, best_score, point, stage="argmax")
         return (self._read(best, (n,), np.int32), self._read(best_score, (n,)),
