@@ -655,6 +655,10 @@ def view(path, png=None, size=(1000, 800), dynamic_range: float = DYNAMIC_RANGE_
     """
     from functools import partial
 
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext in (".ply", ".vtp", ".vti"):
+        raise InputError(f"{os.fspath(path)}: view draws the .npz or .h5 files of rpm-cl; open "
+                         f"{ext} files in ParaView (or write .npz/.h5 with -o)")
     if not (np.isfinite(dynamic_range) and dynamic_range > 0):
         raise InputError(f"the dynamic range must be > 0 dB, got {dynamic_range:g}")
     if iso is not None and not (np.isfinite(iso) and iso < 0):

@@ -181,3 +181,16 @@ def test_result_without_scene_or_with_empty_points_still_renders(tmp_path):
     assert main(["view", str(src), "--png", str(tmp_path / "e.png")]) == 0
     src = _write(tmp_path / "n.npz", _result_2d(meta={"method": "x", "scene": None}))
     assert main(["view", str(src), "--png", str(tmp_path / "n.png")]) == 0
+
+
+@pytest.mark.parametrize("ext", [".ply", ".vtp", ".vti"])
+def test_view_refuses_vtk_outputs_with_a_plain_line(tmp_path, capsys, ext):
+    """Point clouds and volumes written for ParaView are not view's input:
+    one line that says so, not a NumPy message about pickled data."""
+    from rpm_cl.cli import main
+
+    f = tmp_path / f"out{ext}"
+    f.write_bytes(b"not npz")
+    assert main(["view", str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "ParaView" in err
