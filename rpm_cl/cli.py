@@ -375,7 +375,7 @@ def cmd_figure(args) -> int:
 
             das = DeviceDAS(env, args.precision)
     figure(args.name, args.input, args.png, size=args.size, dynamic_range=args.dynamic_range,
-           grid=grid, engine=engine, das=das)
+           grid=grid, engine=engine, das=das, frame=args.frame, range_window=args.range_window)
     if args.png:
         print(f"wrote {args.png}")
     return 0
@@ -599,6 +599,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--size", type=_picture_size, default=(1200, 700), metavar="WxH",
                     help="picture size in pixels (default 1200x700)")
     device_opts(sp)
+    input_opts(sp)
     sp.set_defaults(func=cmd_figure)
 
     sp = sub.add_parser("das", help="SAR / delay-and-sum back-projection onto a grid")

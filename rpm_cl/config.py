@@ -266,6 +266,8 @@ def load_config(path) -> dict:
         raise InputError(f"cannot read config {path}: {exc.strerror or exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not valid TOML: not UTF-8 text") from None
     by_section = {}
     for s in settings():
         by_section.setdefault(s.section, {})[s.name] = s
@@ -275,6 +277,8 @@ def load_config(path) -> dict:
             raise InputError(f"{path}: unknown section [{section}]" if isinstance(table, dict)
                              else f"{path}: unknown key {section!r} outside a section; "
                              f"sections: {', '.join(by_section)}")
+        if not isinstance(table, dict):
+            raise InputError(f"{path}: {section} must be a section [{section}], not a value")
         for name, value in table.items():
             spec = by_section[section].get(name)
             if spec is None:

@@ -351,7 +351,8 @@ FIGURES = ("kspace", "rps", "compare")
 
 
 def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float = 40.0,
-           grid=None, engine=None, das=None) -> object:
+           grid=None, engine=None, das=None, frame: int | None = None,
+           range_window: str = "hann") -> object:
     """Compute and draw one paper-style figure of a data file.
 
     Parameters
@@ -371,6 +372,10 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         ``compare``: the RPM engine (required there).
     das : rpm_cl.das.DeviceDAS, optional
         ``compare``: DAS on the device; None uses NumPy.
+    frame : int, optional
+        Frame of a stacked input (as :func:`rpm_cl.load_data`).
+    range_window : str
+        Range window of a frequency-domain input (as :func:`rpm_cl.load_data`).
 
     Returns
     -------
@@ -396,7 +401,7 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         if not os.fspath(png).lower().endswith(".png"):
             raise InputError(f"{os.fspath(png)}: the picture must be a .png file")
         output_path(png)
-    data = load_data(path)
+    data = load_data(path, frame=frame, range_window=range_window)
     if name == "kspace":
         what = kspace_map(data)
     elif name == "rps":

@@ -519,6 +519,9 @@ def _compress_checked(values, freq, fc, bw, window, array):
     fc = float((freq[0] + freq[-1]) / 2) if fc is None else fc
     bw = window_bandwidth(freq, window) if bw is None else bw
     waveform = Waveform(fc, bw)
+    if not freq[0] <= waveform.fc <= freq[-1]:
+        raise InputError(f"fc ({waveform.fc:g} Hz) must lie within the frequency band "
+                         f"({freq[0]:g} .. {freq[-1]:g} Hz)")
     signal, rng = range_compress(y, freq, waveform.fc, window)
     return signal, rng, waveform
 

@@ -1,0 +1,72 @@
+"""Regression tests of an adversarial review of the CLI's input checks: each
+malformed input is one line ``rpm-cl: error: ...`` and exit code 2."""
+
+import numpy as np
+import pytest
+
+from rpm_cl.cli import main
+from rpm_cl.formats import load_data
+
+C0 = 299792458.0
+
+
+def _one_error(capsys, argv):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rpm-cl: error: "), err
+    return err[0]
+
+
+@pytest.fixture(scope="module")
+def p2(tmp_path_factory):
+    path = tmp_path_factory.mktemp("data") / "p2.npz"
+    assert main(["simulate", "paper-2d", "-o", str(path), "-q"]) == 0
+    return path
+
+
+@pytest.mark.parametrize("text, words", [
+    (b"\xff\xfe[rpm]\n", "not UTF-8"),            # was UnicodeDecodeError traceback
+    (b"rpm = 3\n", "must be a section [rpm]"),      # was AttributeError traceback
+])
+def test_config_not_utf8_or_section_as_value(tmp_path, capsys, p2, text, words):
+    cfg = tmp_path / "c.toml"
+    cfg.write_bytes(text)
+    line = _one_error(capsys, ["params", str(p2), "--config", str(cfg)])
+    assert words in line and str(cfg) in line
+
+
+def _spectrum_file(tmp_path, fc):
+    f = np.linspace(19.8e9, 20.2e9, 81)
+    x = np.linspace(-0.2, 0.2, 11)
+    spec = np.exp(-4j * np.pi * f * 0.5 / C0)[None].repeat(x.size, 0).astype(np.complex64)
+    path = tmp_path / "s.npz"
+    np.savez(path, spectrum=spec, frequency=f, x=x, fc=np.float64(fc))
+    return path
+
+
+def test_spectrum_fc_outside_band_refused(tmp_path, capsys):
+    # fc = 1e15 Hz with a 20 GHz band ran the near-field focus map for minutes
+    path = _spectrum_file(tmp_path, 1e15)
+    line = _one_error(capsys, ["image", str(path), "-o", str(tmp_path / "o.npz")])
+    assert "within the frequency band" in line
+    assert not (tmp_path / "o.npz").exists()
+    # inside the band it loads, and the echo is where it was put
+    data = load_data(_spectrum_file(tmp_path, 20.05e9))
+    assert abs(data.range[np.argmax(np.abs(data.signal[0]))] - 0.5) < 0.01
+
+
+def test_figure_takes_frame_it_asks_for(tmp_path, capsys, monkeypatch):
+    # a stack refused by `figure` said "--frame N", which `figure` did not accept
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    d = dict(np.load(str(_spectrum_file(tmp_path, 20e9))))
+    d["spectrum"] = np.stack([d["spectrum"]] * 3)
+    stack = tmp_path / "stack.npz"
+    np.savez(stack, **d)
+    png = tmp_path / "f.png"
+    line = _one_error(capsys, ["figure", "rps", str(stack), "--png", str(png)])
+    assert "--frame" in line
+    line = _one_error(capsys, ["figure", "rps", str(stack), "--frame", "3", "--png", str(png)])
+    assert "out of range" in line
+    assert main(["figure", "rps", str(stack), "--frame", "1", "--range-window", "hamming",
+                 "--png", str(png)]) == 0
+    assert png.stat().st_size > 0
