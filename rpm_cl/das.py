@@ -32,7 +32,7 @@ import numpy as np
 from .data import C0, InputError, RadarData
 
 __all__ = ["Grid", "parse_grid", "das_numpy", "das_adjoint", "DASPlan", "DeviceDAS",
-           "MEMORY_BUDGET_DEFAULT", "image_points", "write_image"]
+           "MEMORY_BUDGET_DEFAULT", "check_disk", "image_points", "write_image"]
 
 #: Default bound on the memory a DAS run may hold (temporaries, tables), bytes.
 MEMORY_BUDGET_DEFAULT = 2_000_000_000
@@ -427,6 +427,22 @@ def image_points(image: np.ndarray, grid: Grid, threshold_db: float = -10.0,
     return pts
 
 
+def check_disk(path: str, folder: str, grid, dtype) -> None:
+    """Refuse, before any work, an image that cannot be written: it needs
+    twice its size on disk while written (a memory map, then the file).
+
+    Raises
+    ------
+    InputError
+        Less than 2.2 times the image's bytes free in ``folder``.
+    """
+    need = grid.size * np.dtype(dtype).itemsize
+    free = _free_bytes(folder)
+    if free is not None and 2.2 * need > free:
+        raise InputError(f"{path}: the image needs {2 * need / 1e9:.1f} GB of disk while written, "
+                         f"{free / 1e9:.1f} GB free")
+
+
 def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = None) -> None:
     """Write an image ``.npz`` (``image``, ``x``, ``y`` [, ``z``], ``meta``)
     without holding the image in memory, atomically.
@@ -454,11 +470,7 @@ def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = 
     from .data import _usual_mode, output_path
 
     path, folder = output_path(path)
-    need = grid.size * np.dtype(dtype).itemsize
-    free = _free_bytes(folder)
-    if free is not None and 2.2 * need > free:
-        raise InputError(f"{path}: the image needs {2 * need / 1e9:.1f} GB of disk while written, "
-                         f"{free / 1e9:.1f} GB free")
+    check_disk(path, folder, grid, dtype)
     tmps = []
     try:
         for suffix in (".npy", ".npz"):

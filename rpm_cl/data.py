@@ -62,7 +62,7 @@ def _finite_scalar(name: str, value, positive: bool = True) -> float:
     return v
 
 
-def _uniform_axis(name: str, values, min_len: int = 1) -> np.ndarray:
+def _uniform_axis(name: str, values, min_len: int = 1, unit: str = "m") -> np.ndarray:
     a = np.asarray(values)
     if a.ndim != 1:
         raise InputError(f"{name} must be 1-D, got shape {a.shape}")
@@ -83,7 +83,7 @@ def _uniform_axis(name: str, values, min_len: int = 1) -> np.ndarray:
         tol = 1e-6 * abs(step.mean()) + 8 * eps * float(np.max(np.abs(a))) + 1e-12
         if np.max(np.abs(step - step.mean())) > tol:
             raise InputError(f"{name} must be uniformly spaced (steps vary from "
-                             f"{step.min():.6g} to {step.max():.6g} m)")
+                             f"{step.min():.6g} to {step.max():.6g} {unit})")
     a.setflags(write=False)
     return a
 

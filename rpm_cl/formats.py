@@ -64,6 +64,7 @@ from .data import (
     Truth,
     Waveform,
     _atomic_file,
+    _uniform_axis,
     atomic_savez,
     data_arrays,
     output_path,
@@ -420,24 +421,9 @@ def _window(name: str, n: int) -> np.ndarray:
 
 
 def _frequency_axis(values) -> np.ndarray:
-    f = np.asarray(values)
-    if f.ndim != 1 or f.size < 2:
-        raise InputError(f"frequency must be 1-D with at least 2 values, got shape {f.shape}")
-    if not np.issubdtype(f.dtype, np.number) or np.iscomplexobj(f):
-        raise InputError(f"frequency must be real numbers, got dtype {f.dtype}")
-    eps = np.finfo(f.dtype).eps if np.issubdtype(f.dtype, np.floating) else 0.0
-    f = f.astype(np.float64)
-    if not np.all(np.isfinite(f)):
-        raise InputError("frequency contains NaN or Inf")
+    f = _uniform_axis("frequency", values, min_len=2, unit="Hz")
     if f[0] <= 0:
         raise InputError(f"frequency must be > 0 Hz, starts at {f[0]:g} Hz")
-    step = np.diff(f)
-    if np.any(step <= 0):
-        raise InputError("frequency must be strictly increasing")
-    tol = 1e-6 * step.mean() + 8 * eps * f[-1]
-    if np.max(np.abs(step - step.mean())) > tol:
-        raise InputError(f"frequency must be uniformly spaced (steps vary from {step.min():.9g} "
-                         f"to {step.max():.9g} Hz)")
     return f
 
 
@@ -701,12 +687,26 @@ def _fill_memmap(folder: str, grid, fill, dtype, tmps: list):
     return np.load(tmp, mmap_mode="r")
 
 
-def _write_volume_h5(path, folder, grid, fill, dtype, meta):
-    h5py = _h5py()
+def _atomic_volume(path, folder, grid, fill, dtype, write) -> None:
+    """``write(tmp, img)`` with the image filled into a temporary memory map
+    beside ``path``, atomically; the memory map is removed whatever happens."""
     tmps = []
 
-    def write(tmp):
-        img = _fill_memmap(folder, grid, fill, dtype, tmps)
+    def to_file(tmp):
+        write(tmp, _fill_memmap(folder, grid, fill, dtype, tmps))
+
+    try:
+        _atomic_file(path, to_file)
+    finally:
+        for t in tmps:
+            if os.path.exists(t):
+                os.remove(t)
+
+
+def _write_volume_h5(path, folder, grid, fill, dtype, meta):
+    h5py = _h5py()
+
+    def write(tmp, img):
         rows = _slab_rows(grid.shape, np.dtype(dtype).itemsize)
         inner = tuple(min(n, 256) for n in grid.shape[1:])  # chunks of at most ~4 MB
         per = int(np.prod(inner)) * np.dtype(dtype).itemsize
@@ -721,21 +721,14 @@ def _write_volume_h5(path, folder, grid, fill, dtype, meta):
                              dtype=h5py.string_dtype("utf-8"))
         del img
 
-    try:
-        _atomic_file(path, write)
-    finally:
-        for t in tmps:
-            if os.path.exists(t):
-                os.remove(t)
+    _atomic_volume(path, folder, grid, fill, dtype, write)
 
 
 def _write_volume_vti(path, folder, grid, fill, dtype, meta):
     pv = _pyvista()
     origin, spacing = _grid_geometry(path, grid)
-    tmps = []
 
-    def write(tmp):
-        img = _fill_memmap(folder, grid, fill, dtype, tmps)
+    def write(tmp, img):
         dims = grid.shape + ((1,) if grid.dim == 2 else ())
         vol = pv.ImageData(dimensions=dims, spacing=spacing, origin=origin)
         flat = np.asarray(img).reshape(dims).ravel(order="F")  # VTK: x fastest
@@ -746,12 +739,7 @@ def _write_volume_vti(path, folder, grid, fill, dtype, meta):
         del flat, img
         vol.save(tmp, binary=True)
 
-    try:
-        _atomic_file(path, write)
-    finally:
-        for t in tmps:
-            if os.path.exists(t):
-                os.remove(t)
+    _atomic_volume(path, folder, grid, fill, dtype, write)
 
 
 def write_volume(path, grid, fill, dtype=np.complex64, meta: dict | None = None) -> None:
@@ -780,7 +768,7 @@ def write_volume(path, grid, fill, dtype=np.complex64, meta: dict | None = None)
     meta : dict, optional
         Stored as JSON (``meta``).
     """
-    from .das import _free_bytes, write_image
+    from .das import check_disk, write_image
 
     path = os.fspath(path)
     ext = _need_ext(path, VOLUME_EXTENSIONS, "image")
@@ -788,11 +776,7 @@ def write_volume(path, grid, fill, dtype=np.complex64, meta: dict | None = None)
         write_image(path, grid, fill, dtype, meta)
         return
     path, folder = output_path(path)
-    need = grid.size * np.dtype(dtype).itemsize
-    free = _free_bytes(folder)
-    if free is not None and 2.2 * need > free:
-        raise InputError(f"{path}: the image needs {2 * need / 1e9:.1f} GB of disk while written, "
-                         f"{free / 1e9:.1f} GB free")
+    check_disk(path, folder, grid, dtype)
     if ext in _H5_EXT:
         _write_volume_h5(path, folder, grid, fill, dtype, meta)
     else:

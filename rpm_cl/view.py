@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .data import InputError, _usual_mode, output_path
+from .data import InputError, _atomic_file
 
 __all__ = ["DASImage", "load_das_image", "load_result", "view"]
 
@@ -601,28 +601,12 @@ def _is_image_file(path) -> bool:
 
 def _atomic_png(png, render) -> None:
     """``render(tmp)`` draws to a temporary ``.png`` beside ``png``, renamed on
-    success; InputError for a bad suffix, folder or write failure."""
-    import tempfile
-
+    success (:func:`rpm_cl.data._atomic_file`); InputError for a bad suffix,
+    folder or write failure."""
     png = os.fspath(png)
     if not png.lower().endswith(".png"):
         raise InputError(f"{png}: the picture must be a .png file")
-    png, folder = output_path(png)
-    # render beside the target, then rename: no half-written picture is left
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".png", dir=folder)
-    except OSError as exc:
-        raise InputError(f"{png}: cannot write in {folder} ({_oneline(exc)})") from None
-    os.close(fd)
-    try:
-        render(tmp)
-        _usual_mode(tmp)
-        os.replace(tmp, png)
-    except OSError as exc:
-        raise InputError(f"{png}: cannot write ({_oneline(exc)})") from None
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    _atomic_file(png, render, ".png")
 
 
 def view(path, png=None, size=(1000, 800), dynamic_range: float = DYNAMIC_RANGE_DEFAULT,
