@@ -63,14 +63,21 @@ def _snr(text):
     return v
 
 
-def _seed(text):
-    try:
-        v = int(text)
-    except ValueError:
-        v = -1
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"seed must be an integer >= 0, got {text!r}")
-    return v
+def _int_at_least(lo: int, what: str):
+    """argparse type: an integer >= lo, else one line ``{what}must be an
+    integer >= lo, got ...``."""
+    def parse(text):
+        try:
+            v = int(text)
+        except ValueError:
+            v = lo - 1
+        if v < lo:
+            raise argparse.ArgumentTypeError(f"{what}must be an integer >= {lo}, got {text!r}")
+        return v
+    return parse
+
+
+_seed = _int_at_least(0, "seed ")
 
 
 def _bind_negative_values(argv: list) -> list:
@@ -111,14 +118,7 @@ _budget_gb = _bounded_float(1e-3, 1e6, "memory budget must be between 0.001 and 
 _metres = _bounded_float(-1e4, 1e4, "must be a length in m within +-1e4")
 
 
-def _frame(text):
-    try:
-        v = int(text)
-    except ValueError:
-        v = -1
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"frame must be an integer >= 0, got {text!r}")
-    return v
+_frame = _int_at_least(0, "frame ")
 
 
 def _picture_size(text):
@@ -132,14 +132,7 @@ def _picture_size(text):
     return w, h
 
 
-def _positive_int(text):
-    try:
-        v = int(text)
-    except ValueError:
-        v = 0
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
-    return v
+_positive_int = _int_at_least(1, "")
 
 
 # --------------------------------------------------------------------------
