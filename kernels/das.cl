@@ -15,22 +15,32 @@
  *
  * Work-item mapping: a 2-D range, dim 0 = group of VW consecutive voxels
  * along the last axis, dim 1 = row of the chunk.  The VW voxels are computed
- * as one vector (sqrt, sincos on REALV: SIMD on PoCL's CPU device); the two
- * samples per voxel are gathered lane by lane.
+ * as one vector (sqrt, sincos on REALV: SIMD on PoCL's CPU device); the
+ * REAL4 rows of the VW lanes are loaded whole and transposed into the four
+ * REALV planes with swizzles (unpack/shuffle on a CPU), not lane by lane.
  *
  * Evaluation. With d = R_i + f dr (i the sample below d, 0 <= f < 1), the
  * summand is exactly
  *     (s_a[i] (1 - f) + s_a[i+1] f) exp(j 2 k_c (R_i + dr/2)) exp(j 2 k_c dr (f - 1/2))
- * The host supplies, per antenna and sample, uv[i] = (s_a[i], s_a[i+1]) times
- * exp(j 2 k_c (R_i + dr/2)) (float64 phases, then rounded), so the kernel
- * gathers one REAL4 per voxel and antenna and needs only the phasor of
- * x = 2 k_c dr (f - 1/2), |x| <= k_c dr, instead of a full-range sincos.
- * With -DPOLY (host: when k_c dr <= 1.1) that phasor is a Taylor polynomial
- * (|x| <= 1.1: truncation below 1e-7, under float32 rounding), else sincos.
+ * The host supplies, per antenna, nr + 1 rows: row 0 and row nr are zero and
+ * row i + 1 holds uv[i] = (s_a[i], s_a[i+1]) times exp(j 2 k_c (R_i + dr/2))
+ * (float64 phases, then rounded), so the kernel gathers one REAL4 per voxel
+ * and antenna, a lane outside the axis reads a zero row (no mask), and only
+ * the phasor of x = 2 k_c dr (f - 1/2), |x| <= k_c dr, is left instead of a
+ * full-range sincos.  With -DPOLY (host: when k_c dr <= 1.1) that phasor is a
+ * Taylor polynomial (|x| <= 1.1: truncation below 1e-7, under float32
+ * rounding), else sincos.
+ *
+ * Speed on PoCL's CPU device: its built-in functions (sqrt, floor, fmax,
+ * select, min) are not inlined into the kernel there, and a call inside the
+ * antenna loop spills every vector register; the loop therefore uses only
+ * operators, conversions and swizzles, and VSQRT (simd.h), which is the AVX
+ * instruction on x86 and sqrt elsewhere.
  *
  * NumPy reference: rpm_cl.das.das_numpy (float64).
  */
 #include "real.h"
+#include "simd.h"
 
 #define CAT(a, b) CAT_(a, b)
 #define CAT_(a, b) a##b
@@ -45,6 +55,8 @@
 #define INTV CAT(IDX, VW)
 #define REAL2 CAT(REAL, 2)
 #define REAL4 CAT(REAL, 4)
+#define REAL8 CAT(REAL, 8)
+#define REAL16 CAT(REAL, 16)
 
 /* cos and sin of |x| <= 1.1 (Taylor to x^12 / x^11) */
 inline REALV poly_sincos(const REALV x, REALV *c)
@@ -94,23 +106,35 @@ __kernel void das_backproject(
         } else {
             d2 = dx * dx + pl * pl;         /* 2-D: the last axis is y */
         }
-        const REALV d = sqrt(d2);
-        const REALV t = (d - r0) * inv_dr;
-        const REALV fl = floor(t);
-        const REALV fr = t - fl;
-        /* lanes outside the axis read sample 0 with weight 0 */
-        const INTV inside = (fl >= (REAL)0) & (fl < (REAL)(nr - 1));
-        const INTV iv = select((INTV)0, CAT(CAT(convert_, IDX), VW)(fl), inside);
-        __global const REAL4 *row_a = uv + (long)a * (nr - 1);
+        const REALV d = VSQRT(d2);
+        /* t = fractional row: rows 0 and nr are the zero rows */
+        REALV t = (d - r0) * inv_dr + (REAL)1;
+        t = (t > (REAL)0) ? t : (REALV)((REAL)0);
+        INTV iv = CAT(CAT(convert_, IDX), VW)(t);      /* t >= 0: truncation is floor */
+        iv = (iv < nr) ? iv : (INTV)nr;
+        const REALV fr = t - CAT(convert_, REALV)(iv);
+        __global const REAL4 *row_a = uv + (long)a * (nr + 1);
         REALV ur, ui, vr, vi;
-#define GATHER(l) { const REAL4 w = row_a[iv.s##l]; ur.s##l = w.x; ui.s##l = w.y; vr.s##l = w.z; vi.s##l = w.w; }
-        GATHER(0) GATHER(1) GATHER(2) GATHER(3)
 #if VW == 8
-        GATHER(4) GATHER(5) GATHER(6) GATHER(7)
+        {   /* rows of lanes l and l+4 side by side, then a 4 x 8 transpose */
+            const REAL8 a0 = (REAL8)(row_a[iv.s0], row_a[iv.s4]);
+            const REAL8 a1 = (REAL8)(row_a[iv.s1], row_a[iv.s5]);
+            const REAL8 a2 = (REAL8)(row_a[iv.s2], row_a[iv.s6]);
+            const REAL8 a3 = (REAL8)(row_a[iv.s3], row_a[iv.s7]);
+            const REAL16 p = (REAL16)(a0, a1), q = (REAL16)(a2, a3);
+            const REAL16 xy = (REAL16)(p.s08194C5D, q.s08194C5D);
+            const REAL16 zw = (REAL16)(p.s2A3B6E7F, q.s2A3B6E7F);
+            ur = xy.s018945CD; ui = xy.s23AB67EF;
+            vr = zw.s018945CD; vi = zw.s23AB67EF;
+        }
+#else
+        {   /* 4 x 4 transpose */
+            const REAL8 p = (REAL8)(row_a[iv.s0], row_a[iv.s1]);
+            const REAL8 q = (REAL8)(row_a[iv.s2], row_a[iv.s3]);
+            ur = (REAL4)(p.s04, q.s04); ui = (REAL4)(p.s15, q.s15);
+            vr = (REAL4)(p.s26, q.s26); vi = (REAL4)(p.s37, q.s37);
+        }
 #endif
-#undef GATHER
-        const REALV m = select((REALV)((REAL)0), (REALV)((REAL)1), inside);
-        ur *= m; ui *= m; vr *= m; vi *= m;
         const REALV omf = (REAL)1 - fr;
         const REALV pr = ur * omf + vr * fr;
         const REALV pi = ui * omf + vi * fr;

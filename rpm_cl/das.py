@@ -319,13 +319,17 @@ class DeviceDAS:
 
     @staticmethod
     def phased_pairs(data: RadarData) -> np.ndarray:
-        """The kernel's input: (s[i], s[i+1]) exp(j 2 k_c (R_i + dr/2)) per
-        antenna and sample i < nr - 1 (float64 phases), shape (n_ant, nr-1, 2)."""
+        """The kernel's input: per antenna a zero row, then
+        (s[i], s[i+1]) exp(j 2 k_c (R_i + dr/2)) for each sample i < nr - 1
+        (float64 phases), then a zero row; shape (n_ant, nr + 1, 2)."""
         nr = data.range.size
         s = data.signal.reshape(-1, nr).astype(np.complex128)
         k2 = 4 * np.pi * data.waveform.fc / C0
         ph = np.exp(1j * k2 * (data.range[:-1] + 0.5 * data.dr))[None, :]
-        return np.stack([s[:, :-1] * ph, s[:, 1:] * ph], axis=-1)
+        out = np.zeros((s.shape[0], nr + 1, 2), np.complex128)
+        out[:, 1:-1, 0] = s[:, :-1] * ph
+        out[:, 1:-1, 1] = s[:, 1:] * ph
+        return out
 
     def _buf(self, a, dtype):
         import pyopencl as cl
