@@ -42,21 +42,8 @@
 #include "real.h"
 #include "simd.h"
 
-#define CAT(a, b) CAT_(a, b)
-#define CAT_(a, b) a##b
-#if defined(REAL_IS_DOUBLE)
-#define VW 4
-#define IDX long     /* comparisons of double4 give long4 masks */
-#else
-#define VW 8
-#define IDX int
-#endif
-#define REALV CAT(REAL, VW)
-#define INTV CAT(IDX, VW)
-#define REAL2 CAT(REAL, 2)
-#define REAL4 CAT(REAL, 4)
-#define REAL8 CAT(REAL, 8)
-#define REAL16 CAT(REAL, 16)
+/* VW, REALV, INTV, IDX, REAL2/4/8/16: simd.h (IDX long for double: comparisons
+ * of double4 give long4 masks) */
 
 /* cos and sin of |x| <= 1.1 (Taylor to x^12 / x^11) */
 inline REALV poly_sincos(const REALV x, REALV *c)

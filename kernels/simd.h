@@ -1,41 +1,112 @@
-/* Vector helpers that stay inline on PoCL's CPU device.
+/* 256-bit vector types and helpers that stay inline on PoCL's CPU device.
  *
- * PoCL links its built-in functions into the kernel but does not inline them
- * on this build (its kernel library and the kernel are compiled for
- * different CPU feature sets), so sqrt(float8) becomes a call, and a call in
- * a hot loop spills every vector register.  VSQRT(x) takes the square root
- * of a REALV (float8 or double4, 256 bits) with the AVX instruction where the
- * compiler targets x86 with AVX, and with the portable sqrt elsewhere
- * (GPUs, Oclgrind's SPIR target): the same IEEE-rounded result either way.
+ * REALV is float8 (REAL float) or double4 (REAL_IS_DOUBLE): 256 bits, which
+ * PoCL's CPU target turns into AVX instructions.  INTV is the matching
+ * integer vector (int8 / long4: comparisons of REALV give INTV masks).
+ *
+ * Why the helpers: PoCL links its built-in functions into the kernel but
+ * does not inline them on this build (its kernel library and the kernel are
+ * compiled for different CPU feature sets), so sqrt(float8), exp2(float8),
+ * vload8, fmax, min and select each become a call, and a call in a hot loop
+ * spills every vector register.  Hot loops use operators, conversions,
+ * swizzles, as_type and these helpers instead:
+ *   VSQRT(x)     square root: the AVX instruction where the compiler targets
+ *                x86 with AVX, the portable sqrt elsewhere (GPUs, Oclgrind's
+ *                SPIR target); IEEE-rounded either way.
+ *   vexp2_neg(x) 2^x for x <= 0 (0 below the smallest normal exponent),
+ *                round-to-nearest split and a Taylor polynomial on
+ *                |f| <= 1/2; relative error below 2e-7 (float) / 1e-14
+ *                (double).
  */
 #ifndef RPM_SIMD_H
 #define RPM_SIMD_H
 #include "real.h"
 
-#if defined(__x86_64__) && defined(__AVX__)
-typedef float rpm_v8sf __attribute__((vector_size(32)));
-typedef double rpm_v4df __attribute__((vector_size(32)));
-inline float8 rpm_sqrt_f8(const float8 x)
-{
-    union { float8 e; rpm_v8sf g; } u;
-    u.e = x;
-    u.g = __builtin_ia32_sqrtps256(u.g);
-    return u.e;
-}
+#define CAT(a, b) CAT_(a, b)
+#define CAT_(a, b) a##b
 #if defined(REAL_IS_DOUBLE)
-inline double4 rpm_sqrt_d4(const double4 x)
+#define VW 4
+#define IDX long
+#else
+#define VW 8
+#define IDX int
+#endif
+#define REALV CAT(REAL, VW)
+#define INTV CAT(IDX, VW)
+#define REAL2 CAT(REAL, 2)
+#define REAL4 CAT(REAL, 4)
+#define REAL8 CAT(REAL, 8)
+#define REAL16 CAT(REAL, 16)
+
+#if defined(__x86_64__) && defined(__AVX__)
+#if defined(REAL_IS_DOUBLE)
+typedef double rpm_v4df __attribute__((vector_size(32)));
+inline double4 rpm_sqrt_v(const double4 x)
 {
     union { double4 e; rpm_v4df g; } u;
     u.e = x;
     u.g = __builtin_ia32_sqrtpd256(u.g);
     return u.e;
 }
-#define VSQRT(x) rpm_sqrt_d4(x)
 #else
-#define VSQRT(x) rpm_sqrt_f8(x)
+typedef float rpm_v8sf __attribute__((vector_size(32)));
+inline float8 rpm_sqrt_v(const float8 x)
+{
+    union { float8 e; rpm_v8sf g; } u;
+    u.e = x;
+    u.g = __builtin_ia32_sqrtps256(u.g);
+    return u.e;
+}
 #endif
+#define VSQRT(x) rpm_sqrt_v(x)
 #else
 #define VSQRT(x) sqrt(x)
 #endif
+
+inline REALV vexp2_neg(REALV x)
+{
+#if defined(REAL_IS_DOUBLE)
+    const REAL shifter = 6755399441055744.0;   /* 1.5 * 2^52: adding it rounds to an integer */
+    const REAL lowest = -1022.0;
+#else
+    const REAL shifter = 12582912.0f;          /* 1.5 * 2^23 */
+    const REAL lowest = -126.0f;
+#endif
+    const INTV ok = x >= lowest;
+    x = ok ? x : (REALV)lowest;
+    const REALV t = x + shifter;
+    const REALV f = x - (t - shifter);         /* x - round(x), |f| <= 1/2 */
+    const INTV k = CAT(as_, INTV)(t) - CAT(as_, INTV)((REALV)shifter);   /* round(x) */
+    const REALV y = f * (REAL)0.69314718055994530942;                    /* f ln 2 */
+#if defined(REAL_IS_DOUBLE)
+    /* e^y, |y| <= 0.347, Taylor to y^12: remainder < 3e-16 */
+    REALV p = (REAL)(1.0 / 479001600);
+    p = p * y + (REAL)(1.0 / 39916800);
+    p = p * y + (REAL)(1.0 / 3628800);
+    p = p * y + (REAL)(1.0 / 362880);
+    p = p * y + (REAL)(1.0 / 40320);
+    p = p * y + (REAL)(1.0 / 5040);
+    p = p * y + (REAL)(1.0 / 720);
+    p = p * y + (REAL)(1.0 / 120);
+    p = p * y + (REAL)(1.0 / 24);
+    p = p * y + (REAL)(1.0 / 6);
+    p = p * y + (REAL)0.5;
+    p = p * y + (REAL)1;
+    p = p * y + (REAL)1;
+    const REALV scale = CAT(as_, REALV)((k + 1023) << 52);
+#else
+    /* e^y, |y| <= 0.347, Taylor to y^7: remainder < 6e-9 */
+    REALV p = (REAL)(1.0 / 5040);
+    p = p * y + (REAL)(1.0 / 720);
+    p = p * y + (REAL)(1.0 / 120);
+    p = p * y + (REAL)(1.0 / 24);
+    p = p * y + (REAL)(1.0 / 6);
+    p = p * y + (REAL)0.5;
+    p = p * y + (REAL)1;
+    p = p * y + (REAL)1;
+    const REALV scale = CAT(as_, REALV)((k + 127) << 23);
+#endif
+    return ok ? p * scale : (REALV)((REAL)0);
+}
 
 #endif
