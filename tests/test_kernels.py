@@ -86,6 +86,33 @@ def test_score_matches_reference(dev32, dev64, rng, dim):
     assert np.all(want[valid == 0] == -1)
 
 
+def test_score_gaussian_over_its_whole_range(dev32, dev64):
+    # One weighted neighbour at distance d from a zero-weight candidate: the
+    # score is exactly exp(-d^2 / 2 sigma^2).  d runs from 0 to 60 sigma, so
+    # the kernel's inline 2^x meets every reduced argument, the normal range
+    # down to 2^-126 (float32) and the underflow to 0 beyond it.
+    sigma, n = 0.03, 4001
+    d = np.linspace(0.0, 60 * sigma, n)
+    cand = np.zeros((3, n, 2))
+    cand[0, :, 1] = d / np.sqrt(2)
+    cand[2, :, 1] = d / np.sqrt(2)
+    w = np.zeros((n, 2))
+    w[:, 1] = 1.0
+    valid = np.ones((n, 2), np.int8)
+    want = np.exp(-d ** 2 / (2 * sigma ** 2))
+    got64 = dev64.score_candidates(cand, w, valid, sigma)[:, 0]
+    np.testing.assert_allclose(got64, want, rtol=1e-12, atol=1e-300)
+    got32 = dev32.score_candidates(cand, w, valid, sigma)[:, 0]
+    tiny = np.finfo(np.float32).tiny
+    normal = want >= tiny
+    # the argument -d^2/2sigma^2 carries float32 rounding of |arg| * 6e-8
+    arg = d ** 2 / (2 * sigma ** 2)
+    rel = np.abs(got32[normal] - want[normal]) / want[normal]
+    assert np.all(rel <= 4e-7 + 2 * arg[normal] * np.finfo(np.float32).eps)
+    assert np.all(got32[~normal] <= 2 * tiny) and np.all(got32 >= 0)
+    assert np.all(np.isfinite(got32)) and np.all(np.isfinite(got64))
+
+
 def test_argmax_matches_reference(dev32, dev64, rng):
     n, maxc = 40, 31
     score = rng.uniform(0, 1, (n, maxc))
