@@ -466,6 +466,12 @@ def cmd_batch(args) -> int:
     if args.scheduler is not None and args.workers is not None:
         raise CLIError("--workers sizes the embedded cluster; with --scheduler the cluster's "
                        "own workers run the frames")
+    import os
+
+    from .formats import DATA_EXTENSIONS, frame_count
+
+    if os.path.isfile(args.input) and args.input.lower().endswith(DATA_EXTENSIONS):
+        frame_count(args.input)  # one file: unreadable or no frames is a user error (exit 2)
     from .config import flag_values, merge
 
     values = merge(args.cfg_file, flag_values(args))

@@ -70,3 +70,47 @@ def test_figure_takes_frame_it_asks_for(tmp_path, capsys, monkeypatch):
     assert main(["figure", "rps", str(stack), "--frame", "1", "--range-window", "hamming",
                  "--png", str(png)]) == 0
     assert png.stat().st_size > 0
+
+
+def _h5_copy(arrays, path):
+    """The arrays as root datasets of an HDF5 file (strings as UTF-8 strings)."""
+    import h5py
+
+    with h5py.File(path, "w") as f:
+        for k, v in arrays.items():
+            v = np.asarray(v)
+            if v.dtype.kind == "U":
+                f.create_dataset(k, data=str(v), dtype=h5py.string_dtype("utf-8"))
+            else:
+                f.create_dataset(k, data=v)
+    return path
+
+
+@pytest.fixture(scope="module")
+def empty_stacks(p2, tmp_path_factory):
+    """p2 with a signal of shape (0, nx, nr): a stack of no frames, .npz and .h5."""
+    d = dict(np.load(str(p2)))
+    d["signal"] = np.zeros((0,) + d["signal"].shape, d["signal"].dtype)
+    folder = tmp_path_factory.mktemp("empty")
+    np.savez(folder / "e.npz", **d)
+    return folder / "e.npz", _h5_copy(d, folder / "e.h5")
+
+
+@pytest.mark.parametrize("ext", [0, 1])
+@pytest.mark.parametrize("argv", [
+    ["image", "{src}", "-o", "{tmp}/o.npz"],
+    ["image", "{src}", "-o", "{tmp}/o.npz", "--frame", "0"],
+    ["das", "{src}", "-o", "{tmp}/o.npz", "--grid=-0.1:0.1:0.01,0.3:0.6:0.01"],
+    ["params", "{src}"],
+    ["figure", "kspace", "{src}", "--png", "{tmp}/o.png"],
+    ["rma", "{src}", "-o", "{tmp}/o.npz"],
+    ["batch", "{src}", "-o", "{tmp}/out"],
+])
+def test_empty_stack_is_one_clear_line(empty_stacks, tmp_path, capsys, argv, ext):
+    # was "signal is a stack of 0 frames; choose one with frame= (--frame N, 0..-1)",
+    # and batch wrote a summary of 0 frames with exit code 0
+    argv = [a.format(src=empty_stacks[ext], tmp=tmp_path) for a in argv]
+    line = _one_error(capsys, argv)
+    assert "holds no frames" in line and str(empty_stacks[ext]) in line
+    assert "0..-1" not in line and "--frame" not in line
+    assert not list(tmp_path.iterdir())  # nothing written, no summary, no temporary file
