@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
+from rpm_cl.data import InputError, Truth, load_npz
 from rpm_cl.formats import load_data
 
 C0 = 299792458.0
@@ -114,3 +115,31 @@ def test_empty_stack_is_one_clear_line(empty_stacks, tmp_path, capsys, argv, ext
     assert "holds no frames" in line and str(empty_stacks[ext]) in line
     assert "0..-1" not in line and "--frame" not in line
     assert not list(tmp_path.iterdir())  # nothing written, no summary, no temporary file
+
+
+@pytest.mark.parametrize("shift", [0.5, 0.0])
+@pytest.mark.parametrize("ext", [".npz", ".h5"])
+def test_float_truth_rp_antenna_refused(p2, tmp_path, capsys, shift, ext):
+    # float indices were cast silently: 3.5 became 3, and the RP accuracy of
+    # `image` was scored against the wrong antennas.  Indices are integers by
+    # type, like frame= and a result's cluster: an integral float is refused too.
+    d = dict(np.load(str(p2)))
+    d["truth_rp_antenna"] = d["truth_rp_antenna"].astype(np.float64) + shift
+    src = tmp_path / f"f{ext}"
+    np.savez(src, **d) if ext == ".npz" else _h5_copy(d, src)
+    line = _one_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz")])
+    assert "truth_rp_antenna must be an integer array" in line and "float64" in line
+    assert not (tmp_path / "o.npz").exists()
+    with pytest.raises(InputError, match="truth_rp_antenna"):
+        load_npz(src) if ext == ".npz" else load_data(src)
+
+
+def test_integer_truth_rp_antenna_of_any_width_loads(p2, tmp_path):
+    d = dict(np.load(str(p2)))
+    want = d["truth_rp_antenna"]
+    d["truth_rp_antenna"] = want.astype(np.int16)
+    np.savez(tmp_path / "i16.npz", **d)
+    got = load_data(tmp_path / "i16.npz").truth.rp_antenna
+    assert got.dtype == np.int64 and np.array_equal(got, want)
+    # an empty truth (no RPs) needs no dtype
+    assert Truth([], [], [[0.0, 1.0]]).rp_antenna.shape == (0,)
