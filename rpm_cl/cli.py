@@ -575,7 +575,8 @@ def build_parser() -> argparse.ArgumentParser:
     sp.set_defaults(func=cmd_demo)
 
     sp = sub.add_parser("view", help="draw an image result (3-D: pyvista; 2-D: matplotlib)")
-    sp.add_argument("input", help="a result .npz or .h5 of `rpm-cl image`")
+    sp.add_argument("input", help="a result .npz or .h5 of `rpm-cl image`, or an image "
+                    ".npz or .h5 of `rpm-cl das` / `rpm-cl rma`")
     sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
     sp.add_argument("--dynamic-range", type=_dynamic_range, default=40.0, metavar="DB",
                     help="DAS/RMA images: dB below the maximum shown (default 40)")
