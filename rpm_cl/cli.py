@@ -428,10 +428,11 @@ def cmd_das(args) -> int:
 def cmd_rma(args) -> int:
     import time
 
-    from .data import atomic_savez
-    from .formats import load_data
+    from .das import Grid
+    from .formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
     from .rma import rma_image
 
+    check_output(args.output, VOLUME_EXTENSIONS, "image")
     data = load_data(args.input, frame=args.frame, range_window=args.range_window)
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
@@ -440,7 +441,11 @@ def cmd_rma(args) -> int:
     sec = time.perf_counter() - t0
     meta = {"version": __version__, "method": "rma", "input": args.input, "seconds": sec,
             "upsample_x": args.upsample_x}
-    atomic_savez(args.output, image=img, x=x, y=y, meta=np.array(json.dumps(meta)))
+
+    def fill(out):
+        out[...] = img
+
+    write_volume(args.output, Grid(x, y), fill, img.dtype, meta)  # by extension, as das
     print(f"rma: image {img.shape} in {1e3 * sec:.1f} ms; wrote {args.output}")
     return 0
 

@@ -231,3 +231,28 @@ def test_view_odd_h5_image_is_one_line(tmp_path, capsys):
     line = _one_error(capsys, ["view", str(tmp_path / "s.h5"), "--png", str(tmp_path / "g.png")])
     assert "y must be a finite, strictly increasing axis of 4 values" in line
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob(".tmp-*"))
+
+
+def test_rma_writes_what_its_extension_says(p2, tmp_path, capsys):
+    # `rma -o X.h5` wrote an .npz archive named X.h5 (and -o X.txt one named
+    # X.txt); it now writes by extension as `das` does, and refuses others
+    import h5py
+
+    argv = ["rma", str(p2), "--y-min", "0.3", "--y-max", "0.6", "-o"]
+    assert main(argv + [str(tmp_path / "r.npz")]) == 0
+    assert main(argv + [str(tmp_path / "r.h5")]) == 0
+    assert h5py.is_hdf5(tmp_path / "r.h5")
+    with np.load(tmp_path / "r.npz") as a, h5py.File(tmp_path / "r.h5", "r") as b:
+        for k in ("image", "x", "y"):
+            assert np.array_equal(a[k], b[k][()]), k
+        assert str(a["meta"]) and b["meta"][()]
+        img, x, y = a["image"], a["x"], a["y"]
+    # both hold the image of rma_image, as the .npz always did
+    from rpm_cl.rma import rma_image
+
+    want = rma_image(load_data(p2), y_min=0.3, y_max=0.6)
+    for got, w in zip((img, x, y), want):
+        assert np.array_equal(got, w)
+    line = _one_error(capsys, argv + [str(tmp_path / "r.txt")])
+    assert "unknown image extension '.txt'" in line and ".h5" in line
+    assert not (tmp_path / "r.txt").exists()
