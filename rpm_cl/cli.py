@@ -368,7 +368,8 @@ def cmd_figure(args) -> int:
 
             das = DeviceDAS(env, args.precision)
     figure(args.name, args.input, args.png, size=args.size, dynamic_range=args.dynamic_range,
-           grid=grid, engine=engine, das=das, frame=args.frame, range_window=args.range_window)
+           grid=grid, engine=engine, das=das, frame=args.frame, range_window=args.range_window,
+           params=lambda data: _params(args, data))  # --config and flags, as `image`
     if args.png:
         print(f"wrote {args.png}")
     return 0
@@ -605,6 +606,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="picture size in pixels (default 1200x700)")
     device_opts(sp)
     input_opts(sp)
+    param_opts(sp)
     sp.set_defaults(func=cmd_figure)
 
     sp = sub.add_parser("das", help="SAR / delay-and-sum back-projection onto a grid")

@@ -256,3 +256,31 @@ def test_rma_writes_what_its_extension_says(p2, tmp_path, capsys):
     line = _one_error(capsys, argv + [str(tmp_path / "r.txt")])
     assert "unknown image extension '.txt'" in line and ".h5" in line
     assert not (tmp_path / "r.txt").exists()
+
+
+def test_figure_uses_config_and_flags_like_image(p2, tmp_path, capsys, monkeypatch):
+    """`figure kspace|rps --config` was ignored (the figure used the defaults).
+    The paper-2d targets lie at k = 2 k0 sin(theta) = -393, +44 and +354
+    rad/m; the centres are local maxima within a quarter window period in k,
+    so window_x = 417 (the default, the paper's) keeps 3 centres, 1300
+    (+-325 rad/m) merges +44 and +354 (310 apart) into 2, and 2000 (+-500)
+    leaves 1."""
+    from rpm_cl import figures
+
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    drawn = []
+    real = figures.figure
+    monkeypatch.setattr(figures, "figure", lambda *a, **k: drawn.append(real(*a, **k)))
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[kspace]\nwindow_x = 1300.0\n")
+    png = str(tmp_path / "f.png")
+    runs = [([], 3), (["--config", str(cfg)], 2), (["--config", str(cfg), "--window-x", "2000"], 1)]
+    for extra, want in runs:
+        assert main(["figure", "kspace", str(p2), "--png", png, "-q", *extra]) == 0
+        assert len(drawn[-1].centres) == want, extra
+        assert main(["figure", "rps", str(p2), "--png", png, "-q", *extra]) == 0
+        assert np.unique(drawn[-1].cluster).size == want, extra
+    # a bad value in the file is now read, and refused like `image` refuses it
+    cfg.write_text("[kspace]\nwindow_x = -1.0\n")
+    line = _one_error(capsys, ["figure", "kspace", str(p2), "--png", png, "--config", str(cfg)])
+    assert "window_x" in line
