@@ -284,3 +284,51 @@ def test_figure_uses_config_and_flags_like_image(p2, tmp_path, capsys, monkeypat
     cfg.write_text("[kspace]\nwindow_x = -1.0\n")
     line = _one_error(capsys, ["figure", "kspace", str(p2), "--png", png, "--config", str(cfg)])
     assert "window_x" in line
+
+
+@pytest.fixture(scope="module")
+def wide_sparse(tmp_path_factory):
+    """The review's extreme linear array: 21 antennas at 1 m pitch (a 20 m
+    aperture, 1334 wavelengths at 20 GHz), two point targets, 12 m of range."""
+    from rpm_cl.data import Array, Waveform
+    from rpm_cl.formats import save_data
+    from rpm_cl.scene import PointTarget, Scene
+    from rpm_cl.simulate import simulate
+
+    data = simulate(Scene((PointTarget((0.3, 5.0)), PointTarget((-2.0, 8.0))), "wide"),
+                    Array((np.arange(21) - 10) * 1.0), Waveform(20e9, 0.2e9),
+                    np.arange(0.0, 12.0, 2.5e-3))
+    path = tmp_path_factory.mktemp("wide") / "wide.npz"
+    save_data(path, data)
+    return path
+
+
+def test_huge_near_field_search_is_refused_at_once(wide_sparse, tmp_path, capsys, monkeypatch):
+    # ran for minutes: its focused map has 22079 directions x 21 antennas x
+    # ~800 range samples (4e8 terms, 16 s each, recomputed 15-35 times).  Now
+    # refused before the first map, in one line that says why and what to do.
+    from rpm_cl import nearfield
+
+    maps = []
+    real = nearfield._Search.focus_map
+    monkeypatch.setattr(nearfield._Search, "focus_map", lambda s, x: maps.append(1) or real(s, x))
+    out = tmp_path / "o.npz"
+    line = _one_error(capsys, ["image", str(wide_sparse), "-o", str(out)])
+    assert "near-field search" in line and "too large" in line and "--near-field false" in line
+    assert "22079 directions x 21 antennas" in line  # 4 pad L / lambda = 4 x 4 x 21 m / 15 mm
+    assert maps == [] and not out.exists()
+    # the plane-wave decomposition it points to images the file
+    assert main(["image", str(wide_sparse), "-o", str(out), "--near-field", "false", "-q"]) == 0
+    assert out.exists()
+
+
+def test_paper_sparse_map_is_far_inside_the_bound():
+    """The bound must not touch the paper's sparse case: its map has 441
+    directions x 21 antennas x 104 samples, under a sixteenth of the bound
+    (the result itself is checked against the targets in test_nearfield)."""
+    from rpm_cl import nearfield
+    from rpm_cl.simulate import simulate_preset
+
+    data = simulate_preset("paper-2d-sparse")[0]
+    s = nearfield._Search(data, 10 ** (-20 / 20), 4)
+    assert s.u_det.size * s.n * s.r_det.size < nearfield.MAP_TERMS_MAX / 16
