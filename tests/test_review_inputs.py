@@ -195,7 +195,10 @@ def test_view_h5_volume_reads_slabs_like_the_npz(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("iso", [None, "-6"])
-def test_view_h5_volume_renders_as_the_npz(tmp_path, capsys, iso):
+def test_view_h5_volume_renders_as_the_npz(tmp_path, capsys, iso, cl_env):
+    # cl_env: PoCL must load its LLVM before VTK's EGL (mesa) loads another;
+    # the other order aborts the process ("LLVM ERROR: inconsistency in
+    # registered CommandLine options") when a later test builds OpenCL programs
     pytest.importorskip("pyvista")
     from rpm_cl.das import Grid
     from rpm_cl.formats import write_volume
