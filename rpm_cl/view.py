@@ -135,8 +135,16 @@ def _read_h5(path: str):
                 raise KeyError(k)
         out = {k: np.asarray(f[k][()]) for k in ("points", "cluster", "rp_x")}
         out["rp_z"] = np.asarray(f["rp_z"][()]) if "rp_z" in f else None
-        meta = f["meta"][()] if "meta" in f else b"{}"
-    return out, json.loads(meta.decode("utf-8") if isinstance(meta, bytes) else str(meta))
+        meta = _h5_meta(f)
+    return out, meta
+
+
+def _h5_meta(f) -> object:
+    """The ``meta`` JSON string dataset of an open HDF5 file, parsed ({} when absent)."""
+    meta = f["meta"][()] if "meta" in f else b"{}"
+    if isinstance(meta, np.ndarray) and meta.ndim == 0:
+        meta = meta.item()
+    return json.loads(meta.decode("utf-8") if isinstance(meta, bytes) else str(meta))
 
 
 def _oneline(exc: BaseException) -> str:
@@ -401,11 +409,9 @@ def _h5_image_parts(path: str):
             if not isinstance(f[key], h5py.Dataset):
                 raise InputError(f"{path}: {key} must be a dataset at the file root, not a group")
         axes = [np.asarray(f[k][()]) for k in ("x", "y", "z") if k in f]
-        meta = f["meta"][()] if "meta" in f else b"{}"
+        meta = _h5_meta(f)
         img = _H5Image(path, f["image"].shape, f["image"].dtype)
-    if isinstance(meta, np.ndarray) and meta.ndim == 0:
-        meta = meta.item()
-    return axes, json.loads(meta.decode("utf-8") if isinstance(meta, bytes) else str(meta)), img
+    return axes, meta, img
 
 
 def load_das_image(path) -> DASImage:
