@@ -368,7 +368,8 @@ def cmd_figure(args) -> int:
 
             das = DeviceDAS(env, args.precision)
     figure(args.name, args.input, args.png, size=args.size, dynamic_range=args.dynamic_range,
-           grid=grid, engine=engine, das=das, frame=args.frame, range_window=args.range_window)
+           grid=grid, engine=engine, das=das, frame=args.frame, range_window=args.range_window,
+           params=lambda data: _params(args, data))  # --config and flags, as `image`
     if args.png:
         print(f"wrote {args.png}")
     return 0
@@ -428,10 +429,11 @@ def cmd_das(args) -> int:
 def cmd_rma(args) -> int:
     import time
 
-    from .data import atomic_savez
-    from .formats import load_data
+    from .das import Grid
+    from .formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
     from .rma import rma_image
 
+    check_output(args.output, VOLUME_EXTENSIONS, "image")
     data = load_data(args.input, frame=args.frame, range_window=args.range_window)
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
@@ -440,7 +442,11 @@ def cmd_rma(args) -> int:
     sec = time.perf_counter() - t0
     meta = {"version": __version__, "method": "rma", "input": args.input, "seconds": sec,
             "upsample_x": args.upsample_x}
-    atomic_savez(args.output, image=img, x=x, y=y, meta=np.array(json.dumps(meta)))
+
+    def fill(out):
+        out[...] = img
+
+    write_volume(args.output, Grid(x, y), fill, img.dtype, meta)  # by extension, as das
     print(f"rma: image {img.shape} in {1e3 * sec:.1f} ms; wrote {args.output}")
     return 0
 
@@ -466,6 +472,12 @@ def cmd_batch(args) -> int:
     if args.scheduler is not None and args.workers is not None:
         raise CLIError("--workers sizes the embedded cluster; with --scheduler the cluster's "
                        "own workers run the frames")
+    import os
+
+    from .formats import DATA_EXTENSIONS, frame_count
+
+    if os.path.isfile(args.input) and args.input.lower().endswith(DATA_EXTENSIONS):
+        frame_count(args.input)  # one file: unreadable or no frames is a user error (exit 2)
     from .config import flag_values, merge
 
     values = merge(args.cfg_file, flag_values(args))
@@ -569,7 +581,8 @@ def build_parser() -> argparse.ArgumentParser:
     sp.set_defaults(func=cmd_demo)
 
     sp = sub.add_parser("view", help="draw an image result (3-D: pyvista; 2-D: matplotlib)")
-    sp.add_argument("input", help="a result .npz or .h5 of `rpm-cl image`")
+    sp.add_argument("input", help="a result .npz or .h5 of `rpm-cl image`, or an image "
+                    ".npz or .h5 of `rpm-cl das` / `rpm-cl rma`")
     sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
     sp.add_argument("--dynamic-range", type=_dynamic_range, default=40.0, metavar="DB",
                     help="DAS/RMA images: dB below the maximum shown (default 40)")
@@ -593,6 +606,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="picture size in pixels (default 1200x700)")
     device_opts(sp)
     input_opts(sp)
+    param_opts(sp)
     sp.set_defaults(func=cmd_figure)
 
     sp = sub.add_parser("das", help="SAR / delay-and-sum back-projection onto a grid")

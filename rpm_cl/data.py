@@ -191,7 +191,8 @@ class Truth:
     Attributes
     ----------
     rp_antenna : ndarray of int, shape (K,)
-        Flat antenna index (C order of the array) of each true RP.
+        Flat antenna index (C order of the array) of each true RP; an
+        integer dtype (floats, even integral ones, raise :class:`InputError`).
     rp_range : ndarray, shape (K,)
         True range of each specular echo, m.
     boundary : ndarray, shape (P, dim)
@@ -207,7 +208,13 @@ class Truth:
     scene: str = "{}"
 
     def __post_init__(self):
-        object.__setattr__(self, "rp_antenna", np.asarray(self.rp_antenna, np.int64).ravel())
+        ant = np.asarray(self.rp_antenna)
+        # indices are integers by type, as frame= and a result's cluster are:
+        # a float (even 3.0) is refused rather than cast (3.5 became 3)
+        if ant.size and not np.issubdtype(ant.dtype, np.integer):
+            raise InputError(f"truth_rp_antenna must be an integer array (antenna indices), "
+                             f"got dtype {ant.dtype}")
+        object.__setattr__(self, "rp_antenna", ant.astype(np.int64).ravel())
         object.__setattr__(self, "rp_range", np.asarray(self.rp_range, np.float64).ravel())
         b = np.asarray(self.boundary, np.float64)
         if b.ndim != 2 or b.shape[1] not in (2, 3):
@@ -303,7 +310,7 @@ def load_npz(path) -> RadarData:
         npz = np.load(path, allow_pickle=False)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
-    except Exception as exc:  # zipfile.BadZipFile, ValueError, OSError, EOFError ...
+    except Exception as exc:  # noqa: BLE001 - zipfile.BadZipFile, ValueError, OSError, EOFError ...
         raise InputError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
     with npz:
         try:
@@ -320,7 +327,7 @@ def load_npz(path) -> RadarData:
         except InputError as exc:
             msg = str(exc)
             raise InputError(msg if msg.startswith(path) else f"{path}: {msg}") from None
-        except Exception as exc:  # truncated member inside a valid zip, bad pickle ...
+        except Exception as exc:  # noqa: BLE001 - truncated member inside a valid zip, bad pickle ...
             raise InputError(f"{path}: cannot read ({type(exc).__name__}: {exc})") from None
 
 

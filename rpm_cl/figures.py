@@ -352,7 +352,7 @@ FIGURES = ("kspace", "rps", "compare")
 
 def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float = 40.0,
            grid=None, engine=None, das=None, frame: int | None = None,
-           range_window: str = "hann") -> object:
+           range_window: str = "hann", params=None) -> object:
     """Compute and draw one paper-style figure of a data file.
 
     Parameters
@@ -376,6 +376,12 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         Frame of a stacked input (as :func:`rpm_cl.load_data`).
     range_window : str
         Range window of a frequency-domain input (as :func:`rpm_cl.load_data`).
+    params : rpm_cl.imaging.ImagingParams or callable, optional
+        The imaging parameters of the figure, or a function of the loaded
+        :class:`~rpm_cl.data.RadarData` returning them (how ``rpm-cl figure``
+        applies ``--config`` and the flags over the defaults derived from the
+        data, as ``rpm-cl image`` does).  Default
+        :func:`rpm_cl.imaging.default_params` of the data.
 
     Returns
     -------
@@ -402,14 +408,16 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
             raise InputError(f"{os.fspath(png)}: the picture must be a .png file")
         output_path(png)
     data = load_data(path, frame=frame, range_window=range_window)
+    if callable(params):
+        params = params(data)
     if name == "kspace":
-        what = kspace_map(data)
+        what = kspace_map(data, params)
     elif name == "rps":
-        what = rp_sets(data)
+        what = rp_sets(data, params)
     else:
         if engine is None:
             raise InputError("the compare figure needs an RPM engine")
-        what = compare_images(data, engine, das, grid)
+        what = compare_images(data, engine, das, grid, params)
 
     def render(out):
         plt = _pyplot(out, "figures")

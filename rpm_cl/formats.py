@@ -276,6 +276,8 @@ def _frames(src, key: str, n_axes: int) -> int | None:
     if len(shape) == n_axes:
         return None
     if len(shape) == n_axes + 1:
+        if shape[0] == 0:
+            raise InputError(f"{key} holds no frames (a stack of length 0, shape {shape})")
         return int(shape[0])
     raise InputError(f"{key} must have {n_axes} axes (or {n_axes + 1} for a stack of frames), "
                      f"got shape {shape}")
@@ -313,7 +315,7 @@ def frame_count(path) -> int:
     ------
     InputError
         The file is unreadable, or has no complex ``signal``/``spectrum`` of a
-        valid number of axes.
+        valid number of axes, or a stack of no frames.
     """
     path, src = _open(path)
     try:
@@ -395,8 +397,8 @@ def load_data(path, *, frame: int | None = None, range_window: str = "hann") -> 
     InputError
         One line naming the file and the problem: unknown extension,
         unreadable or truncated file, missing key, wrong shape or dtype,
-        non-uniform axis, NaN/Inf, a stack without ``frame``, ``frame`` out of
-        range, an unknown window.
+        non-uniform axis, NaN/Inf, a stack of no frames, a stack without
+        ``frame``, ``frame`` out of range, an unknown window.
     """
     _window_name(range_window)
     path, src = _open(path)

@@ -7,9 +7,10 @@
 - 2-D results (points (M, 2)): a matplotlib figure of the points coloured by
   cluster over the true boundary and the array.
 - DAS / RMA images (``image`` complex with axes ``x``, ``y`` [, ``z``], as
-  :func:`rpm_cl.das.write_image` writes them): 2-D as ``|I|`` in dB with
-  matplotlib; 3-D as three orthogonal slices through the brightest voxel, or
-  an iso-surface at a dB level (``iso``), with pyvista.
+  :func:`rpm_cl.formats.write_volume` writes them to ``.npz`` or ``.h5``):
+  2-D as ``|I|`` in dB with matplotlib; 3-D as three orthogonal slices
+  through the brightest voxel, or an iso-surface at a dB level (``iso``),
+  with pyvista.
 
 Big volumes (:func:`load_das_image`): ``rpm-cl das`` stores the image
 uncompressed in the ``.npz``, so it is opened as a read-only memory map of
@@ -21,7 +22,8 @@ resolution (a second pass collects the y and z planes); the iso-surface is
 taken on the block maxima, at most ``max_side`` voxels per axis (a 667^3
 complex64 volume, 2.4 GB, becomes a 223^3 float32 one, 44 MB).
 A compressed ``.npz`` (``np.savez_compressed``) cannot be mapped and is read
-into memory once.
+into memory once.  An ``.h5`` image (a chunked ``image`` dataset) is read by
+the same slabs, each through a short-lived open of the file.
 
 pyvista and matplotlib are optional dependencies (``pip install
 'rpm-cl[view]'``); without them :func:`view` raises :class:`InputError` with
@@ -133,8 +135,16 @@ def _read_h5(path: str):
                 raise KeyError(k)
         out = {k: np.asarray(f[k][()]) for k in ("points", "cluster", "rp_x")}
         out["rp_z"] = np.asarray(f["rp_z"][()]) if "rp_z" in f else None
-        meta = f["meta"][()] if "meta" in f else b"{}"
-    return out, json.loads(meta.decode("utf-8") if isinstance(meta, bytes) else str(meta))
+        meta = _h5_meta(f)
+    return out, meta
+
+
+def _h5_meta(f) -> object:
+    """The ``meta`` JSON string dataset of an open HDF5 file, parsed ({} when absent)."""
+    meta = f["meta"][()] if "meta" in f else b"{}"
+    if isinstance(meta, np.ndarray) and meta.ndim == 0:
+        meta = meta.item()
+    return json.loads(meta.decode("utf-8") if isinstance(meta, bytes) else str(meta))
 
 
 def _oneline(exc: BaseException) -> str:
@@ -299,9 +309,10 @@ class DASImage:
 
     Attributes
     ----------
-    image : ndarray or numpy.memmap, shape (nx, ny) or (nx, ny, nz)
+    image : ndarray, numpy.memmap or _H5Image, shape (nx, ny) or (nx, ny, nz)
         The image as stored (complex or real); a read-only memory map when the
-        ``.npz`` member is uncompressed.
+        ``.npz`` member is uncompressed; for an ``.h5`` file a reader of the
+        ``image`` dataset (``shape``, ``dtype``, slicing), read on demand.
     axes : tuple of ndarray
         ``x``, ``y`` [, ``z``], m, each strictly increasing, lengths the image's shape.
     meta : dict
@@ -353,9 +364,61 @@ def _stored_member(path: str, name: str):
                      order="F" if fortran else "C")
 
 
+class _H5Image:
+    """The ``image`` dataset of an HDF5 image file, read on demand: each
+    slicing opens the file, reads those elements and closes it, so no file
+    handle outlives a read (as each slab of an ``.npz`` gets its own map)."""
+
+    def __init__(self, path: str, shape: tuple, dtype):
+        self.path, self.shape, self.dtype = path, tuple(shape), np.dtype(dtype)
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    @property
+    def size(self) -> int:
+        return int(np.prod(self.shape))
+
+    def __getitem__(self, key) -> np.ndarray:
+        import h5py
+
+        try:
+            with h5py.File(self.path, "r") as f:
+                return np.asarray(f["image"][key])
+        except OSError as exc:  # a file changed or damaged since it was opened
+            raise InputError(f"{self.path}: cannot read the image ({_oneline(exc)})") from None
+
+    def __array__(self, dtype=None, copy=None):
+        a = self[()]
+        return a if dtype is None else a.astype(dtype)
+
+
+def _h5_image_parts(path: str):
+    """``axes``, ``meta`` and an :class:`_H5Image` of an HDF5 image file
+    (:func:`rpm_cl.formats.write_volume`: the ``.npz`` names as root datasets,
+    ``meta`` a JSON string)."""
+    import h5py
+
+    if not os.path.exists(path):
+        raise FileNotFoundError(path)
+    with h5py.File(path, "r") as f:
+        for key in ("image", "x", "y"):
+            if key not in f:
+                raise InputError(f"{path}: not an rpm-cl image file (missing {key!r})")
+            if not isinstance(f[key], h5py.Dataset):
+                raise InputError(f"{path}: {key} must be a dataset at the file root, not a group")
+        axes = [np.asarray(f[k][()]) for k in ("x", "y", "z") if k in f]
+        meta = _h5_meta(f)
+        img = _H5Image(path, f["image"].shape, f["image"].dtype)
+    return axes, meta, img
+
+
 def load_das_image(path) -> DASImage:
     """Open an image ``.npz`` (``image``, ``x``, ``y`` [, ``z``], ``meta``)
-    without reading the image into memory when it is stored uncompressed.
+    without reading the image into memory when it is stored uncompressed,
+    or an ``.h5`` / ``.hdf5`` image (the same names as root datasets), read
+    on demand slab by slab.
 
     Raises
     ------
@@ -365,18 +428,11 @@ def load_das_image(path) -> DASImage:
     """
     path = os.fspath(path)
     try:
-        with np.load(path, allow_pickle=False) as npz:
-            files = npz.files
-            for key in ("image", "x", "y"):
-                if key not in files:
-                    raise InputError(f"{path}: not an rpm-cl image file (missing {key!r})")
-            axes = [np.asarray(npz[k]) for k in ("x", "y", "z") if k in files]
-            meta = json.loads(str(npz["meta"])) if "meta" in files else {}
-        img = _stored_member(path, "image.npy")
-        mapped = img is not None and isinstance(img, np.memmap)
-        if img is None:
-            with np.load(path, allow_pickle=False) as npz:
-                img = npz["image"]
+        if os.path.splitext(path)[1].lower() in (".h5", ".hdf5"):
+            axes, meta, img = _h5_image_parts(path)
+            mapped = False
+        else:
+            axes, meta, img, mapped = _npz_image_parts(path)
     except InputError:
         raise
     except FileNotFoundError:
@@ -401,6 +457,24 @@ def load_das_image(path) -> DASImage:
                              f"{n} values (the image's shape {img.shape}), got {a.dtype} {a.shape}")
     axes = tuple(a.astype(np.float64) for a in axes)
     return DASImage(img, axes, meta, mapped, path)
+
+
+def _npz_image_parts(path: str):
+    """``axes``, ``meta``, the image (a memory map when stored uncompressed)
+    and whether it is mapped, of an image ``.npz``."""
+    with np.load(path, allow_pickle=False) as npz:
+        files = npz.files
+        for key in ("image", "x", "y"):
+            if key not in files:
+                raise InputError(f"{path}: not an rpm-cl image file (missing {key!r})")
+        axes = [np.asarray(npz[k]) for k in ("x", "y", "z") if k in files]
+        meta = json.loads(str(npz["meta"])) if "meta" in files else {}
+    img = _stored_member(path, "image.npy")
+    mapped = img is not None and isinstance(img, np.memmap)
+    if img is None:
+        with np.load(path, allow_pickle=False) as npz:
+            img = npz["image"]
+    return axes, meta, img, mapped
 
 
 def _slab_rows(img: DASImage, multiple: int = 1) -> int:
@@ -590,10 +664,17 @@ def _render_das_3d(img: DASImage, png, size, dynamic_range: float, iso=None,
 
 
 def _is_image_file(path) -> bool:
-    """Whether ``path`` is an image file (``image``, no ``points``); False when
-    unreadable (:func:`load_result` then reports why)."""
+    """Whether ``path`` (``.npz``, or ``.h5`` / ``.hdf5``) is an image file
+    (``image``, no ``points``); False when unreadable (:func:`load_result`
+    then reports why)."""
+    path = os.fspath(path)
     try:
-        with np.load(os.fspath(path), allow_pickle=False) as npz:
+        if os.path.splitext(path)[1].lower() in (".h5", ".hdf5"):
+            import h5py
+
+            with h5py.File(path, "r") as f:
+                return "image" in f and "points" not in f
+        with np.load(path, allow_pickle=False) as npz:
             return "image" in npz.files and "points" not in npz.files
     except Exception:  # noqa: BLE001 - load_result reports what is wrong
         return False
@@ -617,8 +698,9 @@ def view(path, png=None, size=(1000, 800), dynamic_range: float = DYNAMIC_RANGE_
     Parameters
     ----------
     path : str or path-like
-        A result ``.npz`` of ``rpm-cl image``, or an image ``.npz`` of
-        ``rpm-cl das`` / ``rpm-cl rma`` (recognised by its ``image`` key).
+        A result ``.npz`` / ``.h5`` of ``rpm-cl image``, or an image ``.npz`` /
+        ``.h5`` of ``rpm-cl das`` / ``rpm-cl rma`` (recognised by its ``image``
+        key).
     png : str or path-like, optional
         Output picture (written atomically); None opens a window.
     size : (int, int)
