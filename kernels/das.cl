@@ -22,14 +22,16 @@
  * Evaluation. With d = R_i + f dr (i the sample below d, 0 <= f < 1), the
  * summand is exactly
  *     (s_a[i] (1 - f) + s_a[i+1] f) exp(j 2 k_c (R_i + dr/2)) exp(j 2 k_c dr (f - 1/2))
+ *   = (u'_i + w'_i f) exp(j 2 k_c dr (f - 1/2)),  with
+ *     u'_i = s_a[i] exp(j 2 k_c (R_i + dr/2)),
+ *     w'_i = (s_a[i+1] - s_a[i]) exp(j 2 k_c (R_i + dr/2)).
  * The host supplies, per antenna, nr + 1 rows: row 0 and row nr are zero and
- * row i + 1 holds uv[i] = (s_a[i], s_a[i+1]) times exp(j 2 k_c (R_i + dr/2))
- * (float64 phases, then rounded), so the kernel gathers one REAL4 per voxel
- * and antenna, a lane outside the axis reads a zero row (no mask), and only
- * the phasor of x = 2 k_c dr (f - 1/2), |x| <= k_c dr, is left instead of a
- * full-range sincos.  With -DPOLY (host: when k_c dr <= 1.1) that phasor is a
- * Taylor polynomial (|x| <= 1.1: truncation below 1e-7, under float32
- * rounding), else sincos.
+ * row i + 1 holds (u'_i, w'_i) (float64 phases, then rounded), so the kernel
+ * gathers one REAL4 per voxel and antenna, a lane outside the axis reads a
+ * zero row (no mask), and only the phasor of x = 2 k_c dr (f - 1/2),
+ * |x| <= k_c dr, is left instead of a full-range sincos.  With -DPOLY (host:
+ * when k_c dr <= 1.1) that phasor is a Taylor polynomial (|x| <= 1.1:
+ * truncation below 1e-7, under float32 rounding), else sincos.
  *
  * Speed on PoCL's CPU device: its built-in functions (sqrt, floor, fmax,
  * select, min) are not inlined into the kernel there, and a call inside the
@@ -45,7 +47,7 @@
 /* VW, REALV, INTV, IDX, REAL2/4/8/16: simd.h (IDX long for double: comparisons
  * of double4 give long4 masks) */
 
-/* cos and sin of |x| <= 1.1 (Taylor to x^12 / x^11) */
+/* cos and sin of |x| <= 1.1 (Taylor to x^12 / x^11: remainder < 5e-11) */
 inline REALV poly_sincos(const REALV x, REALV *c)
 {
     const REALV x2 = x * x;
@@ -122,19 +124,21 @@ __kernel void das_backproject(
             vr = (REAL4)(p.s26, q.s26); vi = (REAL4)(p.s37, q.s37);
         }
 #endif
-        const REALV omf = (REAL)1 - fr;
-        const REALV pr = ur * omf + vr * fr;
-        const REALV pi = ui * omf + vi * fr;
-        const REALV x = kdr * (fr - (REAL)0.5);
+        /* (u' + w' f) exp(j 2 k_c dr (f - 1/2)): the host's rows hold u', w' */
+        const REALV pr = ur + vr * fr;
+        const REALV pi = ui + vi * fr;
+        const REALV x = kdr * fr - (REAL)0.5 * kdr;
         REALV c;
 #ifdef POLY
         const REALV sn = poly_sincos(x, &c);
 #else
         const REALV sn = sincos(x, &c);
 #endif
-        const REALV sr = pr, si = pi;
-        acc_re += sr * c - si * sn;
-        acc_im += sr * sn + si * c;
+        /* one contraction per statement: four FMAs */
+        acc_re += pr * c;
+        acc_re -= pi * sn;
+        acc_im += pr * sn;
+        acc_im += pi * c;
     }
     for (int l = 0; l < VW; ++l) {
         const int k = q * VW + l;

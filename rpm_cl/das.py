@@ -319,16 +319,17 @@ class DeviceDAS:
 
     @staticmethod
     def phased_pairs(data: RadarData) -> np.ndarray:
-        """The kernel's input: per antenna a zero row, then
-        (s[i], s[i+1]) exp(j 2 k_c (R_i + dr/2)) for each sample i < nr - 1
-        (float64 phases), then a zero row; shape (n_ant, nr + 1, 2)."""
+        """The kernel's input: per antenna a zero row, then for each sample
+        i < nr - 1 the pair (u'_i, w'_i) = (s[i], s[i+1] - s[i]) exp(j 2 k_c (R_i + dr/2))
+        (float64 phases; see kernels/das.cl), then a zero row; shape
+        (n_ant, nr + 1, 2)."""
         nr = data.range.size
         s = data.signal.reshape(-1, nr).astype(np.complex128)
         k2 = 4 * np.pi * data.waveform.fc / C0
         ph = np.exp(1j * k2 * (data.range[:-1] + 0.5 * data.dr))[None, :]
         out = np.zeros((s.shape[0], nr + 1, 2), np.complex128)
         out[:, 1:-1, 0] = s[:, :-1] * ph
-        out[:, 1:-1, 1] = s[:, 1:] * ph
+        out[:, 1:-1, 1] = (s[:, 1:] - s[:, :-1]) * ph
         return out
 
     def _buf(self, a, dtype):
