@@ -133,16 +133,29 @@ U_MAX = 0.985
 PAIR_CORRELATION = 0.2
 #: Local grids (points in sin(theta) over +-1 resolution cell, points in R over
 #: +-1.5 depths of focus) for re-placing one centre, and a pair of centres.
-EACH_GRID = (21, 25)
+#: The one-centre scan is then refined REFINE_STAGES times on REFINE_GRID
+#: over +-half a step of the grid before (each divides the step by 4: du / 12
+#: and 0.09 depths of focus in the end, finer than the former single 21 x 25
+#: grid); a pair that moves is followed by the one-centre scans.  The pair
+#: grid stays fine: (7, 7), and (7, 7) refined on (3, 3) or (5, 5), lost 1-4
+#: points of RPM <= 50 mm on random layouts.
+EACH_GRID = (7, 9)
 PAIR_GRID = (11, 11)
+REFINE_GRID = (5, 5)
+REFINE_STAGES = 1
+#: A centre counts as moved (another re-placing sweep, another re-seat
+#: cycle) when it moves by more than this fraction of a resolution cell in
+#: sin(theta) or of a depth of focus in R; smaller moves are kept but are
+#: left to the final polish.
+MOVE_TOLERANCE = 0.25
 #: Passes that take each centre out and search its place again.
 RESEAT_CYCLES = 2
 #: Largest table of focusing phases kept for the detection map, bytes.
-MAP_TABLE_BYTES = 256 << 20
+MAP_TABLE_BYTES = 128 << 20
 #: Most terms (directions x antennas x range samples) of one focused map:
-#: as many as the kept table holds (complex128), so that every map allowed
+#: as many as the kept table holds (complex64), so that every map allowed
 #: is built once; a larger search is refused (see the module docstring).
-MAP_TERMS_MAX = MAP_TABLE_BYTES // 16
+MAP_TERMS_MAX = MAP_TABLE_BYTES // 8
 
 
 def near_field_wanted(data) -> bool:
@@ -180,6 +193,7 @@ class _Model:
         self.b = _basis(x, terms).astype(complex)
         self.energy = float(np.sum(np.abs(sc) ** 2))
         self.fits = 0  # candidate fits evaluated (see FIT_BUDGET)
+        self._last = None
 
     def columns(self, centres):
         n = self.x.size
@@ -209,25 +223,39 @@ class _Model:
         a = _steer(self.x, u, r, self.k0)[:, :, None] * self.b[:, None, :]
         return proj(a.reshape(n, -1)).reshape(n, -1, t)
 
+    def _prepared(self, others):
+        """Projector off ``others``' columns, the data projected and its
+        energy (the last ``others`` kept: a placement scans it twice)."""
+        key = tuple(tuple(c) for c in others)
+        if self._last is None or self._last[0] != key:
+            proj = self._projector(self.columns(others))
+            sp = proj(self.sc)
+            self._last = (key, proj, sp, float(np.sum(np.abs(sp) ** 2)))
+        return self._last[1:]
+
     def scan(self, others, u, r):
         """Residual energy with the centres ``others`` and one more at each (u[i], r[i])."""
         self.fits += np.size(u)
-        proj = self._projector(self.columns(others))
-        sp = proj(self.sc)
+        proj, sp, esp = self._prepared(others)
         a = self._atoms(u, r, proj)                      # (N, n, t)
+        if a.shape[2] == 2:
+            q = _orthonormal(a).reshape(a.shape[0], -1)
+            g = q.conj().T @ sp                                  # (2 n, G)
+            return esp - np.sum((g.real ** 2 + g.imag ** 2).reshape(-1, 2 * g.shape[1]), axis=1)
         n, t = a.shape[1], a.shape[2]
         g = (a.reshape(a.shape[0], -1).conj().T @ sp).reshape(n, t, -1)   # A^H S per candidate
         h = _gram(a)
         gg = g @ np.conj(np.swapaxes(g, 1, 2))
-        return float(np.sum(np.abs(sp) ** 2)) - _trace(_inv(h) @ gg)
+        return esp - _trace(_inv(h) @ gg)
 
     def scan_pair(self, others, um, rm, un, rn):
         """Residual energy with ``others`` and two more centres, for every
         combination of one of (um, rm) and one of (un, rn): shape (len(um), len(un))."""
         self.fits += np.size(um) * np.size(un)
-        proj = self._projector(self.columns(others))
-        sp = proj(self.sc)
+        proj, sp, esp = self._prepared(others)
         am, an = self._atoms(um, rm, proj), self._atoms(un, rn, proj)
+        if am.shape[2] == 2:
+            return esp - _explained_pairs(_orthonormal(am), _orthonormal(an), sp)
         nx, ni, t = am.shape
         nj = an.shape[1]
         fm, fn = am.reshape(nx, -1), an.reshape(nx, -1)
@@ -247,7 +275,53 @@ class _Model:
         kpk = kk @ p[:, None] @ np.conj(np.swapaxes(kk, 2, 3))
         yy = rr[None] - kq - np.conj(np.swapaxes(kq, 2, 3)) + kpk  # (g_n - K g_m)(...)^H
         explained = _trace(ainv @ p)[:, None] + _trace(_inv(schur) @ yy)
-        return float(np.sum(np.abs(sp) ** 2)) - explained
+        return esp - explained
+
+
+def _orthonormal(a):
+    """Orthonormal bases (Gram-Schmidt) of each candidate's two atoms (N, n, 2)."""
+    a0, a1 = a[:, :, 0], a[:, :, 1]
+    q0 = a0 / np.maximum(np.linalg.norm(a0, axis=0), 1e-300)
+    v = a1 - q0 * np.sum(q0.conj() * a1, axis=0)
+    q1 = v / np.maximum(np.linalg.norm(v, axis=0), 1e-300)
+    return np.stack([q0, q1], axis=-1)
+
+
+def _explained_pairs(qm, qn, sp):
+    """Energy of ``sp`` explained jointly by candidates m and n, for every
+    pair: shape (n_m, n_n).  ``qm``, ``qn``: orthonormal bases (N, n, 2).
+
+    With C = Qm^H Qn and the coefficients g = Q^H S, the energy is
+    |g_m|^2 + tr((I - C^H C)^-1 Y), Y = (g_n - C^H g_m)(g_n - C^H g_m)^H (the
+    block elimination of the joint Gram matrix [[I, C], [C^H, I]]); the 2 x 2
+    algebra is written out per element over all pairs at once (the stacked
+    2 x 2 matrix products it replaces cost 4-5 times more)."""
+    nx, ni, _ = qm.shape
+    nj = qn.shape[1]
+    fm, fn = qm.reshape(nx, -1), qn.reshape(nx, -1)
+    gm, gn = fm.conj().T @ sp, fn.conj().T @ sp                     # (2 n, G)
+    c = (fm.conj().T @ fn).reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)  # c[a][b]: (ni, nj)
+    x = (gm @ gn.conj().T).reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)  # g_m g_n^H
+    gm3, gn3 = gm.reshape(ni, 2, -1), gn.reshape(nj, 2, -1)
+    pm = (gm3 @ gm3.conj().transpose(0, 2, 1)).transpose(1, 2, 0)[:, :, :, None]  # (2, 2, ni, 1)
+    pn = (gn3 @ gn3.conj().transpose(0, 2, 1)).transpose(1, 2, 0)[:, :, None, :]  # (2, 2, 1, nj)
+    cc = c.conj()
+    # E = C^H X, T = Pm C, F = C^H T, D = I - C^H C (element by element)
+    e = [[cc[0][a] * x[0][b] + cc[1][a] * x[1][b] for b in range(2)] for a in range(2)]
+    tt = [[pm[a][0] * c[0][b] + pm[a][1] * c[1][b] for b in range(2)] for a in range(2)]
+    f = [[cc[0][a] * tt[0][b] + cc[1][a] * tt[1][b] for b in range(2)] for a in range(2)]
+    y = [[pn[a][b] - e[a][b] - e[b][a].conj() + f[a][b] for b in range(2)] for a in range(2)]
+    d00 = 1.0 - (cc[0][0] * c[0][0] + cc[1][0] * c[1][0]).real
+    d11 = 1.0 - (cc[0][1] * c[0][1] + cc[1][1] * c[1][1]).real
+    d01 = -(cc[0][0] * c[0][1] + cc[1][0] * c[1][1])
+    eps = 1e-12 * (d00 + d11)  # the regularisation of _inv
+    d00, d11 = d00 + eps, d11 + eps
+    det = d00 * d11 - (d01 * d01.conj()).real
+    tr = (d11 * y[0][0] - d01 * y[1][0] - d01.conj() * y[0][1] + d00 * y[1][1]).real
+    em = np.sum(np.abs(gm3) ** 2, axis=(1, 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        joint = np.where(det > 0, tr / det, 0.0)
+    return em[:, None] + joint
 
 
 def _gram(a):
@@ -289,6 +363,54 @@ def _real_fit(x, k0, centres, terms, s):
     return d, coef, sr - dr @ coef
 
 
+class _Polish:
+    """Residual and Jacobian of the real-amplitude fit (:func:`_real_fit`)
+    as functions of the centres' (u, r, psi), for ``least_squares``.
+
+    The Jacobian is Kaufman's variable-projection one, ``-P (dD/dv) c``
+    (``P`` the projector off the model's columns, ``c`` the fitted real
+    coefficients): analytic, one evaluation instead of one per parameter,
+    and its gradient ``J^T res`` is the exact one (the term it drops is
+    orthogonal to the residual), so the minimum is the same.
+    """
+
+    def __init__(self, x, k0, terms, s):
+        self.x, self.k0, self.t = x, k0, terms
+        self.b = _basis(x, terms)
+        self.sr = np.concatenate([s.real, s.imag])
+        self._v, self._fit = None, None
+
+    def _solve(self, v):
+        if self._v is None or not np.array_equal(v, self._v):
+            c = v.reshape(-1, 3)
+            e = _steer(self.x, c[:, 0], c[:, 1], self.k0) * np.exp(1j * c[:, 2])[None]  # (N, M)
+            d = (e[:, :, None] * self.b[:, None, :]).reshape(self.x.size, -1)
+            q, rr = np.linalg.qr(np.concatenate([d.real, d.imag]))
+            qs = q.T @ self.sr
+            self._v = np.array(v, copy=True)
+            self._fit = (d, q, np.linalg.solve(rr, qs) if rr.size else qs, self.sr - q @ qs)
+        return self._fit
+
+    def fun(self, v):
+        return self._solve(v)[3].ravel()
+
+    def jac(self, v):
+        d, q, coef, _ = self._solve(v)
+        c = v.reshape(-1, 3)
+        x, u, r = self.x[:, None], c[None, :, 0], c[None, :, 1]
+        dist = np.sqrt(np.maximum(x * x - 2 * x * r * u + r * r, 1e-30))
+        n, m = d.shape[0], c.shape[0]
+        # d/du, d/dr, d/dpsi of each centre's column factor exp(-j2k0(d-r)+j psi), (N, M, 3)
+        fac = np.stack([2j * self.k0 * x * r / dist,
+                        -2j * self.k0 * ((r - x * u) / dist - 1.0),
+                        np.broadcast_to(1j, dist.shape)], axis=-1)
+        fitted = np.einsum("nmt,mtg->nmg", d.reshape(n, m, self.t), coef.reshape(m, self.t, -1))
+        e = fac[..., None] * fitted[:, :, None, :]                          # (N, M, 3, G)
+        er = np.concatenate([e.real, e.imag]).reshape(2 * n, 3 * m, -1)
+        er = er - np.einsum("ik,kjg->ijg", q, np.einsum("ik,ijg->kjg", q, er))
+        return -er.transpose(0, 2, 1).reshape(-1, 3 * m)
+
+
 class _Search:
     """Matching pursuit of the cluster centres (see the module docstring)."""
 
@@ -315,6 +437,8 @@ class _Search:
         self._check_size(data)
         self.w = np.hanning(self.n + 2)[1:-1]
         self._tables = {}
+        self._memo = {}
+        self._units = {}
         self.nms = [2 * int(np.ceil(self.du * 2 * self.k0 / dk)) + 1,
                     2 * int(np.ceil(0.5 * self.res_r / (step * self.dr))) + 1]
         self.gmax = float(self.focus_map(self.s_det).max())
@@ -353,44 +477,105 @@ class _Search:
         return min(4 * np.pi * r * r / (self.k0 * self.aperture ** 2), 0.5 * self.res_r)
 
     def focus_map(self, s):
-        """|sum_X w(X) s(X, R) conj(a_p(X))| over (u_det, r_det), in chunks of gates."""
+        """|sum_X w(X) s(X, R) conj(a_p(X))| over (u_det, r_det), in chunks of gates.
+
+        The focusing phases are kept as complex64 (the map only ranks
+        candidate centres: float32's 1e-7 is far below any peak difference
+        that matters), laid out (gate, direction, antenna) so that each gate
+        is one matrix-vector product."""
         out = np.empty((self.u_det.size, self.r_det.size))
-        chunk = max(1, int(MAP_TABLE_BYTES // (16 * self.u_det.size * self.n)))
-        cache = self.u_det.size * self.n * self.r_det.size * 16 <= MAP_TABLE_BYTES
-        x, u = self.x[None, :, None], self.u_det[:, None, None]
+        chunk = max(1, int(MAP_TABLE_BYTES // (8 * self.u_det.size * self.n)))
+        cache = self.u_det.size * self.n * self.r_det.size * 8 <= MAP_TABLE_BYTES
+        x, u = self.x[None, None, :], self.u_det[None, :, None]
         for g0 in range(0, self.r_det.size, chunk):
             tab = self._tables.get(g0)
             if tab is None:
-                r = self.r_det[None, None, g0:g0 + chunk]
+                r = self.r_det[g0:g0 + chunk, None, None]
                 d = np.sqrt(np.maximum(x * x - 2 * x * r * u + r * r, 0.0))
-                tab = self.w[None, :, None] * np.exp(2j * self.k0 * (d - r))
+                phase = (2 * self.k0 * (d - r)).astype(np.float32)
+                tab = np.empty(phase.shape, np.complex64)
+                np.cos(phase, out=tab.real)
+                np.sin(phase, out=tab.imag)
+                tab *= self.w.astype(np.float32)
                 if cache:
                     self._tables[g0] = tab
-            out[:, g0:g0 + chunk] = np.abs(np.einsum("kxg,xg->kg", tab, s[:, g0:g0 + chunk]))
+            sg = np.ascontiguousarray(s[:, g0:g0 + chunk].T, dtype=np.complex64)[:, :, None]
+            out[:, g0:g0 + chunk] = np.abs(np.matmul(tab, sg)[..., 0]).T
         return out
 
-    def _grid(self, centre, shape):
+    def _grid(self, centre, shape, half=None):
+        """Grid of ``shape`` points over +-``half`` (sin theta, m) around
+        ``centre``; default half widths: a resolution cell, 1.5 depths of focus."""
         u0, r0 = centre
-        f = self.dof(r0)
-        uu, rr = np.meshgrid(np.linspace(-self.du, self.du, shape[0]),
-                             np.linspace(-1.5 * f, 1.5 * f, shape[1]), indexing="ij")
-        return np.clip(u0 + uu.ravel(), -U_MAX, U_MAX), np.maximum(r0 + rr.ravel(), self.dr)
+        hu, hr = (self.du, 1.5 * self.dof(r0)) if half is None else half
+        unit = self._units.get(shape)
+        if unit is None:
+            unit = self._units[shape] = [g.ravel() for g in np.meshgrid(
+                np.linspace(-1, 1, shape[0]), np.linspace(-1, 1, shape[1]), indexing="ij")]
+        return np.clip(u0 + hu * unit[0], -U_MAX, U_MAX), np.maximum(r0 + hr * unit[1], self.dr)
+
+    def moved(self, a, b) -> bool:
+        """True when centre ``a`` lies more than MOVE_TOLERANCE of a cell from ``b``."""
+        return (abs(a[0] - b[0]) > MOVE_TOLERANCE * self.du
+                or abs(a[1] - b[1]) > MOVE_TOLERANCE * self.dof(b[1]))
+
+    def same(self, a, b) -> bool:
+        """True when the centre sets ``a`` and ``b`` match one to one within
+        MOVE_TOLERANCE (the same solution placed a little differently)."""
+        left = list(b)
+        for c in a:
+            k = next((i for i, d in enumerate(left) if not self.moved(c, d)), None)
+            if k is None:
+                return False
+            left.pop(k)
+        return not left
+
+    def place_one(self, others, centre):
+        """Best place of one centre near ``centre``, ``others`` fixed: the
+        EACH_GRID scan, then REFINE_STAGES scans of REFINE_GRID over +-half a
+        step of the grid before (stopping where the budget is spent)."""
+        half = np.array([self.du, 1.5 * self.dof(centre[1])])
+        shape, best = EACH_GRID, list(centre)
+        for stage in range(1 + REFINE_STAGES):
+            if stage and self.spent:
+                break
+            uu, rr = self._grid(best, shape, half)
+            i = int(np.argmin(self.model.scan(others, uu, rr)))
+            best = [float(uu[i]), float(rr[i])]
+            half = half / (np.asarray(shape) - 1)  # half a step of this grid
+            shape = REFINE_GRID
+        return best
 
     def place_each(self, centres, sweeps=3):
-        """Re-place each centre in turn on a local grid, the others fixed."""
+        """Re-place each centre in turn on a local grid, the others fixed.
+
+        In list order: the new centre last, the others first (placing the new
+        one first, from its map peak, lost 3 points of RPM <= 50 mm on random
+        layouts)."""
         centres = [list(c) for c in centres]
         for _ in range(sweeps):
             moved = False
-            for m, (u0, r0) in enumerate(centres):
+            for m in range(len(centres)):
+                u0, r0 = centres[m]
                 if self.spent:
                     return centres
-                uu, rr = self._grid((u0, r0), EACH_GRID)
-                i = int(np.argmin(self.model.scan(centres[:m] + centres[m + 1:], uu, rr)))
-                moved |= abs(uu[i] - u0) > 0.05 * self.du or abs(rr[i] - r0) > 0.05 * self.dof(r0)
-                centres[m] = [float(uu[i]), float(rr[i])]
+                best = self.place_one(centres[:m] + centres[m + 1:], (u0, r0))
+                moved |= self.moved(best, (u0, r0))
+                centres[m] = best
             if not moved:
                 break
         return centres
+
+    def place_two(self, rest, cm, ck):
+        """Joint place of two centres near ``cm`` and ``ck`` on PAIR_GRID,
+        ``rest`` fixed; (None, None) where the pair stays (the grids' middle)."""
+        um, rm = self._grid(cm, PAIR_GRID)
+        uk, rk = self._grid(ck, PAIR_GRID)
+        c = self.model.scan_pair(rest, um, rm, uk, rk)
+        i, j = np.unravel_index(int(np.argmin(c)), c.shape)
+        if i == c.shape[0] // 2 and j == c.shape[1] // 2:
+            return None, None
+        return [float(um[i]), float(rm[i])], [float(uk[j]), float(rk[j])]
 
     def place_pairs(self, centres):
         """Re-place pairs of centres with correlated waves jointly (aliases)."""
@@ -405,14 +590,10 @@ class _Search:
                     if self.spent:
                         return centres
                     rest = [c for i, c in enumerate(centres) if i not in (m, k)]
-                    um, rm = self._grid(centres[m], PAIR_GRID)
-                    uk, rk = self._grid(centres[k], PAIR_GRID)
-                    c = self.model.scan_pair(rest, um, rm, uk, rk)
-                    i, j = np.unravel_index(int(np.argmin(c)), c.shape)
-                    if i != c.shape[0] // 2 or j != c.shape[1] // 2:
+                    pm, pk = self.place_two(rest, centres[m], centres[k])
+                    if pm is not None:
                         changed = True
-                        centres[m] = [float(um[i]), float(rm[i])]
-                        centres[k] = [float(uk[j]), float(rk[j])]
+                        centres[m], centres[k] = pm, pk
             if not changed:
                 break
             centres = self.place_each(centres)
@@ -433,7 +614,15 @@ class _Search:
 
     def best_with(self, fixed):
         """Best candidate added to ``fixed``, all centres re-placed:
-        (centres, cost, peak), or None without candidates."""
+        (centres, cost, peak), or None without candidates.  Remembered per
+        ``fixed`` (the re-seat cycles ask the same question again)."""
+        key = tuple(tuple(c) for c in fixed)
+        if key not in self._memo:
+            self._memo[key] = self._best_with(fixed)
+        best = self._memo[key]
+        return None if best is None else ([list(c) for c in best[0]], best[1], best[2])
+
+    def _best_with(self, fixed):
         best = None
         for u0, r0, value in self.candidates(fixed):
             if self.spent:
@@ -469,9 +658,11 @@ class _Search:
                         break
                     alt = self.best_with(centres[:m] + centres[m + 1:])
                     if alt is not None and alt[1] < cost * (1 - 1e-3):
+                        # a better placement of the same centres is kept; only
+                        # a different solution asks for another cycle
+                        changed |= not self.same(alt[0], centres)
                         centres, cost = alt[0], alt[1]
                         peaks = peaks[:m] + peaks[m + 1:] + [alt[2]]
-                        changed = True
                 if not changed:
                     break
         return centres, peaks
@@ -523,9 +714,9 @@ def decompose_near_field(data, params, spectrum):
     inf = np.full(len(th0), np.inf)
     lb = np.column_stack([th0[:, 0] - 0.2 * du, th0[:, 1] - f / 6, -inf]).ravel()
     ub = np.column_stack([th0[:, 0] + 0.2 * du, th0[:, 1] + f / 6, inf]).ravel()
-    sol = least_squares(lambda v: _real_fit(x, k0, v.reshape(-1, 3), t, s_c)[2].ravel(),
-                        th0.ravel(), bounds=(lb, ub),
-                        x_scale=np.tile([0.1 * du, 1e-3, 0.1], len(th0)), diff_step=1e-7,
+    fit = _Polish(x, k0, t, s_c)
+    sol = least_squares(fit.fun, th0.ravel(), jac=fit.jac, bounds=(lb, ub),
+                        x_scale=np.tile([0.1 * du, 1e-3, 0.1], len(th0)),
                         max_nfev=POLISH_MAX_NFEV)
     th = sol.x.reshape(-1, 3)
 
