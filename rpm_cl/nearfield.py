@@ -612,21 +612,26 @@ class _Search:
         idx = idx[np.argsort(-fmap[tuple(idx.T)], kind="stable")][:CANDIDATES]
         return [(float(self.u_det[i]), float(self.r_det[j]), float(fmap[i, j])) for i, j in idx]
 
-    def best_with(self, fixed):
+    def best_with(self, fixed, exclude=None):
         """Best candidate added to ``fixed``, all centres re-placed:
-        (centres, cost, peak), or None without candidates.  Remembered per
-        ``fixed`` (the re-seat cycles ask the same question again)."""
-        key = tuple(tuple(c) for c in fixed)
+        (centres, cost, peak), or None without candidates.  Candidates
+        within a resolution cell and a depth of focus of ``exclude`` are not
+        tried (re-seating: the centre taken out, whose solution is known).
+        Remembered per question (the re-seat cycles ask some again)."""
+        key = (tuple(tuple(c) for c in fixed), None if exclude is None else tuple(exclude))
         if key not in self._memo:
-            self._memo[key] = self._best_with(fixed)
+            self._memo[key] = self._best_with(fixed, exclude)
         best = self._memo[key]
         return None if best is None else ([list(c) for c in best[0]], best[1], best[2])
 
-    def _best_with(self, fixed):
+    def _best_with(self, fixed, exclude):
         best = None
         for u0, r0, value in self.candidates(fixed):
             if self.spent:
                 break
+            if exclude is not None and (abs(u0 - exclude[0]) <= self.du
+                                        and abs(r0 - exclude[1]) <= self.dof(exclude[1])):
+                continue
             trial = self.place_each(fixed + [[u0, r0]])
             if len(trial) > 1:
                 trial = self.place_pairs(trial)
@@ -656,7 +661,7 @@ class _Search:
                 for m in range(len(centres)):
                     if self.spent:
                         break
-                    alt = self.best_with(centres[:m] + centres[m + 1:])
+                    alt = self.best_with(centres[:m] + centres[m + 1:], exclude=centres[m])
                     if alt is not None and alt[1] < cost * (1 - 1e-3):
                         # a better placement of the same centres is kept; only
                         # a different solution asks for another cycle
