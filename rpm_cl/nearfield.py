@@ -551,16 +551,24 @@ class _Search:
 
         In list order: the new centre last, the others first (placing the new
         one first, from its map peak, lost 3 points of RPM <= 50 mm on random
-        layouts)."""
+        layouts).  A centre is not placed again while no other one has moved
+        since it was placed (it would stay where it is)."""
         centres = [list(c) for c in centres]
+        step, placed, last_move = 0, [-1] * len(centres), [0] * len(centres)
         for _ in range(sweeps):
             moved = False
             for m in range(len(centres)):
+                step += 1
+                if placed[m] >= 0 and all(last_move[k] < placed[m]
+                                          for k in range(len(centres)) if k != m):
+                    continue
                 u0, r0 = centres[m]
                 if self.spent:
                     return centres
                 best = self.place_one(centres[:m] + centres[m + 1:], (u0, r0))
-                moved |= self.moved(best, (u0, r0))
+                placed[m] = step
+                if self.moved(best, (u0, r0)):
+                    moved, last_move[m] = True, step
                 centres[m] = best
             if not moved:
                 break
