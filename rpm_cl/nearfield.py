@@ -34,12 +34,16 @@ near-field beamformer map ``|sum_X w(X) s(X, R) conj(a_p(X))|`` over
    kept (the strongest peak of an aliased array is often two targets' grating
    lobes adding up);
 2. after each addition every centre is re-placed on a local grid (+-1
-   resolution cell in sin theta, +-1.5 depths of focus in R), pairs whose waves
-   correlate (aliases, as +3/+25 degrees) jointly, and each centre in turn is
-   taken out and searched again from the map of the others' residual;
+   resolution cell in sin theta, +-1.5 depths of focus in R; 7 x 9 points,
+   then 5 x 5 over +-half a step around the best), pairs whose waves
+   correlate (aliases, as +3/+25 degrees) jointly on an 11 x 11 grid each,
+   and each centre in turn is taken out and searched again from the map of
+   the others' residual (again only while that changes the solution by more
+   than a quarter cell: smaller moves are left to the polish);
 3. the search stops when a new centre lowers the residual energy by less than
    0.5 dB or no map peak is left above ``peak_threshold_db``;
-4. (u, R) and the phase are polished with the real-amplitude model.
+4. (u, R) and the phase are polished with the real-amplitude model
+   (``least_squares`` with the analytic variable-projection Jacobian).
 
 Bounds (the search on input with no targets in it -- noise, a lone sample
 -- otherwise ran to 8 centres and 20-25 s):
@@ -51,11 +55,12 @@ Bounds (the search on input with no targets in it -- noise, a lone sample
   paper's 21), so that half the data's degrees of freedom stay for the
   residual: beyond that the 0.5 dB test passes on noise;
 - at most ``FIT_BUDGET`` (3 M) candidate fits per search (the paper's sparse
-  case spends 0.64 M, a 5-target scene on the same array about 3 M): when
-  it is spent the search stops with the centres it has (every step checks
-  before its next scan, so it overshoots by one scan at most, 14641 fits);
+  case spends 0.27 M, 0.20-0.24 M at 20 dB, a 5-target scene on the same
+  array about 2 M): when it is spent the search stops with the centres it
+  has (every step checks before its next scan, so it overshoots by one scan
+  at most, 14641 fits);
 - at most ``POLISH_MAX_NFEV`` (100) residual evaluations in the final
-  polish (the paper's case converges in 10);
+  polish (the paper's case converges in 8, 8-10 at 20 dB);
 - at most ``MAP_TERMS_MAX`` (2**24, 16.8 M) terms in one focused map
   (directions x antennas x range samples), else :class:`InputError`.  The
   map is recomputed for every candidate search (15-35 times), its directions
@@ -63,26 +68,32 @@ Bounds (the search on input with no targets in it -- noise, a lone sample
   samples with the gates above the threshold, without bound: a 20 m aperture
   at 1 m pitch with echoes over 11 m of range needs 4.0e8 terms (22079
   directions x 21 antennas x 866 samples), 16 s a map, and ran for minutes.
-  Every map allowed fits the kept table (``MAP_TABLE_BYTES``, 256 MB), so
-  it is built once.  Measured on the shared reference machine, one core: the
-  paper's sparse case 0.96 M terms (0.8 s in all); 64 antennas at 20 mm
-  10.2 M (18 maps, 4.2 s; 10 s with the former 64 MB table, rebuilt for
-  every map); 21 antennas at 1 m over 0.4 m of range 14.8 M (33 maps,
-  6.5 s and 0.67 GB peak, against 24 s and 0.32 GB with the 64 MB table).
+  Every map allowed fits the kept table (``MAP_TABLE_BYTES``, 128 MB of
+  complex64), so it is built once.  Measured on the shared reference
+  machine, one core, decomposition only: the paper's sparse case 0.96 M
+  terms (0.11 s); 64 antennas at 20 mm 10.2 M (0.71 s, 0.29 GB peak; 3.4 s
+  and 0.49 GB before the search was made faster); 21 antennas at 1 m over
+  0.4 m of range 14.8 M (1.7 s and 0.38 GB peak, against 5.0 s and 0.66
+  GB).
 
 Worst case measured on one core of the reference machine: white noise on
-the paper's sparse array (21 antennas, 600 gates) 2.8 s (5 clusters, budget
-spent); band-limited noise 2.6 s on 21 antennas, 4.0 s on 32 (a fit costs
-about linearly more with N; with more antennas noise stops earlier, as one
-more centre's gain on noise falls below 0.5 dB); 3 range samples or a
-one-sample spike: no search (milliseconds).
+the paper's sparse array (21 antennas, 600 gates) 0.95 s (5 clusters,
+budget spent; 3.0 s before the search was made faster), a 5-target scene
+on it 0.75 s (2.2 s); band-limited noise took 2.6 s on 21 antennas and 4.0 s
+on 32 before (not measured since: the budget is the same and every fit is
+cheaper; a fit costs about linearly more with N; with more antennas noise
+stops earlier, as one more centre's gain on noise falls below 0.5 dB); 3
+range samples or a one-sample spike: no search (milliseconds).
 
 The decomposed signal of cluster m is its term of the joint least-squares fit
 over every range gate: the clusters are separated jointly, so the part of one
 target that a window around another's k would also pass is not counted twice.
-The search costs about 0.7 s for the paper's sparse case on one core of the
-reference machine (the paper: 2 s; worst case above); the plane-wave path is
-untouched.
+The paper's sparse case takes about 0.1 s from s(X, R) to points on one
+core of the reference machine (search 80-90 ms, polish 5 ms; 0.70 s before
+the search was made faster, measured in the same run; the paper: 2 s; worst
+case above), short of issue 2's 20 ms; the plane-wave path is untouched.
+``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
+case and on random three-target layouts.
 
 Only the decomposition changes: RPs are still the local maxima of each
 decomposed envelope along R (eq. 5) and the image is still RPM (eq. 6).
@@ -118,14 +129,15 @@ MAX_CLUSTERS = 8
 MIN_SEARCH_GATES = 3
 #: Budget of candidate fits per search (one per centre position tried by a
 #: grid scan, one per pair of positions by a pair scan, one per cost).
-#: The paper's sparse case spends 0.64 M (20 dB: 0.77 M); when the budget
-#: is spent the search stops where it is (see the module docstring).
+#: The paper's sparse case spends 0.27 M (20 dB: 0.20-0.24 M); when the
+#: budget is spent the search stops where it is (see the module docstring).
 FIT_BUDGET = 3_000_000
 #: Most residual evaluations of the final (u, R, phase) polish
-#: (``max_nfev`` of ``scipy.optimize.least_squares``; the finite-difference
-#: Jacobians come on top).  The paper's sparse case converges in 10-11
-#: (seeds 0-4 at 20 dB too); pure noise took 448 (1.3 s for 5 centres) and
-#: a constant signal ran to scipy's own cap, 100 per parameter.
+#: (``max_nfev`` of ``scipy.optimize.least_squares``; the analytic Jacobians
+#: come on top, one per iteration).  The paper's sparse case converges in 8
+#: (seeds 0-4 at 20 dB: 8-10); pure noise took 448 (1.3 s for 5 centres,
+#: with finite differences) and a constant signal ran to scipy's own cap,
+#: 100 per parameter.
 POLISH_MAX_NFEV = 100
 #: Largest |sin theta| searched.
 U_MAX = 0.985
