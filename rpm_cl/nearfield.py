@@ -317,19 +317,24 @@ def _explained_pairs(qm, qn, sp):
     gm3, gn3 = gm.reshape(ni, 2, -1), gn.reshape(nj, 2, -1)
     pm = (gm3 @ gm3.conj().transpose(0, 2, 1)).transpose(1, 2, 0)[:, :, :, None]  # (2, 2, ni, 1)
     pn = (gn3 @ gn3.conj().transpose(0, 2, 1)).transpose(1, 2, 0)[:, :, None, :]  # (2, 2, 1, nj)
+    # tr(M Y) with M = D^-1 = (I - C^H C)^-1 Hermitian, expanded:
+    # tr(M Pn) - 2 Re sum(X * conj(W)) + tr(W C^H Pm), W = C M
     cc = c.conj()
-    # E = C^H X, T = Pm C, F = C^H T, D = I - C^H C (element by element)
-    e = [[cc[0][a] * x[0][b] + cc[1][a] * x[1][b] for b in range(2)] for a in range(2)]
-    tt = [[pm[a][0] * c[0][b] + pm[a][1] * c[1][b] for b in range(2)] for a in range(2)]
-    f = [[cc[0][a] * tt[0][b] + cc[1][a] * tt[1][b] for b in range(2)] for a in range(2)]
-    y = [[pn[a][b] - e[a][b] - e[b][a].conj() + f[a][b] for b in range(2)] for a in range(2)]
     d00 = 1.0 - (cc[0][0] * c[0][0] + cc[1][0] * c[1][0]).real
     d11 = 1.0 - (cc[0][1] * c[0][1] + cc[1][1] * c[1][1]).real
     d01 = -(cc[0][0] * c[0][1] + cc[1][0] * c[1][1])
     eps = 1e-12 * (d00 + d11)  # the regularisation of _inv
     d00, d11 = d00 + eps, d11 + eps
-    det = d00 * d11 - (d01 * d01.conj()).real
-    tr = (d11 * y[0][0] - d01 * y[1][0] - d01.conj() * y[0][1] + d00 * y[1][1]).real
+    det = d00 * d11 - (d01.real ** 2 + d01.imag ** 2)
+    # adj(D) = [[d11, -d01], [-conj(d01), d00]]: M = adj / det
+    m01, m10 = -d01, -d01.conj()
+    w = [[c[a][0] * (d11 if b == 0 else m01) + c[a][1] * (m10 if b == 0 else d00)
+          for b in range(2)] for a in range(2)]
+    t_pn = (d11 * pn[0][0] + m01 * pn[1][0] + m10 * pn[0][1] + d00 * pn[1][1]).real
+    t_x = sum((x[a][b] * w[a][b].conj()).real for a in range(2) for b in range(2))
+    v = [[w[a][0] * cc[b][0] + w[a][1] * cc[b][1] for b in range(2)] for a in range(2)]
+    t_pm = sum((v[a][b] * pm[b][a]).real for a in range(2) for b in range(2))
+    tr = t_pn - 2.0 * t_x + t_pm
     em = np.sum(np.abs(gm3) ** 2, axis=(1, 2))
     with np.errstate(divide="ignore", invalid="ignore"):
         joint = np.where(det > 0, tr / det, 0.0)
