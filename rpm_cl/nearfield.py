@@ -307,7 +307,7 @@ def _explained_pairs(qm, qn, sp):
     |g_m|^2 + tr((I - C^H C)^-1 Y), Y = (g_n - C^H g_m)(g_n - C^H g_m)^H (the
     block elimination of the joint Gram matrix [[I, C], [C^H, I]]); the 2 x 2
     algebra is written out per element over all pairs at once (the stacked
-    2 x 2 matrix products it replaces cost 4-5 times more)."""
+    2 x 2 matrix products it replaces cost 3-5 times more)."""
     nx, ni, _ = qm.shape
     nj = qn.shape[1]
     fm, fn = qm.reshape(nx, -1), qn.reshape(nx, -1)
