@@ -106,3 +106,60 @@ def test_scans_equal_direct_fits(rng):
     two = [[model.cost(others + [[um[i], rm[i]], [un[j], rn[j]]]) for j in range(2)]
            for i in range(3)]
     np.testing.assert_allclose(model.scan_pair(others, um, rm, un, rn), two, rtol=1e-9)
+
+
+def test_polish_jacobian_gives_the_exact_gradient(rng):
+    """The polish's analytic (Kaufman) Jacobian: its residual is _real_fit's,
+    and J^T r equals the central-difference gradient of |r|^2 / 2 (the term
+    it drops is orthogonal to the residual)."""
+    x = (np.arange(21) - 10) * 0.02
+    s = rng.standard_normal((21, 42)) + 1j * rng.standard_normal((21, 42))
+    fit = nearfield._Polish(x, 419.0, nearfield.SEARCH_TERMS, s)
+    v = np.array([0.1, 0.45, 0.3, -0.3, 0.42, -1.0])
+    r = fit.fun(v)
+    np.testing.assert_allclose(
+        r, nearfield._real_fit(x, 419.0, v.reshape(-1, 3), nearfield.SEARCH_TERMS, s)[2].ravel(),
+        atol=1e-9)
+    h = np.tile([1e-7, 1e-7, 1e-6], 2)
+    e = np.eye(v.size)
+    fd = [(np.sum(fit.fun(v + h[i] * e[i]) ** 2) - np.sum(fit.fun(v - h[i] * e[i]) ** 2))
+          / (4 * h[i]) for i in range(v.size)]
+    np.testing.assert_allclose(fit.jac(v).T @ r, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)))
+
+
+def test_focus_map_equals_the_direct_sum():
+    """The complex64 focused map against its definition in float64,
+    |sum_X w(X) s(X, R) exp(j 2 k0 (|X - p| - R))|, at every tenth direction."""
+    data, _ = simulate_preset("paper-2d-sparse")
+    search = nearfield._Search(data, 10 ** (-10 / 20), 4)
+    fmap = search.focus_map(search.s_det)
+    x = search.x[:, None]
+    for i in range(0, search.u_det.size, 10):
+        r = search.r_det[None]
+        d = np.sqrt(x * x - 2 * x * r * search.u_det[i] + r * r)
+        ref = np.abs(np.sum(search.w[:, None] * search.s_det * np.exp(2j * search.k0 * (d - r)), 0))
+        np.testing.assert_allclose(fmap[i], ref, rtol=1e-4, atol=1e-5 * ref.max())
+
+
+def test_one_centre_placement_lands_on_a_lone_target():
+    """Coarse-to-fine placement from 0.6 cell and one depth of focus away
+    ends within its final step (du / 12, 0.1 depth of focus) of the target."""
+    pre = get_preset("paper-2d-sparse")
+    p = np.array([0.15, 0.4])
+    data = simulate(Scene((PointTarget(p),)), pre.array, pre.waveform, pre.range_axis)
+    search = nearfield._Search(data, 10 ** (-10 / 20), 4)
+    u_t, r_t = p[0] / np.hypot(*p), np.hypot(*p)
+    f = search.dof(r_t)
+    u, r = search.place_one([], (u_t + 0.6 * search.du, r_t + f))
+    assert abs(u - u_t) <= search.du / 12
+    assert abs(r - r_t) <= 0.1 * f
+
+
+def test_repeated_question_costs_no_fits():
+    """best_with remembers its answers: the re-seat cycles ask again."""
+    data, _ = simulate_preset("paper-2d-sparse")
+    search = nearfield._Search(data, 10 ** (-10 / 20), 4)
+    first = search.best_with([])
+    fits = search.model.fits
+    assert search.best_with([]) == first
+    assert search.model.fits == fits
