@@ -162,12 +162,22 @@ REFINE_STAGES = 1
 MOVE_TOLERANCE = 0.25
 #: Passes that take each centre out and search its place again.
 RESEAT_CYCLES = 2
+#: The re-seat cycles are skipped once the residual energy is below
+#: FLOOR_MARGIN times the noise's expected share or FLOOR_REL of the
+#: searched energy (see :meth:`_Search.floor`).
+FLOOR_MARGIN = 1.5
+FLOOR_REL = 1e-3
 #: Largest table of focusing phases kept for the detection map, bytes.
 MAP_TABLE_BYTES = 128 << 20
 #: Most terms (directions x antennas x range samples) of one focused map:
 #: as many as the kept table holds (complex64), so that every map allowed
 #: is built once; a larger search is refused (see the module docstring).
 MAP_TERMS_MAX = MAP_TABLE_BYTES // 8
+#: Focusing tables kept across calls (one per geometry: antennas,
+#: frequency, directions, range axis), bytes in all; one table is kept only
+#: when it takes at most a quarter of this (the paper's sparse case: 8.9 MB).
+TABLE_CACHE_BYTES = 64 << 20
+_TABLES = {}
 
 
 def near_field_wanted(data) -> bool:
@@ -444,10 +454,21 @@ class _Search:
         gsel = np.nonzero(env >= thr * env.max())[0]
         self.gates = gsel[(gsel > 0) & (gsel < data.range.size - 1)]
         self.model = _Model(x, self.k0, _compress(sig[:, self.gates]), SEARCH_TERMS)
+        # noise energy per dimension across the array: the smaller half of the
+        # data's squared singular values (the echoes take the larger ones)
+        sv2 = np.sort(np.sum(np.abs(self.model.sc) ** 2, axis=0))
+        self.noise = float(np.mean(sv2[:max(1, self.n // 2)]))
         # the focused map on every few gates (it varies slowly along R)
         step = max(1, round(self.res_r / 64 / self.dr))
-        gdet = self.gates[::step]
+        # on gates of the axis that are multiples of the step, so that
+        # the focusing table of a gate is the same whatever gates hold echoes
+        # (it is kept across calls, see _table)
+        gdet = self.gates[self.gates % step == 0]
+        if gdet.size == 0:
+            gdet = self.gates[:1]
         self.s_det, self.r_det = sig[:, gdet], data.range[gdet]
+        self._rows, self._step, self._nrange = gdet // step, step, data.range.size
+        self._axis = data.range
         dk = 2 * np.pi / (pad * self.n * data.array.dx)
         nk = int(np.floor(2 * self.k0 * U_MAX / dk))
         self.u_det = np.arange(-nk, nk + 1) * dk / (2 * self.k0)
@@ -489,6 +510,15 @@ class _Search:
         centres (4 antennas and 2 centres of 2 terms).  21 antennas: 5."""
         return max(1, min(MAX_CLUSTERS, self.n // (2 * SEARCH_TERMS)))
 
+    def floor(self, m) -> float:
+        """Residual energy of m centres that leaves nothing to re-seat:
+        FLOOR_MARGIN times the noise's share of the searched gates (the
+        N - m SEARCH_TERMS dimensions the model leaves, each with the mean
+        of the smaller half of the data's squared singular values), and no
+        less than FLOOR_REL of the searched energy."""
+        noise = self.noise * max(self.n - m * SEARCH_TERMS, 1)
+        return max(FLOOR_MARGIN * noise, FLOOR_REL * self.model.energy)
+
     def dof(self, r):
         """Depth of focus at range r: the range change that bends the edge phase by pi."""
         return min(4 * np.pi * r * r / (self.k0 * self.aperture ** 2), 0.5 * self.res_r)
@@ -501,24 +531,63 @@ class _Search:
         that matters), laid out (gate, direction, antenna) so that each gate
         is one matrix-vector product."""
         out = np.empty((self.u_det.size, self.r_det.size))
+        table = self._table()
+        if table is not None:   # the whole axis's table, kept: runs of consecutive rows
+            rows = self._rows
+            cuts = np.flatnonzero(np.diff(rows) != 1) + 1
+            for a, b in zip(np.r_[0, cuts], np.r_[cuts, rows.size]):
+                sg = np.ascontiguousarray(s[:, a:b].T, dtype=np.complex64)[:, :, None]
+                out[:, a:b] = np.abs(np.matmul(table[rows[a]:rows[b - 1] + 1], sg)[..., 0]).T
+            return out
         chunk = max(1, int(MAP_TABLE_BYTES // (8 * self.u_det.size * self.n)))
         cache = self.u_det.size * self.n * self.r_det.size * 8 <= MAP_TABLE_BYTES
-        x, u = self.x[None, None, :], self.u_det[None, :, None]
         for g0 in range(0, self.r_det.size, chunk):
             tab = self._tables.get(g0)
             if tab is None:
-                r = self.r_det[g0:g0 + chunk, None, None]
-                d = np.sqrt(np.maximum(x * x - 2 * x * r * u + r * r, 0.0))
-                phase = (2 * self.k0 * (d - r)).astype(np.float32)
-                tab = np.empty(phase.shape, np.complex64)
-                np.cos(phase, out=tab.real)
-                np.sin(phase, out=tab.imag)
-                tab *= self.w.astype(np.float32)
+                tab = self._phases(self.r_det[g0:g0 + chunk])
                 if cache:
                     self._tables[g0] = tab
             sg = np.ascontiguousarray(s[:, g0:g0 + chunk].T, dtype=np.complex64)[:, :, None]
             out[:, g0:g0 + chunk] = np.abs(np.matmul(tab, sg)[..., 0]).T
         return out
+
+    def _phases(self, r):
+        """Weighted focusing phases (len(r), directions, antennas), complex64."""
+        x, u, r = self.x[None, None, :], self.u_det[None, :, None], np.asarray(r)[:, None, None]
+        d = np.sqrt(np.maximum(x * x - 2 * x * r * u + r * r, 0.0))
+        phase = (2 * self.k0 * (d - r)).astype(np.float32)
+        tab = np.empty(phase.shape, np.complex64)
+        np.cos(phase, out=tab.real)
+        np.sin(phase, out=tab.imag)
+        tab *= self.w.astype(np.float32)
+        return tab
+
+    def _table(self):
+        """The focusing table of every step-th gate of the range axis, kept
+        across calls for the same geometry (antennas, frequency, directions,
+        range axis; least recently used first out, TABLE_CACHE_BYTES in all),
+        its rows filled as gates are asked for; None where one table would
+        take more than TABLE_CACHE_BYTES / 4 (then :meth:`focus_map` builds
+        the searched gates' rows, once per search, as before)."""
+        nrows = -(-self._nrange // self._step)
+        size = nrows * self.u_det.size * self.n * 8
+        if size > TABLE_CACHE_BYTES // 4:
+            return None
+        key = (self.x.tobytes(), self.k0, self.u_det.size, float(self.u_det[-1]),
+               float(self._axis[0]), float(self._axis[-1]), self._nrange, self._step)
+        entry = _TABLES.pop(key, None)
+        if entry is None:
+            while _TABLES and sum(t.nbytes for t, _ in _TABLES.values()) + size > TABLE_CACHE_BYTES:
+                _TABLES.pop(next(iter(_TABLES)))
+            entry = (np.empty((nrows, self.u_det.size, self.n), np.complex64),
+                     np.zeros(nrows, bool))
+        _TABLES[key] = entry    # most recently used last
+        table, built = entry
+        need = self._rows[~built[self._rows]]
+        if need.size:
+            table[need] = self._phases(self._axis[need * self._step])
+            built[need] = True
+        return table
 
     def _grid(self, centre, shape, half=None):
         """Grid of ``shape`` points over +-``half`` (sin theta, m) around
@@ -663,6 +732,8 @@ class _Search:
             c = self.model.cost(trial)
             if best is None or c < best[1]:
                 best = (trial, c, value)
+            if c <= self.floor(len(trial)):
+                break   # down to the noise: the weaker peaks cannot explain more
         return best
 
     def run(self):
@@ -681,7 +752,10 @@ class _Search:
             peaks.append(best[2])
             # re-seat: a centre chosen before the others were known may sit
             # between targets; take each out in turn and search its place again
-            for _ in range(RESEAT_CYCLES if len(centres) > 1 else 0):
+            # (not once the residual is down to the noise: nothing is left
+            # that another placement could explain)
+            cycles = RESEAT_CYCLES if len(centres) > 1 and cost > self.floor(len(centres)) else 0
+            for _ in range(cycles):
                 changed = False
                 for m in range(len(centres)):
                     if self.spent:
