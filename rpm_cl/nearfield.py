@@ -175,8 +175,9 @@ MAP_TABLE_BYTES = 128 << 20
 MAP_TERMS_MAX = MAP_TABLE_BYTES // 8
 #: Focusing tables kept across calls (one per geometry: antennas,
 #: frequency, directions, range axis), bytes in all; one table is kept only
-#: when it takes at most a quarter of this (the paper's sparse case: 8.9 MB).
-TABLE_CACHE_BYTES = 64 << 20
+#: when it takes at most half of this (the paper's sparse case: 44 MB for
+#: its 600 gates, of which the rows of the gates searched are filled).
+TABLE_CACHE_BYTES = 128 << 20
 _TABLES = {}
 
 
@@ -460,15 +461,9 @@ class _Search:
         self.noise = float(np.mean(sv2[:max(1, self.n // 2)]))
         # the focused map on every few gates (it varies slowly along R)
         step = max(1, round(self.res_r / 64 / self.dr))
-        # on gates of the axis that are multiples of the step, so that
-        # the focusing table of a gate is the same whatever gates hold echoes
-        # (it is kept across calls, see _table)
-        gdet = self.gates[self.gates % step == 0]
-        if gdet.size == 0:
-            gdet = self.gates[:1]
+        gdet = self.gates[::step]
         self.s_det, self.r_det = sig[:, gdet], data.range[gdet]
-        self._rows, self._step, self._nrange = gdet // step, step, data.range.size
-        self._axis = data.range
+        self._rows, self._step, self._axis = gdet, step, data.range
         dk = 2 * np.pi / (pad * self.n * data.array.dx)
         nk = int(np.floor(2 * self.k0 * U_MAX / dk))
         self.u_det = np.arange(-nk, nk + 1) * dk / (2 * self.k0)
@@ -532,12 +527,13 @@ class _Search:
         is one matrix-vector product."""
         out = np.empty((self.u_det.size, self.r_det.size))
         table = self._table()
-        if table is not None:   # the whole axis's table, kept: runs of consecutive rows
-            rows = self._rows
-            cuts = np.flatnonzero(np.diff(rows) != 1) + 1
+        if table is not None:   # the whole axis's table, kept: runs of gates a step apart
+            rows, step = self._rows, self._step
+            cuts = np.flatnonzero(np.diff(rows) != step) + 1
             for a, b in zip(np.r_[0, cuts], np.r_[cuts, rows.size]):
                 sg = np.ascontiguousarray(s[:, a:b].T, dtype=np.complex64)[:, :, None]
-                out[:, a:b] = np.abs(np.matmul(table[rows[a]:rows[b - 1] + 1], sg)[..., 0]).T
+                tab = table[rows[a]:rows[b - 1] + 1:step]
+                out[:, a:b] = np.abs(np.matmul(tab, sg)[..., 0]).T
             return out
         chunk = max(1, int(MAP_TABLE_BYTES // (8 * self.u_det.size * self.n)))
         cache = self.u_det.size * self.n * self.r_det.size * 8 <= MAP_TABLE_BYTES
@@ -563,18 +559,19 @@ class _Search:
         return tab
 
     def _table(self):
-        """The focusing table of every step-th gate of the range axis, kept
-        across calls for the same geometry (antennas, frequency, directions,
-        range axis; least recently used first out, TABLE_CACHE_BYTES in all),
-        its rows filled as gates are asked for; None where one table would
-        take more than TABLE_CACHE_BYTES / 4 (then :meth:`focus_map` builds
-        the searched gates' rows, once per search, as before)."""
-        nrows = -(-self._nrange // self._step)
+        """The focusing table of every gate of the range axis, kept across
+        calls for the same geometry (antennas, frequency, directions, range
+        axis; least recently used first out, TABLE_CACHE_BYTES in all), its
+        rows filled as gates are asked for (the memory of a row is touched
+        only then); None where one table would take more than
+        TABLE_CACHE_BYTES / 2 (then :meth:`focus_map` builds the searched
+        gates' rows, once per search)."""
+        nrows = self._axis.size
         size = nrows * self.u_det.size * self.n * 8
-        if size > TABLE_CACHE_BYTES // 4:
+        if size > TABLE_CACHE_BYTES // 2:
             return None
         key = (self.x.tobytes(), self.k0, self.u_det.size, float(self.u_det[-1]),
-               float(self._axis[0]), float(self._axis[-1]), self._nrange, self._step)
+               float(self._axis[0]), float(self._axis[-1]), nrows)
         entry = _TABLES.pop(key, None)
         if entry is None:
             while _TABLES and sum(t.nbytes for t, _ in _TABLES.values()) + size > TABLE_CACHE_BYTES:
@@ -585,7 +582,7 @@ class _Search:
         table, built = entry
         need = self._rows[~built[self._rows]]
         if need.size:
-            table[need] = self._phases(self._axis[need * self._step])
+            table[need] = self._phases(self._axis[need])
             built[need] = True
         return table
 
@@ -732,8 +729,6 @@ class _Search:
             c = self.model.cost(trial)
             if best is None or c < best[1]:
                 best = (trial, c, value)
-            if c <= self.floor(len(trial)):
-                break   # down to the noise: the weaker peaks cannot explain more
         return best
 
     def run(self):
