@@ -39,7 +39,11 @@ near-field beamformer map ``|sum_X w(X) s(X, R) conj(a_p(X))|`` over
    correlate (aliases, as +3/+25 degrees) jointly on an 11 x 11 grid each,
    and each centre in turn is taken out and searched again from the map of
    the others' residual (again only while that changes the solution by more
-   than a quarter cell: smaller moves are left to the polish);
+   than a quarter cell: smaller moves are left to the polish; and not at
+   all once the residual is down to the noise floor, :meth:`_Search.floor`:
+   1.5 times the noise's share, estimated from the smaller half of the
+   data's singular values, or 1e-3 of the energy -- the paper's case spent
+   half its search re-seating a three-centre solution at -38 dB);
 3. the search stops when a new centre lowers the residual energy by less than
    0.5 dB or no map peak is left above ``peak_threshold_db``;
 4. (u, R) and the phase are polished with the real-amplitude model
@@ -55,7 +59,7 @@ Bounds (the search on input with no targets in it -- noise, a lone sample
   paper's 21), so that half the data's degrees of freedom stay for the
   residual: beyond that the 0.5 dB test passes on noise;
 - at most ``FIT_BUDGET`` (3 M) candidate fits per search (the paper's sparse
-  case spends 0.27 M, 0.20-0.24 M at 20 dB, a 5-target scene on the same
+  case spends 0.11 M, 0.08-0.23 M at 20 dB, a 5-target scene on the same
   array about 2 M): when it is spent the search stops with the centres it
   has (every step checks before its next scan, so it overshoots by one scan
   at most, 14641 fits);
@@ -71,7 +75,10 @@ Bounds (the search on input with no targets in it -- noise, a lone sample
   Every map allowed fits the kept table (``MAP_TABLE_BYTES``, 128 MB of
   complex64), so it is built once.  Measured on the shared reference
   machine, one core, decomposition only: the paper's sparse case 0.96 M
-  terms (0.11 s); 64 antennas at 20 mm 10.2 M (0.71 s, 0.29 GB peak; 3.4 s
+  terms (50 ms; the larger cases below were measured before the noise
+  floor and the kept table, not since: their whole-axis table is kept when
+  it fits TABLE_CACHE_BYTES / 2, which adds up to 64 MB to the peak);
+  64 antennas at 20 mm 10.2 M (0.71 s, 0.29 GB peak; 3.4 s
   and 0.49 GB before the search was made faster); 21 antennas at 1 m over
   0.4 m of range 14.8 M (1.7 s and 0.38 GB peak, against 5.0 s and 0.66
   GB).
@@ -88,10 +95,14 @@ range samples or a one-sample spike: no search (milliseconds).
 The decomposed signal of cluster m is its term of the joint least-squares fit
 over every range gate: the clusters are separated jointly, so the part of one
 target that a window around another's k would also pass is not counted twice.
-The paper's sparse case takes about 0.1 s from s(X, R) to points on one
-core of the reference machine (search 80-90 ms, polish 5 ms; 0.70 s before
-the search was made faster, measured in the same run; the paper: 2 s; worst
-case above), short of issue 2's 20 ms; the plane-wave path is untouched.
+The paper's sparse case takes about 55 ms from s(X, R) to points on one
+core of the reference machine (decomposition 50 ms, median of 20 after
+warm-up; 107 ms with the search before the noise floor and the kept
+focusing table, 2.0x, measured interleaved in the same run; 0.70 s before
+the first speed-up; the paper: 2 s; worst case above), short of issue 2's
+20 ms; the plane-wave path is untouched.  The focusing table of the map is
+kept across calls per geometry (``TABLE_CACHE_BYTES``), so a first call on
+a new geometry pays about 10 ms more.
 ``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
 case and on random three-target layouts.
 
@@ -129,7 +140,7 @@ MAX_CLUSTERS = 8
 MIN_SEARCH_GATES = 3
 #: Budget of candidate fits per search (one per centre position tried by a
 #: grid scan, one per pair of positions by a pair scan, one per cost).
-#: The paper's sparse case spends 0.27 M (20 dB: 0.20-0.24 M); when the
+#: The paper's sparse case spends 0.11 M (20 dB: 0.08-0.23 M); when the
 #: budget is spent the search stops where it is (see the module docstring).
 FIT_BUDGET = 3_000_000
 #: Most residual evaluations of the final (u, R, phase) polish
