@@ -39,7 +39,11 @@ near-field beamformer map ``|sum_X w(X) s(X, R) conj(a_p(X))|`` over
    correlate (aliases, as +3/+25 degrees) jointly on an 11 x 11 grid each,
    and each centre in turn is taken out and searched again from the map of
    the others' residual (again only while that changes the solution by more
-   than a quarter cell: smaller moves are left to the polish);
+   than a quarter cell: smaller moves are left to the polish; and not at
+   all once the residual is down to the noise floor, :meth:`_Search.floor`:
+   1.5 times the noise's share, estimated from the smaller half of the
+   data's singular values, or 1e-3 of the energy -- the paper's case spent
+   half its search re-seating a three-centre solution at -38 dB);
 3. the search stops when a new centre lowers the residual energy by less than
    0.5 dB or no map peak is left above ``peak_threshold_db``;
 4. (u, R) and the phase are polished with the real-amplitude model
@@ -55,7 +59,7 @@ Bounds (the search on input with no targets in it -- noise, a lone sample
   paper's 21), so that half the data's degrees of freedom stay for the
   residual: beyond that the 0.5 dB test passes on noise;
 - at most ``FIT_BUDGET`` (3 M) candidate fits per search (the paper's sparse
-  case spends 0.27 M, 0.20-0.24 M at 20 dB, a 5-target scene on the same
+  case spends 0.11 M, 0.08-0.23 M at 20 dB, a 5-target scene on the same
   array about 2 M): when it is spent the search stops with the centres it
   has (every step checks before its next scan, so it overshoots by one scan
   at most, 14641 fits);
@@ -71,7 +75,10 @@ Bounds (the search on input with no targets in it -- noise, a lone sample
   Every map allowed fits the kept table (``MAP_TABLE_BYTES``, 128 MB of
   complex64), so it is built once.  Measured on the shared reference
   machine, one core, decomposition only: the paper's sparse case 0.96 M
-  terms (0.11 s); 64 antennas at 20 mm 10.2 M (0.71 s, 0.29 GB peak; 3.4 s
+  terms (50 ms; the larger cases below were measured before the noise
+  floor and the kept table, not since: their whole-axis table is kept when
+  it fits TABLE_CACHE_BYTES / 2, which adds up to 64 MB to the peak);
+  64 antennas at 20 mm 10.2 M (0.71 s, 0.29 GB peak; 3.4 s
   and 0.49 GB before the search was made faster); 21 antennas at 1 m over
   0.4 m of range 14.8 M (1.7 s and 0.38 GB peak, against 5.0 s and 0.66
   GB).
@@ -88,10 +95,14 @@ range samples or a one-sample spike: no search (milliseconds).
 The decomposed signal of cluster m is its term of the joint least-squares fit
 over every range gate: the clusters are separated jointly, so the part of one
 target that a window around another's k would also pass is not counted twice.
-The paper's sparse case takes about 0.1 s from s(X, R) to points on one
-core of the reference machine (search 80-90 ms, polish 5 ms; 0.70 s before
-the search was made faster, measured in the same run; the paper: 2 s; worst
-case above), short of issue 2's 20 ms; the plane-wave path is untouched.
+The paper's sparse case takes about 55 ms from s(X, R) to points on one
+core of the reference machine (decomposition 50 ms, median of 20 after
+warm-up; 107 ms with the search before the noise floor and the kept
+focusing table, 2.0x, measured interleaved in the same run; 0.70 s before
+the first speed-up; the paper: 2 s; worst case above), short of issue 2's
+20 ms; the plane-wave path is untouched.  The focusing table of the map is
+kept across calls per geometry (``TABLE_CACHE_BYTES``), so a first call on
+a new geometry pays about 10 ms more.
 ``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
 case and on random three-target layouts.
 
@@ -129,7 +140,7 @@ MAX_CLUSTERS = 8
 MIN_SEARCH_GATES = 3
 #: Budget of candidate fits per search (one per centre position tried by a
 #: grid scan, one per pair of positions by a pair scan, one per cost).
-#: The paper's sparse case spends 0.27 M (20 dB: 0.20-0.24 M); when the
+#: The paper's sparse case spends 0.11 M (20 dB: 0.08-0.23 M); when the
 #: budget is spent the search stops where it is (see the module docstring).
 FIT_BUDGET = 3_000_000
 #: Most residual evaluations of the final (u, R, phase) polish
@@ -162,12 +173,23 @@ REFINE_STAGES = 1
 MOVE_TOLERANCE = 0.25
 #: Passes that take each centre out and search its place again.
 RESEAT_CYCLES = 2
+#: The re-seat cycles are skipped once the residual energy is below
+#: FLOOR_MARGIN times the noise's expected share or FLOOR_REL of the
+#: searched energy (see :meth:`_Search.floor`).
+FLOOR_MARGIN = 1.5
+FLOOR_REL = 1e-3
 #: Largest table of focusing phases kept for the detection map, bytes.
 MAP_TABLE_BYTES = 128 << 20
 #: Most terms (directions x antennas x range samples) of one focused map:
 #: as many as the kept table holds (complex64), so that every map allowed
 #: is built once; a larger search is refused (see the module docstring).
 MAP_TERMS_MAX = MAP_TABLE_BYTES // 8
+#: Focusing tables kept across calls (one per geometry: antennas,
+#: frequency, directions, range axis), bytes in all; one table is kept only
+#: when it takes at most half of this (the paper's sparse case: 44 MB for
+#: its 600 gates, of which the rows of the gates searched are filled).
+TABLE_CACHE_BYTES = 128 << 20
+_TABLES = {}
 
 
 def near_field_wanted(data) -> bool:
@@ -444,10 +466,15 @@ class _Search:
         gsel = np.nonzero(env >= thr * env.max())[0]
         self.gates = gsel[(gsel > 0) & (gsel < data.range.size - 1)]
         self.model = _Model(x, self.k0, _compress(sig[:, self.gates]), SEARCH_TERMS)
+        # noise energy per dimension across the array: the smaller half of the
+        # data's squared singular values (the echoes take the larger ones)
+        sv2 = np.sort(np.sum(np.abs(self.model.sc) ** 2, axis=0))
+        self.noise = float(np.mean(sv2[:max(1, self.n // 2)]))
         # the focused map on every few gates (it varies slowly along R)
         step = max(1, round(self.res_r / 64 / self.dr))
         gdet = self.gates[::step]
         self.s_det, self.r_det = sig[:, gdet], data.range[gdet]
+        self._rows, self._step, self._axis = gdet, step, data.range
         dk = 2 * np.pi / (pad * self.n * data.array.dx)
         nk = int(np.floor(2 * self.k0 * U_MAX / dk))
         self.u_det = np.arange(-nk, nk + 1) * dk / (2 * self.k0)
@@ -489,6 +516,15 @@ class _Search:
         centres (4 antennas and 2 centres of 2 terms).  21 antennas: 5."""
         return max(1, min(MAX_CLUSTERS, self.n // (2 * SEARCH_TERMS)))
 
+    def floor(self, m) -> float:
+        """Residual energy of m centres that leaves nothing to re-seat:
+        FLOOR_MARGIN times the noise's share of the searched gates (the
+        N - m SEARCH_TERMS dimensions the model leaves, each with the mean
+        of the smaller half of the data's squared singular values), and no
+        less than FLOOR_REL of the searched energy."""
+        noise = self.noise * max(self.n - m * SEARCH_TERMS, 1)
+        return max(FLOOR_MARGIN * noise, FLOOR_REL * self.model.energy)
+
     def dof(self, r):
         """Depth of focus at range r: the range change that bends the edge phase by pi."""
         return min(4 * np.pi * r * r / (self.k0 * self.aperture ** 2), 0.5 * self.res_r)
@@ -501,24 +537,65 @@ class _Search:
         that matters), laid out (gate, direction, antenna) so that each gate
         is one matrix-vector product."""
         out = np.empty((self.u_det.size, self.r_det.size))
+        table = self._table()
+        if table is not None:   # the whole axis's table, kept: runs of gates a step apart
+            rows, step = self._rows, self._step
+            cuts = np.flatnonzero(np.diff(rows) != step) + 1
+            for a, b in zip(np.r_[0, cuts], np.r_[cuts, rows.size]):
+                sg = np.ascontiguousarray(s[:, a:b].T, dtype=np.complex64)[:, :, None]
+                tab = table[rows[a]:rows[b - 1] + 1:step]
+                out[:, a:b] = np.abs(np.matmul(tab, sg)[..., 0]).T
+            return out
         chunk = max(1, int(MAP_TABLE_BYTES // (8 * self.u_det.size * self.n)))
         cache = self.u_det.size * self.n * self.r_det.size * 8 <= MAP_TABLE_BYTES
-        x, u = self.x[None, None, :], self.u_det[None, :, None]
         for g0 in range(0, self.r_det.size, chunk):
             tab = self._tables.get(g0)
             if tab is None:
-                r = self.r_det[g0:g0 + chunk, None, None]
-                d = np.sqrt(np.maximum(x * x - 2 * x * r * u + r * r, 0.0))
-                phase = (2 * self.k0 * (d - r)).astype(np.float32)
-                tab = np.empty(phase.shape, np.complex64)
-                np.cos(phase, out=tab.real)
-                np.sin(phase, out=tab.imag)
-                tab *= self.w.astype(np.float32)
+                tab = self._phases(self.r_det[g0:g0 + chunk])
                 if cache:
                     self._tables[g0] = tab
             sg = np.ascontiguousarray(s[:, g0:g0 + chunk].T, dtype=np.complex64)[:, :, None]
             out[:, g0:g0 + chunk] = np.abs(np.matmul(tab, sg)[..., 0]).T
         return out
+
+    def _phases(self, r):
+        """Weighted focusing phases (len(r), directions, antennas), complex64."""
+        x, u, r = self.x[None, None, :], self.u_det[None, :, None], np.asarray(r)[:, None, None]
+        d = np.sqrt(np.maximum(x * x - 2 * x * r * u + r * r, 0.0))
+        phase = (2 * self.k0 * (d - r)).astype(np.float32)
+        tab = np.empty(phase.shape, np.complex64)
+        np.cos(phase, out=tab.real)
+        np.sin(phase, out=tab.imag)
+        tab *= self.w.astype(np.float32)
+        return tab
+
+    def _table(self):
+        """The focusing table of every gate of the range axis, kept across
+        calls for the same geometry (antennas, frequency, directions, range
+        axis; least recently used first out, TABLE_CACHE_BYTES in all), its
+        rows filled as gates are asked for (the memory of a row is touched
+        only then); None where one table would take more than
+        TABLE_CACHE_BYTES / 2 (then :meth:`focus_map` builds the searched
+        gates' rows, once per search)."""
+        nrows = self._axis.size
+        size = nrows * self.u_det.size * self.n * 8
+        if size > TABLE_CACHE_BYTES // 2:
+            return None
+        key = (self.x.tobytes(), self.k0, self.u_det.size, float(self.u_det[-1]),
+               float(self._axis[0]), float(self._axis[-1]), nrows)
+        entry = _TABLES.pop(key, None)
+        if entry is None:
+            while _TABLES and sum(t.nbytes for t, _ in _TABLES.values()) + size > TABLE_CACHE_BYTES:
+                _TABLES.pop(next(iter(_TABLES)))
+            entry = (np.empty((nrows, self.u_det.size, self.n), np.complex64),
+                     np.zeros(nrows, bool))
+        _TABLES[key] = entry    # most recently used last
+        table, built = entry
+        need = self._rows[~built[self._rows]]
+        if need.size:
+            table[need] = self._phases(self._axis[need])
+            built[need] = True
+        return table
 
     def _grid(self, centre, shape, half=None):
         """Grid of ``shape`` points over +-``half`` (sin theta, m) around
@@ -681,7 +758,10 @@ class _Search:
             peaks.append(best[2])
             # re-seat: a centre chosen before the others were known may sit
             # between targets; take each out in turn and search its place again
-            for _ in range(RESEAT_CYCLES if len(centres) > 1 else 0):
+            # (not once the residual is down to the noise: nothing is left
+            # that another placement could explain)
+            cycles = RESEAT_CYCLES if len(centres) > 1 and cost > self.floor(len(centres)) else 0
+            for _ in range(cycles):
                 changed = False
                 for m in range(len(centres)):
                     if self.spent:
