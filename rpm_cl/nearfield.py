@@ -112,6 +112,8 @@ decomposed envelope along R (eq. 5) and the image is still RPM (eq. 6).
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 from scipy import ndimage
 from scipy.optimize import least_squares
@@ -190,6 +192,9 @@ MAP_TERMS_MAX = MAP_TABLE_BYTES // 8
 #: its 600 gates, of which the rows of the gates searched are filled).
 TABLE_CACHE_BYTES = 128 << 20
 _TABLES = {}
+# one thread at a time reads or changes _TABLES (a Dask worker may run
+# several searches in threads)
+_TABLES_LOCK = threading.Lock()
 
 
 def near_field_wanted(data) -> bool:
@@ -583,6 +588,10 @@ class _Search:
             return None
         key = (self.x.tobytes(), self.k0, self.u_det.size, float(self.u_det[-1]),
                float(self._axis[0]), float(self._axis[-1]), nrows)
+        with _TABLES_LOCK:
+            return self._kept_table(key, nrows, size)
+
+    def _kept_table(self, key, nrows, size):
         entry = _TABLES.pop(key, None)
         if entry is None:
             while _TABLES and sum(t.nbytes for t, _ in _TABLES.values()) + size > TABLE_CACHE_BYTES:
