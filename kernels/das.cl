@@ -98,9 +98,11 @@ __kernel void das_backproject(
         const REALV d = VSQRT(d2);
         /* t = fractional row: rows 0 and nr are the zero rows */
         REALV t = (d - r0) * inv_dr + (REAL)1;
+        /* clamped to [0, nr] as floats (NaN -> 0), so the conversion never
+         * sees a value out of int range (a far voxel, a tiny dr) */
         t = (t > (REAL)0) ? t : (REALV)((REAL)0);
-        INTV iv = CAT(CAT(convert_, IDX), VW)(t);      /* t >= 0: truncation is floor */
-        iv = (iv < nr) ? iv : (INTV)nr;
+        t = (t < (REAL)nr) ? t : (REALV)((REAL)nr);
+        const INTV iv = CAT(CAT(convert_, IDX), VW)(t);    /* t >= 0: truncation is floor */
         const REALV fr = t - CAT(convert_, REALV)(iv);
         __global const REAL4 *row_a = uv + (long)a * (nr + 1);
         REALV ur, ui, vr, vi;

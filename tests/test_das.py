@@ -44,6 +44,21 @@ def test_kernel_matches_numpy_on_random_input(planar, das32, das64, rng):
     np.testing.assert_allclose(das32.backproject(data, g), want, atol=2e-4 * scale)
 
 
+def test_voxels_off_the_range_axis_read_nothing(das32, das64, rng):
+    # Voxels before the axis, just past its end, and so far away that their
+    # fractional sample index exceeds the int range (1e7 m at 2.5 mm gates):
+    # 0 exactly, as in das_numpy, never an out-of-bounds read or NaN.
+    data = random_data(rng, False)
+    g = Grid(np.array([-1e7, -50.0, 0.0, 0.02]), np.array([0.01, 0.299, 0.5, 0.6, 3.0, 1e7]))
+    want = das_numpy(data, g)
+    for das in (das32, das64):
+        got = das.backproject(data, g)
+        assert np.all(np.isfinite(got))
+        off = want == 0
+        assert off.sum() >= 14 and np.all(got[off] == 0)
+        np.testing.assert_allclose(got, want, atol=2e-4 * np.abs(want).max())
+
+
 def test_grid_parsing_and_errors():
     g = parse_grid("-0.1:0.1:0.05,0.5:0.6:0.1")
     np.testing.assert_allclose(g.x, [-0.1, -0.05, 0.0, 0.05, 0.1])
