@@ -102,7 +102,12 @@ focusing table, 2.0x, measured interleaved in the same run; 0.70 s before
 the first speed-up; the paper: 2 s; worst case above), short of issue 2's
 20 ms; the plane-wave path is untouched.  The focusing table of the map is
 kept across calls per geometry (``TABLE_CACHE_BYTES``), so a first call on
-a new geometry pays about 10 ms more.
+a new geometry pays about 10 ms more.  A third round measured 52 ms
+(``rpm-cl bench --scene sparse-20mm --repeats 20 --no-das``: 52.1 ms total,
+50.7 ms decomposition; the pair scan's 2 x 2 algebra written out once, 1.7x
+faster in itself, about 1 % of the image, interleaved); coarser pair grids
+(9 x 9, 11 x 7) and a map sampled half as finely in sin(theta) saved 10-15 ms
+but lost 0.8-1.9 points on layouts 20-199 and were not kept.
 ``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
 case and on random three-target layouts.
 
