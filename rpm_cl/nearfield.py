@@ -102,7 +102,12 @@ focusing table, 2.0x, measured interleaved in the same run; 0.70 s before
 the first speed-up; the paper: 2 s; worst case above), short of issue 2's
 20 ms; the plane-wave path is untouched.  The focusing table of the map is
 kept across calls per geometry (``TABLE_CACHE_BYTES``), so a first call on
-a new geometry pays about 10 ms more.
+a new geometry pays about 10 ms more.  A third round measured 52 ms
+(``rpm-cl bench --scene sparse-20mm --repeats 20 --no-das``: 52.1 ms total,
+50.7 ms decomposition; the pair scan's 2 x 2 algebra written out once, 1.7x
+faster in itself, about 1 % of the image, interleaved); coarser pair grids
+(9 x 9, 11 x 7) and a map sampled half as finely in sin(theta) saved 10-15 ms
+but lost 0.8-1.9 points on layouts 20-199 and were not kept.
 ``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
 case and on random three-target layouts.
 
@@ -344,28 +349,37 @@ def _explained_pairs(qm, qn, sp):
     gm3, gn3 = gm.reshape(ni, 2, -1), gn.reshape(nj, 2, -1)
     pm = (gm3 @ gm3.conj().transpose(0, 2, 1)).transpose(1, 2, 0)[:, :, :, None]  # (2, 2, ni, 1)
     pn = (gn3 @ gn3.conj().transpose(0, 2, 1)).transpose(1, 2, 0)[:, :, None, :]  # (2, 2, 1, nj)
-    # tr(M Y) with M = D^-1 = (I - C^H C)^-1 Hermitian, expanded:
-    # tr(M Pn) - 2 Re sum(X * conj(W)) + tr(W C^H Pm), W = C M
-    cc = c.conj()
-    d00 = 1.0 - (cc[0][0] * c[0][0] + cc[1][0] * c[1][0]).real
-    d11 = 1.0 - (cc[0][1] * c[0][1] + cc[1][1] * c[1][1]).real
-    d01 = -(cc[0][0] * c[0][1] + cc[1][0] * c[1][1])
+    # D = I - C^H C and Y = Pn - C^H X - X^H C + C^H Pm C, Hermitian 2 x 2,
+    # element by element; tr(D^-1 Y) = tr(adj(D) Y) / det(D) with
+    # tr(adj(D) Y) = d11 y00 + d00 y11 - 2 Re(conj(d01) y01)
+    c00, c01, c10, c11 = c[0][0], c[0][1], c[1][0], c[1][1]
+    k00, k10 = c00.conj(), c10.conj()
+    a00, a11 = _abs2(c00) + _abs2(c10), _abs2(c01) + _abs2(c11)
+    d01 = -(k00 * c01 + k10 * c11)
+    pm01 = pm[0][1]
+    # Pm C, column by column
+    e00, e10 = pm[0][0].real * c00 + pm01 * c10, pm01.conj() * c00 + pm[1][1].real * c10
+    e01, e11 = pm[0][0].real * c01 + pm01 * c11, pm01.conj() * c01 + pm[1][1].real * c11
+    y00 = (pn[0][0].real - 2 * (k00 * x[0][0] + k10 * x[1][0]).real
+           + (k00 * e00 + k10 * e10).real)
+    y11 = (pn[1][1].real - 2 * (c01.conj() * x[0][1] + c11.conj() * x[1][1]).real
+           + (c01.conj() * e01 + c11.conj() * e11).real)
+    y01 = (pn[0][1] - (k00 * x[0][1] + k10 * x[1][1]) - (x[0][0].conj() * c01 + x[1][0].conj() * c11)
+           + k00 * e01 + k10 * e11)
+    d00, d11 = 1.0 - a00, 1.0 - a11
     eps = 1e-12 * (d00 + d11)  # the regularisation of _inv
     d00, d11 = d00 + eps, d11 + eps
-    det = d00 * d11 - (d01.real ** 2 + d01.imag ** 2)
-    # adj(D) = [[d11, -d01], [-conj(d01), d00]]: M = adj / det
-    m01, m10 = -d01, -d01.conj()
-    w = [[c[a][0] * (d11 if b == 0 else m01) + c[a][1] * (m10 if b == 0 else d00)
-          for b in range(2)] for a in range(2)]
-    t_pn = (d11 * pn[0][0] + m01 * pn[1][0] + m10 * pn[0][1] + d00 * pn[1][1]).real
-    t_x = sum((x[a][b] * w[a][b].conj()).real for a in range(2) for b in range(2))
-    v = [[w[a][0] * cc[b][0] + w[a][1] * cc[b][1] for b in range(2)] for a in range(2)]
-    t_pm = sum((v[a][b] * pm[b][a]).real for a in range(2) for b in range(2))
-    tr = t_pn - 2.0 * t_x + t_pm
+    det = d00 * d11 - _abs2(d01)
+    tr = d11 * y00 + d00 * y11 - 2 * (d01.conj() * y01).real
     em = np.sum(np.abs(gm3) ** 2, axis=(1, 2))
     with np.errstate(divide="ignore", invalid="ignore"):
         joint = np.where(det > 0, tr / det, 0.0)
     return em[:, None] + joint
+
+
+def _abs2(z):
+    """|z|^2 of a complex array, real."""
+    return z.real ** 2 + z.imag ** 2
 
 
 def _gram(a):

@@ -163,3 +163,20 @@ def test_repeated_question_costs_no_fits():
     fits = search.model.fits
     assert search.best_with([]) == first
     assert search.model.fits == fits
+
+
+def test_pair_scan_equals_direct_fits_for_correlated_pairs(rng):
+    """The pair scan's written-out 2 x 2 algebra holds where the two waves
+    correlate strongly (neighbours and a grating-lobe alias, 0.375 apart in
+    sin(theta) at 20 mm and 15 mm wavelength): the pairs it exists for."""
+    x = (np.arange(21) - 10) * 0.02
+    sc = rng.standard_normal((21, 21)) + 1j * rng.standard_normal((21, 21))
+    model = nearfield._Model(x, 419.0, sc, nearfield.SEARCH_TERMS)
+    um, rm = np.array([0.05, 0.052]), np.array([0.46, 0.462])
+    un, rn = np.array([0.06, 0.425, 0.055]), np.array([0.465, 0.46, 0.47])
+    for i in range(2):
+        for j in range(3):
+            a = nearfield._steer(x, [um[i], un[j]], [rm[i], rn[j]], 419.0)
+            assert abs(np.vdot(a[:, 0], a[:, 1])) / 21 > nearfield.PAIR_CORRELATION
+    two = [[model.cost([[um[i], rm[i]], [un[j], rn[j]]]) for j in range(3)] for i in range(2)]
+    np.testing.assert_allclose(model.scan_pair([], um, rm, un, rn), two, rtol=1e-9)
