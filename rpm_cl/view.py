@@ -597,11 +597,29 @@ def _pyvista(png):
     warning about) X."""
     if png is not None and not os.environ.get("DISPLAY"):
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+        _load_opencl_first()
     try:
         import pyvista as pv
     except ImportError:
         raise InputError("pictures of 3-D results need pyvista: pip install 'rpm-cl[view]'") from None
     return pv
+
+
+def _load_opencl_first() -> None:
+    """Load the OpenCL platforms (PoCL's LLVM) before VTK's EGL renderer.
+
+    Both register LLVM command-line options; when EGL's LLVM (Mesa's) is
+    loaded first, PoCL's later registration aborts the process ("LLVM ERROR:
+    inconsistency in registered CommandLine options") at the next program
+    build.  The other order works, so a process that renders off-screen and
+    then images (the Python API, a notebook) loads PoCL here.  Without
+    pyopencl, or without a platform, there is nothing to protect."""
+    try:
+        import pyopencl as cl
+
+        cl.get_platforms()
+    except Exception:  # noqa: BLE001 - any failure: no OpenCL to protect
+        pass
 
 
 def _pool2(a: np.ndarray, ax0: np.ndarray, ax1: np.ndarray, side: int):

@@ -9,6 +9,8 @@ NumPy (no OpenCL run needed): :func:`rpm_cl.view.load_result` reads only
 
 import json
 import os
+import subprocess
+import sys
 import tempfile
 
 import numpy as np
@@ -194,3 +196,37 @@ def test_view_refuses_vtk_outputs_with_a_plain_line(tmp_path, capsys, ext):
     assert main(["view", str(f)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "ParaView" in err
+
+
+def test_render_then_opencl_build_in_one_process(tmp_path):
+    # VTK's off-screen (EGL) renderer and PoCL both bring an LLVM; loaded in
+    # that order the next OpenCL program build used to abort the process
+    # ("LLVM ERROR: inconsistency in registered CommandLine options").  A
+    # fresh process renders a 3-D result, then builds and runs a kernel.
+    pytest.importorskip("pyvista")
+    from rpm_cl.imaging import default_params, run_method
+    from rpm_cl.rpm import reference
+    from rpm_cl.formats import save_result
+    from rpm_cl.scene import get_preset
+    from rpm_cl.simulate import simulate
+
+    pre = get_preset("human-body")
+    data = simulate(pre.scene, pre.array, pre.waveform, pre.range_axis, None, 0)
+    res = run_method("mf-rpm", data, default_params(data, **pre.defaults), reference)
+    out = tmp_path / "r.npz"
+    save_result(str(out), res, {"scene": json.loads(data.truth.scene)})
+    code = (
+        "import sys, numpy as np\n"
+        "from rpm_cl import view\n"
+        "view.view(sys.argv[1], sys.argv[2])\n"
+        "from rpm_cl.cl import create_env\n"
+        "from rpm_cl.rpm import DeviceRPM\n"
+        "s = DeviceRPM(create_env()).score_candidates(np.zeros((3, 1, 8)), np.ones((1, 8)),\n"
+        "                                             np.ones((1, 8), np.int8), 0.05)\n"
+        "print('score', s[0, 0])\n")
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    res = subprocess.run([sys.executable, "-c", code, str(out), str(tmp_path / "r.png")],
+                         capture_output=True, text=True, env=env, timeout=300, check=False)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip().endswith("score 8.0")
+    assert (tmp_path / "r.png").stat().st_size > 0
