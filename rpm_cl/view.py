@@ -614,12 +614,12 @@ def _load_opencl_first() -> None:
     build.  The other order works, so a process that renders off-screen and
     then images (the Python API, a notebook) loads PoCL here.  Without
     pyopencl, or without a platform, there is nothing to protect."""
-    try:
+    import contextlib
+
+    with contextlib.suppress(Exception):   # any failure: no OpenCL to protect
         import pyopencl as cl
 
         cl.get_platforms()
-    except Exception:  # noqa: BLE001 - any failure: no OpenCL to protect
-        pass
 
 
 def _pool2(a: np.ndarray, ax0: np.ndarray, ax1: np.ndarray, side: int):
