@@ -226,7 +226,8 @@ def test_render_then_opencl_build_in_one_process(tmp_path):
         "print('score', s[0, 0])\n")
     env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
     res = subprocess.run([sys.executable, "-c", code, str(out), str(tmp_path / "r.png")],
-                         capture_output=True, text=True, env=env, timeout=300, check=False)
+                         capture_output=True, text=True, env=env, timeout=300, check=False,
+                         cwd=tmp_path)  # not the checkout: import the installed package
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.strip().endswith("score 8.0")
     assert (tmp_path / "r.png").stat().st_size > 0
