@@ -67,6 +67,7 @@ import numpy as np
 from scipy import fft as sfft
 from scipy import ndimage
 
+from .blas import one_blas_thread
 from .data import C0, InputError, RadarData
 from .nearfield import decompose_near_field, near_field_wanted
 
@@ -369,6 +370,11 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
         (gates that cannot hold a centre are skipped, step 2 of the module
         notes).
     """
+    with one_blas_thread():   # small DFT matrices: see rpm_cl.blas
+        return _decompose(data, params)
+
+
+def _decompose(data: RadarData, params: KSpaceParams) -> Decomposition:
     arr = data.array
     n_k = arr.dim - 1
     if params.near_field or (params.near_field is None and near_field_wanted(data)):

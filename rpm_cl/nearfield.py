@@ -123,6 +123,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.optimize import least_squares
 
+from .blas import one_blas_thread
 from .data import InputError
 
 __all__ = ["decompose_near_field", "near_field_wanted"]
@@ -820,24 +821,10 @@ def decompose_near_field(data, params, spectrum):
     Decomposition
         ``Cluster.k`` is ``2 k0 sin(theta)`` of the centre, not wrapped.
     """
-    # The search is thousands of products of small matrices (21 x 2 ... 21 x
-    # 21): OpenBLAS's threads cost more than they save there (measured on the
-    # paper's sparse case on the 2-core reference machine: 0.20 s with its
-    # default threads, 0.11 s with one).
-    with _blas_controller().limit(limits=1, user_api="blas"):
+    # thousands of products of small matrices (21 x 2 ... 21 x 21): one BLAS
+    # thread (rpm_cl.blas; 0.11 s against 0.20 s with OpenBLAS's threads)
+    with one_blas_thread():
         return _decompose_near_field(data, params, spectrum)
-
-
-_CONTROLLER = []
-
-
-def _blas_controller():
-    """threadpoolctl's controller, built once (it inspects the loaded libraries)."""
-    if not _CONTROLLER:
-        from threadpoolctl import ThreadpoolController
-
-        _CONTROLLER.append(ThreadpoolController())
-    return _CONTROLLER[0]
 
 
 def _decompose_near_field(data, params, spectrum):
