@@ -594,10 +594,11 @@ def _render_das_2d(img: DASImage, png, size, dynamic_range: float, max_side: int
 
 def _pyvista(png):
     """pyvista; headless pictures render through EGL rather than trying (and
-    warning about) X."""
+    warning about) X.  OpenCL is loaded before VTK either way (a software
+    OpenGL on a display brings an LLVM too)."""
     if png is not None and not os.environ.get("DISPLAY"):
         os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-        _load_opencl_first()
+    _load_opencl_first()
     try:
         import pyvista as pv
     except ImportError:
