@@ -247,9 +247,7 @@ def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=No
         # the zero-padded DFT along each array axis as a (pad*n, n) matrix:
         # the same numbers as fftn(s=shape) to rounding, 3x faster for the
         # body's 11 x 17 -> 44 x 68 (small transforms, many of them)
-        ops = [np.exp(-2j * np.pi * np.outer(np.arange(m), np.arange(n)) / m)
-               for m, n in zip(shape, arr.shape)]
-        spec = _apply_axes(ops, sig)
+        spec = _apply_axes([_dft(m, n) for m, n in zip(shape, arr.shape)], sig)
     else:
         spec = sfft.fftn(sig, s=shape, axes=tuple(range(arr.dim - 1)))
     steps = (arr.dx,) if not arr.planar else (arr.dx, arr.dz)
@@ -454,6 +452,10 @@ def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods,
         flat = data.signal.reshape(-1, data.range.size)
         coeffs = (ndimage.spline_filter1d(flat.real, 3, axis=-1, mode="nearest"),
                   ndimage.spline_filter1d(flat.imag, 3, axis=-1, mode="nearest"))
+    # the zero-padded DFT of each array axis, shared by every cluster (none:
+    # FFTs for a large array)
+    dfts = ([_dft(k_axes[a].size, arr.shape[a]) for a in range(n_k)]
+            if max(arr.shape) <= MATRIX_DFT_MAX else [])
     clusters = []
     for ind in idx:
         kc = np.array([k_axes[a][ind[a]] for a in range(n_k)])
@@ -473,9 +475,9 @@ def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods,
             u, offset, sig = _align(data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c)
         else:
             sig = spec[..., lo:hi]
-        if max(arr.shape) <= MATRIX_DFT_MAX:
-            ops = [_window_operator(wins[a], arr.shape[a], padded=not align) for a in range(n_k)]
-            sub = _apply_axes(ops, sig)
+        if dfts:
+            sub = _apply_axes([_window_operator(wins[a], dfts[a], padded=not align)
+                               for a in range(n_k)], sig)
         else:   # large arrays: FFTs (n log n beats the n^2 of the matrices)
             w = np.ones([1] * (n_k + 1))
             for a in range(n_k):
@@ -495,21 +497,23 @@ def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods,
 MATRIX_DFT_MAX = 128
 
 
-def _window_operator(win, n, padded=False):
+def _dft(npad, n):
+    """DFT of n samples zero-padded to npad, as an (npad, n) matrix (the same
+    numbers as ``fft(x, npad)`` to rounding)."""
+    return np.exp(-2j * np.pi * np.outer(np.arange(npad), np.arange(n)) / npad)
+
+
+def _window_operator(win, dft, padded=False):
     """One axis of "zero-pad to len(win), FFT, multiply by ``win``, inverse
     FFT, keep the first n samples" as a matrix: (n, n), or (n, len(win)) from
-    an already padded spectrum (``padded``).  Equal to the FFT route up to
-    rounding; for the 11 x 17 array at pad 4 it replaces two 44 x 68 2-D FFTs
-    per range gate and cluster by two products with 11 x 11 and 17 x 17
-    matrices."""
-    npad = win.size
-    k = np.arange(npad)
-    x = np.arange(n)
-    inv = np.exp(2j * np.pi * np.outer(x, k) / npad) / npad    # inverse DFT, rows kept
+    an already padded spectrum (``padded``); ``dft`` is :func:`_dft`
+    (len(win), n).  Equal to the FFT route up to rounding; for the 11 x 17
+    array at pad 4 it replaces two 44 x 68 2-D FFTs per range gate and
+    cluster by two products with 11 x 11 and 17 x 17 matrices."""
+    inv = dft.conj().T / win.size         # inverse DFT, the first n rows kept
     if padded:
         return inv * win[None, :]
-    fwd = np.exp(-2j * np.pi * np.outer(k, x) / npad)          # DFT of the zero-padded axis
-    return inv @ (win[:, None] * fwd)
+    return inv @ (win[:, None] * dft)
 
 
 def _apply_axes(ops, sig):
