@@ -286,7 +286,7 @@ class _Model:
         if a.shape[2] == 2:
             q = _orthonormal(a).reshape(a.shape[0], -1)
             g = q.conj().T @ sp                                  # (2 n, G)
-            return esp - np.sum((g.real ** 2 + g.imag ** 2).reshape(-1, 2 * g.shape[1]), axis=1)
+            return esp - np.sum(_abs2(g).reshape(-1, 2 * g.shape[1]), axis=1)
         n, t = a.shape[1], a.shape[2]
         g = (a.reshape(a.shape[0], -1).conj().T @ sp).reshape(n, t, -1)   # A^H S per candidate
         h = _gram(a)
