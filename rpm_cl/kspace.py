@@ -56,7 +56,10 @@
 A linear array sampled coarser than half a wavelength (the paper's sparse
 case) aliases the k axis and bends each target's wave across the aperture
 beyond what a window in k can hold; ``near_field`` selects the spherical-wave
-decomposition of :mod:`rpm_cl.nearfield` for it (automatically by default).
+decomposition of :mod:`rpm_cl.nearfield` for it (automatically by default,
+where the aperture is also at most about a range resolution long: a longer
+one resolves each target's range walk, and the alignment of step 4 tells the
+aliases apart by it; see :func:`rpm_cl.nearfield.near_field_wanted`).
 """
 
 from __future__ import annotations
@@ -103,7 +106,9 @@ class KSpaceParams:
         through interpolation and leakage, than it gains.
     near_field : bool or None
         Use the near-field decomposition (:mod:`rpm_cl.nearfield`, linear
-        arrays only); None = where the pitch exceeds half a wavelength.
+        arrays only); None = where the pitch exceeds half a wavelength and
+        the aperture is at most 1.2 range resolutions long
+        (:func:`rpm_cl.nearfield.near_field_wanted`).
     focus : bool or None
         Remove each aligned cluster's wavefront curvature (step 5 of the
         module notes).  None (default): where the curvature phase at the

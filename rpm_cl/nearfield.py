@@ -158,6 +158,9 @@ FIT_BUDGET = 3_000_000
 #: with finite differences) and a constant signal ran to scipy's own cap,
 #: 100 per parameter.
 POLISH_MAX_NFEV = 100
+#: Longest aperture, in range resolutions c / 2B, decomposed in the near
+#: field (see :func:`near_field_wanted`).
+MAX_APERTURE_RESOLUTIONS = 1.2
 #: Largest |sin theta| searched.
 U_MAX = 0.985
 #: Pairs of centres whose waves correlate above this are re-placed jointly.
@@ -204,10 +207,31 @@ _TABLES_LOCK = threading.Lock()
 
 
 def near_field_wanted(data) -> bool:
-    """True where the array is linear and sampled coarser than half a
-    wavelength (the paper's Nyquist criterion, Section III-A)."""
+    """True where the array is linear, sampled coarser than half a wavelength
+    (the paper's Nyquist criterion, Section III-A) and at most
+    ``MAX_APERTURE_RESOLUTIONS`` range resolutions long.
+
+    The second condition is the model's own: the envelope across X is a
+    polynomial of ``ENVELOPE_TERMS`` terms, which follows a target's range
+    walk across the aperture (up to its length, for a steep target) only
+    while that walk stays within about a range resolution.  A longer
+    aperture resolves the walk, and the plane-wave path's range-walk
+    alignment (:mod:`rpm_cl.kspace`, step 4) then tells the k aliases apart
+    by it.  Measured with one point or one 50 mm circle at 0.8 m, 0-65
+    degrees, 20 dB (``benchmarks/path_choice.py``): 21 antennas at 20 mm
+    (0.4 m) are imaged fully by the near-field path up to 0.4 GHz (0.4 m /
+    0.375 m = 1.07 resolutions; the plane-wave path loses targets from 45
+    degrees at 0.3 GHz) and fully by the plane-wave path from 0.5 GHz (1.33;
+    there the near-field path loses the 65 degree ones, at 1 GHz those from
+    55 degrees, at 3 GHz nearly all off broadside); 32 and 64 antennas at
+    7.5 mm with 3 GHz (4.7 and 9.5 resolutions) lose nearly every target
+    off broadside through the near-field path and none through the other.
+    """
     arr = data.array
-    return (not arr.planar) and arr.n >= 4 and arr.dx > 0.5 * data.waveform.wavelength
+    if arr.planar or arr.n < 4 or arr.dx <= 0.5 * data.waveform.wavelength:
+        return False
+    aperture = float(arr.x[-1] - arr.x[0])
+    return aperture <= MAX_APERTURE_RESOLUTIONS * data.waveform.range_resolution
 
 
 def _steer(x, u, r, k0):

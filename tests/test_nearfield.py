@@ -85,6 +85,40 @@ def test_switch_follows_the_pitch():
     assert len(decompose(sparse, KSpaceParams(near_field=False)).clusters) == 1
 
 
+@pytest.mark.parametrize("bandwidth, pitch, n, near", [
+    (0.2e9, 20e-3, 21, True),    # the paper's sparse case: 0.4 m aperture, 0.75 m resolution
+    (0.4e9, 20e-3, 21, True),    # 1.07 range resolutions
+    (0.5e9, 20e-3, 21, False),   # 1.33
+    (3e9, 7.5e-3, 32, False),    # a wideband array just over lambda/2: 4.7 resolutions
+])
+def test_switch_follows_the_aperture_in_range_resolutions(bandwidth, pitch, n, near):
+    """The near-field model's envelope follows a range walk of about one
+    resolution; a longer aperture goes to the plane-wave path."""
+    arr = Array((np.arange(n) - (n - 1) / 2) * pitch)
+    data = RadarData(np.ones((n, 8), complex), arr, 0.5 + np.arange(8) * 0.01,
+                     Waveform(20e9, bandwidth))
+    assert nearfield.near_field_wanted(data) is near
+
+
+@pytest.mark.parametrize("deg", [35, 55])
+def test_wideband_half_wavelength_array_images_a_steep_target(dev32, deg):
+    """32 antennas at 7.5 mm (just over lambda/2 at 20 GHz), 3 GHz: a point
+    35 or 55 degrees off broadside at 0.8 m.  The k axis aliases it (|u| >
+    0.5), the alignment picks the alias by the range walk, and every antenna
+    gives an RP within 10 mm and an image point within 50 mm of it.  Through
+    the near-field path (the default for any pitch over lambda/2 before)
+    the same scene gave 6 and 19 RPs and no point within 50 mm
+    (benchmarks/path_choice.py)."""
+    arr = Array((np.arange(32) - 15.5) * 7.5e-3)
+    th = np.radians(deg)
+    data = simulate(Scene((PointTarget((0.8 * np.sin(th), 0.8 * np.cos(th))),)), arr,
+                    Waveform(20e9, 3e9), np.arange(0.5, 1.1, 2.5e-3), 20.0, 0)
+    res = run_method("kspace-rpm", data, default_params(data), dev32)
+    s = summary(res.rps, res.image, data.truth)
+    assert s["rp_total"] == 32 and s["rp_within_10mm"] == 32
+    assert s["rpm_within_50mm"] == s["rpm_total"] == 32
+
+
 def test_planar_array_refuses_near_field():
     arr = Array(np.arange(4) * 0.02, np.arange(3) * 0.02)
     data = RadarData(np.ones((4, 3, 8), complex), arr, np.arange(8) * 0.01, Waveform(20e9, 0.2e9))

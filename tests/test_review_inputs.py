@@ -310,13 +310,16 @@ def test_huge_near_field_search_is_refused_at_once(wide_sparse, tmp_path, capsys
     # ran for minutes: its focused map has 22079 directions x 21 antennas x
     # ~800 range samples (4e8 terms, 16 s each, recomputed 15-35 times).  Now
     # refused before the first map, in one line that says why and what to do.
+    # (Its 20 m aperture is 27 range resolutions long, so by default it now
+    # takes the plane-wave path, nearfield.near_field_wanted; asked for, the
+    # near-field search is refused.)
     from rpm_cl import nearfield
 
     maps = []
     real = nearfield._Search.focus_map
     monkeypatch.setattr(nearfield._Search, "focus_map", lambda s, x: maps.append(1) or real(s, x))
     out = tmp_path / "o.npz"
-    line = _one_error(capsys, ["image", str(wide_sparse), "-o", str(out)])
+    line = _one_error(capsys, ["image", str(wide_sparse), "-o", str(out), "--near-field", "true"])
     assert "near-field search" in line and "too large" in line and "--near-field false" in line
     assert "22079 directions x 21 antennas" in line  # 4 pad L / lambda = 4 x 4 x 21 m / 15 mm
     assert maps == [] and not out.exists()
