@@ -8,8 +8,9 @@
  * w = amp exp(-|a|^2 / (2 sigma_D^2)).  Mean shift moves p to
  *     sum g G c / sum g G,   G = exp(-|p - c|^2 / (2 sigma_r^2)),
  * which climbs f; at most `iters` steps, fewer when a step is shorter than
- * sqrt(tol2) or no candidate is near; then a last pass gives f at the final
- * p (density) and the candidate nearest to it.
+ * sqrt(tol2) or no candidate is near.  The pass of the last step also gives
+ * f at the point it started from (density) and the candidate nearest to
+ * that point: no extra pass.
  * Truncations (stated, and the same in the NumPy reference):
  *   - candidates with |c - p| > cut (MS_CUTOFF sigma_r) are left out;
  *   - pairs whose two sub RPs both lie farther than sqrt(far2) (MS_PAIR_CUTOFF
@@ -28,8 +29,10 @@
  * vector (float8 / double4, simd.h) at a time: straight-line code, masks
  * instead of branches, no NaN or Inf leaves a masked lane.
  *
- * Outputs: mode (3, n), density (n,) (0: no candidate within cut), nearest
- * (3, n) (the mode where there is none).
+ * Outputs: mode (3, n) (the point after the last step), density (n,) (f at
+ * the last point evaluated; 0: no candidate within cut, or iters = 0),
+ * nearest (3, n) (the candidate nearest to that point; the point itself
+ * where there is none).
  * NumPy reference: rpm_cl.rpm.reference.meanshift_spheres.
  */
 #include "real.h"
@@ -167,13 +170,17 @@ __kernel void meanshift_spheres(
     __global REAL *gw = gr + plane;
     const REAL ri = r[i], cut2 = cut * cut;
     REAL p[3] = {point[il], point[n + il], point[2 * n + il]};
-    REAL sc[3], near[3];
-    int mnear, m;
+    REAL sc[3], near[3] = {p[0], p[1], p[2]};
+    REAL s = (REAL)0;
     for (int t = 0; t < iters; ++t) {
-        m = gather(x, z, r, amp, lo, hi, i, p[0], p[1], p[2], cut, far2, inv2sd2,
-                   gx, gz, gr, gw, &mnear);
-        const REAL s = shift_sums(gx, gz, gr, gw, m, mnear, ri, p[0], p[1], p[2], cut2,
-                                  l2inv2sr2, eps_det, sc, near);
+        int mnear;
+        const int m = gather(x, z, r, amp, lo, hi, i, p[0], p[1], p[2], cut, far2, inv2sd2,
+                             gx, gz, gr, gw, &mnear);
+        near[0] = p[0];
+        near[1] = p[1];
+        near[2] = p[2];
+        s = shift_sums(gx, gz, gr, gw, m, mnear, ri, p[0], p[1], p[2], cut2, l2inv2sr2,
+                       eps_det, sc, near);
         if (!(s > (REAL)0)) break;
         REAL step2 = (REAL)0;
         for (int d = 0; d < 3; ++d) {
@@ -183,11 +190,6 @@ __kernel void meanshift_spheres(
         }
         if (step2 <= tol2) break;
     }
-    m = gather(x, z, r, amp, lo, hi, i, p[0], p[1], p[2], cut, far2, inv2sd2,
-               gx, gz, gr, gw, &mnear);
-    for (int d = 0; d < 3; ++d) near[d] = p[d];
-    const REAL s = shift_sums(gx, gz, gr, gw, m, mnear, ri, p[0], p[1], p[2], cut2,
-                              l2inv2sr2, eps_det, sc, near);
     density[il] = s;
     for (int d = 0; d < 3; ++d) {
         mode[(long)d * n + il] = p[d];

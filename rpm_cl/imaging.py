@@ -95,7 +95,7 @@ class RPMParams:
     meanshift_point : {"sphere", "nearest", "mode"}
         3-D, with mean shift: the image point is the mode put back on the main
         RP's sphere (radially from its antenna), the triplet candidate nearest
-        to the mode, or the mode itself.
+        to the start of the last step, or the mode itself.
     """
 
     sigma_x: float = 0.10
@@ -107,7 +107,7 @@ class RPMParams:
     max_neighbours: int = 24
     near_neighbours: int | None = 4
     pair_cutoff_2d: float = 4.0
-    meanshift_iters: int = 3
+    meanshift_iters: int = 1
     meanshift_point: Literal["sphere", "nearest", "mode"] = "sphere"
 
     def __post_init__(self):
