@@ -3,12 +3,11 @@ known scatterer, degenerate triplets, chunks, parameters."""
 
 import numpy as np
 import pytest
+from test_spheres import lists, planar_cluster
 
 from rpm_cl.data import InputError
 from rpm_cl.imaging import RPMParams
 from rpm_cl.rpm import reference as ref
-
-from test_spheres import lists, planar_cluster
 
 SD, SR = 0.03, 0.02  # sigma_D, sigma_r, m
 
@@ -23,7 +22,7 @@ def start_points(x, z, r, amp, ant, st, ct):
 @pytest.mark.parametrize("iters", [0, 1, 4])
 def test_float64_kernel_matches_reference(dev64, rng, iters):
     x, z, r, amp, ant, st, ct = planar_cluster(rng, [21, 9, 33], noise=3e-3)
-    best, p0 = start_points(x, z, r, amp, ant, st, ct)
+    _, p0 = start_points(x, z, r, amp, ant, st, ct)
     want = ref.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, iters)
     got = dev64.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, iters)
     if iters:
@@ -38,7 +37,7 @@ def test_float64_kernel_matches_reference(dev64, rng, iters):
 
 def test_float32_kernel_agrees_with_reference(dev32, rng):
     x, z, r, amp, ant, st, ct = planar_cluster(rng, [25, 40], noise=3e-3, dup=False)
-    best, p0 = start_points(x, z, r, amp, ant, st, ct)
+    _, p0 = start_points(x, z, r, amp, ant, st, ct)
     want = ref.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, 2)
     got = dev32.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, 2)
     assert all(np.all(np.isfinite(g)) for g in got)
@@ -92,11 +91,16 @@ def test_round_trip_to_the_scatterer(request, rng, engine):
     p0 = local + np.array([0.009, -0.006, 0.01])[:, None]         # 15 mm off
     mode, dens, near = (np.asarray(v, np.float64)
                         for v in eng.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, 5))
-    tol = 1e-9 if engine != "dev32" else 2e-5  # float32: ~eps R^2 / baseline
+    # float32: candidates of the narrowest triplets here err by up to ~1e-4 m
+    # (~50 eps R^2 (|a_j|+|a_k|)/|det|, test_spheres' model), and so may
+    # their weighted mean: 2.5e-4 m = sigma_r / 80
+    tol = 1e-9 if engine != "dev32" else 2.5e-4
     np.testing.assert_allclose(mode, local, atol=tol)
     np.testing.assert_allclose(near, local, atol=tol)
     want = np.array([pair_weight_sum(x, z, amp, i) for i in range(x.size)])
-    np.testing.assert_allclose(dens, want, rtol=1e-9 if engine != "dev32" else 1e-4)
+    # float32: G = exp(-d^2 / 2 sigma_r^2) of candidates d <= 2 x 2.5e-4 m off
+    # the point falls short of 1 by <= 3e-4; the sums' rounding is far less
+    np.testing.assert_allclose(dens, want, rtol=1e-9 if engine != "dev32" else 5e-4)
 
 
 def test_degenerate_triplets_never_nan(dev32, dev64):
@@ -123,7 +127,7 @@ def test_degenerate_triplets_never_nan(dev32, dev64):
 
 def test_chunk_equals_slice_and_bad_chunk_refused(dev64, rng):
     x, z, r, amp, ant, st, ct = planar_cluster(rng, [15, 20], noise=3e-3)
-    best, p0 = start_points(x, z, r, amp, ant, st, ct)
+    _, p0 = start_points(x, z, r, amp, ant, st, ct)
     full = dev64.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, 2)
     part = dev64.meanshift_spheres(x, z, r, amp, st, ct, p0[:, 10:27], SD, SR, 2, 10, 17)
     np.testing.assert_array_equal(part[0], full[0][:, 10:27])
