@@ -22,8 +22,8 @@
  * Work-item mapping: one work-item per main RP il of the chunk (i = i0 + il).
  * Each pass first gathers the sub RPs that survive the pruning (not at the
  * main antenna, sphere within `cut` of p), near ones (|a| <= sqrt(far2))
- * first, into the work-item's own scratch rows (4 planes of (n, stride):
- * a_x, a_z, R, w; stride >= the cluster size, a multiple of 8, so memory is
+ * first, into the work-item's own scratch rows (5 planes of (n, stride):
+ * a_x, a_z, b, |a|, w; stride >= the cluster size, a multiple of 8, so memory is
  * bounded by the chunk, whatever the cluster), zero-padded to a whole vector
  * (a = 0 makes det = 0: invalid).  Then for each near j it sweeps k > j a
  * vector (float8 / double4, simd.h) at a time: straight-line code, masks
@@ -62,15 +62,16 @@ inline REAL lane_sum(const REALV v)
 }
 
 /* Sub RPs of main RP i (cluster lo .. hi) whose sphere passes within `cut`
- * of p, near ones first, into the scratch rows; returns their number and the
- * near count in *mnear. */
+ * of p, near ones first, into the scratch rows (a_x, a_z, b, |a|, w: the
+ * per-sub-RP terms of triplet.h and eq. 11, formed once per pass); returns
+ * their number and the near count in *mnear. */
 inline int gather(__global const REAL *x, __global const REAL *z, __global const REAL *r,
                   __global const REAL *amp, const int lo, const int hi, const int i,
                   const REAL px, const REAL py, const REAL pz, const REAL cut,
-                  const REAL far2, const REAL inv2sd2, __global REAL *gx, __global REAL *gz,
-                  __global REAL *gr, __global REAL *gw, int *mnear)
+                  const REAL far2, const REAL inv2sd2, __global REAL *gx, const long plane,
+                  int *mnear)
 {
-    const REAL xi = x[i], zi = z[i];
+    const REAL xi = x[i], zi = z[i], ri = r[i];
     int m = 0;
     for (int pass = 0; pass < 2; ++pass) {
         for (int k = lo; k < hi; ++k) {
@@ -80,40 +81,37 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
             const REAL dx = px - ax, dz = pz - az;
             if (fabs(sqrt(dx * dx + py * py + dz * dz) - r[k]) > cut) continue;
             gx[m] = ax;
-            gz[m] = az;
-            gr[m] = r[k];
-            gw[m] = amp[k] * exp(-n2 * inv2sd2);
+            gx[plane + m] = az;
+            gx[2 * plane + m] = TRIPLET_B(ri, r[k], n2);
+            gx[3 * plane + m] = sqrt(n2);
+            gx[4 * plane + m] = amp[k] * exp(-n2 * inv2sd2);
             ++m;
         }
         if (pass == 0) *mnear = m;
     }
-    for (int q = m; q % VW; ++q) {
-        gx[q] = (REAL)0;
-        gz[q] = (REAL)0;
-        gr[q] = (REAL)0;
-        gw[q] = (REAL)0;
-    }
+    for (int q = m; q % VW; ++q)  /* a = 0: det = 0, invalid */
+        for (int d = 0; d < 5; ++d) gx[d * plane + q] = (REAL)0;
     return m;
 }
 
 /* Kernel sums at p over the gathered pairs: s = sum g G, sc = sum g G c, and
  * the candidate nearest to p (*near, unchanged where there is none). */
-inline REAL shift_sums(__global const REAL *gx, __global const REAL *gz,
-                       __global const REAL *gr, __global const REAL *gw, const int m,
+inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
                        const int mnear, const REAL ri, const REAL px, const REAL py,
                        const REAL pz, const REAL cut2, const REAL l2inv2sr2, const REAL eps_det,
                        REAL *sc, REAL *near)
 {
+    __global const REAL *gz = gx + plane, *gb = gz + plane, *gn = gb + plane, *gw = gn + plane;
     const int nv = (m + VW - 1) / VW;
     REALV s = (REALV)((REAL)0), sx = s, sy = s, sz = s, bx = s, by = s, bz = s;
     REALV bd = (REALV)((REAL)2 * cut2);
     for (int j = 0; j < mnear; ++j) {
-        const REALV ajx = (REALV)gx[j], ajz = (REALV)gz[j], rj = (REALV)gr[j];
-        const REALV wj = (REALV)gw[j];
+        const REALV ajx = (REALV)gx[j], ajz = (REALV)gz[j], bj = (REALV)gb[j];
+        const REALV ej = (REALV)(eps_det * gn[j]), wj = (REALV)gw[j];
         for (int c = (j + 1) / VW; c < nv; ++c) {
             REALV cx, cy, cz;
-            INTV ok = triplet_v(ajx, ajz, VROW(gx, c), VROW(gz, c), (REALV)ri, rj,
-                                VROW(gr, c), (REALV)eps_det, &cx, &cy, &cz);
+            INTV ok = triplet_v(ajx, ajz, bj, ej, VROW(gx, c), VROW(gz, c), VROW(gb, c),
+                                VROW(gn, c), (REALV)ri, &cx, &cy, &cz);
             ok &= (LANES + (IDX)(c * VW)) > (IDX)j;
             const REALV dx = cx - px, dy = cy - py, dz = cz - pz;
             const REALV d2 = dx * dx + dy * dy + dz * dz;
@@ -164,10 +162,7 @@ __kernel void meanshift_spheres(
     const int i = i0 + il;
     const int lo = cstart[i], hi = lo + ccount[i];
     const long plane = (long)n * stride;
-    __global REAL *gx = scratch + (long)il * stride;
-    __global REAL *gz = gx + plane;
-    __global REAL *gr = gz + plane;
-    __global REAL *gw = gr + plane;
+    __global REAL *gx = scratch + (long)il * stride;  /* 5 planes, see gather */
     const REAL ri = r[i], cut2 = cut * cut;
     REAL p[3] = {point[il], point[n + il], point[2 * n + il]};
     REAL sc[3], near[3] = {p[0], p[1], p[2]};
@@ -175,12 +170,12 @@ __kernel void meanshift_spheres(
     for (int t = 0; t < iters; ++t) {
         int mnear;
         const int m = gather(x, z, r, amp, lo, hi, i, p[0], p[1], p[2], cut, far2, inv2sd2,
-                             gx, gz, gr, gw, &mnear);
+                             gx, plane, &mnear);
         near[0] = p[0];
         near[1] = p[1];
         near[2] = p[2];
-        s = shift_sums(gx, gz, gr, gw, m, mnear, ri, p[0], p[1], p[2], cut2, l2inv2sr2,
-                       eps_det, sc, near);
+        s = shift_sums(gx, plane, m, mnear, ri, p[0], p[1], p[2], cut2, l2inv2sr2, eps_det, sc,
+                       near);
         if (!(s > (REAL)0)) break;
         REAL step2 = (REAL)0;
         for (int d = 0; d < 3; ++d) {

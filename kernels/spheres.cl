@@ -58,13 +58,15 @@ __kernel void intersect_spheres(
         const int k = nbr[(long)i * kmax + lb];
         const REAL ajx = x[j] - x[i], ajz = z[j] - z[i];
         const REAL akx = x[k] - x[i], akz = z[k] - z[i];
+        const REAL nj2 = ajx * ajx + ajz * ajz, nk2 = akx * akx + akz * akz;
+        const REAL ri = r[i];
         REAL px, py, pz;
-        if (triplet_s(ajx, ajz, akx, akz, r[i], r[j], r[k], eps_det, &px, &py, &pz)) {
+        if (triplet_s(ajx, ajz, TRIPLET_B(ri, r[j], nj2), eps_det * sqrt(nj2), akx, akz,
+                      TRIPLET_B(ri, r[k], nk2), sqrt(nk2), ri, &px, &py, &pz)) {
             cx = px;
             cy = py;
             cz = pz;
-            wt = amp[j] * exp(-(ajx * ajx + ajz * ajz) * inv2sd2)
-                 + amp[k] * exp(-(akx * akx + akz * akz) * inv2sd2);
+            wt = amp[j] * exp(-nj2 * inv2sd2) + amp[k] * exp(-nk2 * inv2sd2);
             ok = 1;
         }
     }

@@ -11,25 +11,30 @@
  * and ri - rho > 0 (a real, non-tangent intersection).  Where invalid the
  * outputs may be Inf or NaN: callers select on the mask before using them.
  *
+ * The per-sub-RP terms are separate so that a caller pairing one sub RP with
+ * many can form them once: TRIPLET_B(ri, rj, nj2) gives b_j, and the
+ * threshold enters as ej = eps_det |a_j| and nk = |a_k| (the product
+ * eps_det |a_j| |a_k| is rounded in that order either way).
+ *
  * RPM_DEFINE_TRIPLET(NAME, T, M, SQRT, ABS) defines
- *     M NAME(ajx, ajz, akx, akz, ri, rj, rk, eps_det, *px, *py, *pz)
+ *     M NAME(ajx, ajz, bj, ej, akx, akz, bk, nk, ri, *px, *py, *pz)
  * for a scalar (T = REAL, M = int, 1 = valid) or a vector type (T = REALV,
  * M = INTV, -1 = valid lane); SQRT and ABS are the square root and absolute
- * value to use (simd.h's VSQRT and VABS for vectors: no calls in hot loops).
+ * value to use (VSQRT and a bit mask for vectors: no calls in hot loops).
  */
 #ifndef RPM_TRIPLET_H
 #define RPM_TRIPLET_H
 #include "real.h"
 
+#define TRIPLET_B(ri, rj, nj2) ((REAL)0.5 * (((ri) - (rj)) * ((ri) + (rj)) + (nj2)))
+
 #define RPM_DEFINE_TRIPLET(NAME, T, M, SQRT, ABS)                                    \
-    inline M NAME(const T ajx, const T ajz, const T akx, const T akz, const T ri,    \
-                  const T rj, const T rk, const T eps_det, T *px, T *py, T *pz)      \
+    inline M NAME(const T ajx, const T ajz, const T bj, const T ej, const T akx,     \
+                  const T akz, const T bk, const T nk, const T ri, T *px, T *py,     \
+                  T *pz)                                                             \
     {                                                                                \
-        const T nj2 = ajx * ajx + ajz * ajz, nk2 = akx * akx + akz * akz;            \
         const T det = ajx * akz - ajz * akx;                                         \
-        const M sound = ABS(det) > eps_det * SQRT(nj2) * SQRT(nk2);                  \
-        const T bj = (T)(0.5) * ((ri - rj) * (ri + rj) + nj2);                       \
-        const T bk = (T)(0.5) * ((ri - rk) * (ri + rk) + nk2);                       \
+        const M sound = ABS(det) > ej * nk;                                          \
         *px = (bj * akz - bk * ajz) / det;                                           \
         *pz = (ajx * bk - akx * bj) / det;                                           \
         const T rho = SQRT(*px * *px + *pz * *pz);                                   \

@@ -378,8 +378,8 @@ def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
     best = np.concatenate([p[0] for p in parts])
     score = np.concatenate([p[1] for p in parts]).astype(np.float64)
     local = np.concatenate([p[2] for p in parts], axis=1).astype(np.float64)
-    # the scratch holds 4 rows of the largest cluster per main RP
-    for i0, n in _chunks(x.size, 4 * int(count.max()), params.chunk_slots):
+    # the scratch holds 5 rows of the largest cluster per main RP
+    for i0, n in _chunks(x.size, 5 * int(count.max()), params.chunk_slots):
         sl = slice(i0, i0 + n)
         mode, dens, near = engine.meanshift_spheres(x, z, r, amp, start, count, local[:, sl],
                                                     params.sigma_x, params.sigma_r,

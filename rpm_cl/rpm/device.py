@@ -296,7 +296,7 @@ class DeviceRPM:
                           i0=0, n=None):
         """Device twin of :func:`rpm_cl.rpm.reference.meanshift_spheres`.
 
-        One work-item per main RP; its scratch (4 rows of the largest cluster
+        One work-item per main RP; its scratch (5 rows of the largest cluster
         of the chunk, padded to 8) is the only memory that grows with the
         clusters, so chunks bound it.
         """
@@ -319,7 +319,7 @@ class DeviceRPM:
         mode = self._out((3, n), role="ms_mode")
         dens = self._out((n,), role="ms_density")
         near = self._out((3, n), role="ms_nearest")
-        scratch = self._out((4, n, stride), role="ms_scratch")
+        scratch = self._out((5, n, stride), role="ms_scratch")
         self._run(self._k["meanshift_spheres"], n,
                   self._buf(x - x0, role="x"), self._buf(z - z0, role="z"),
                   self._buf(r, role="r"), self._buf(amp, role="amp"),
