@@ -3,7 +3,8 @@
 Each function here has the same signature and returns the same arrays as the
 method of the same name on :class:`rpm_cl.rpm.device.DeviceRPM`; tests compare
 the two on fresh random inputs.  The maths is documented once, in the kernel
-files (``kernels/circles.cl``, ``kernels/score.cl``) and repeated in short here.
+files (``kernels/circles.cl``, ``kernels/spheres.cl``, ``kernels/score.cl``,
+``kernels/meanshift.cl``) and repeated in short here.
 
 Layout shared with the kernels: ``n`` main RPs, each with ``maxc`` candidate
 slots; candidate coordinates are ``DIM`` planes of shape ``(n, maxc)`` in the
