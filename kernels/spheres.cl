@@ -1,6 +1,6 @@
 /* Sphere-triplet intersections for 3-D RPM (paper eq. 10-11).
  *
- * Maths. RPs q = (X, Z, R) are spheres of radius R centred on antennas
+ * Maths (the intersection itself: triplet.h). RPs q = (X, Z, R) are spheres of radius R centred on antennas
  * (X, 0, Z).  For a main RP i and two sub RPs j, k of its cluster, work in the
  * main antenna's frame (origin at (X_i, 0, Z_i)) with a_j = (X_j - X_i, Z_j - Z_i).
  * Subtracting the sphere equations |p|^2 = R_i^2 and |p - a_j|^2 = R_j^2 gives
@@ -31,6 +31,9 @@
  * NumPy reference: rpm_cl.rpm.reference.intersect_spheres.
  */
 #include "real.h"
+#include "triplet.h"   /* the intersection maths, shared with meanshift.cl */
+
+RPM_DEFINE_TRIPLET(triplet_s, REAL, int, sqrt, fabs)
 
 __kernel void intersect_spheres(
     __global const REAL *x, __global const REAL *z, __global const REAL *r,
@@ -53,24 +56,18 @@ __kernel void intersect_spheres(
     if (lb < nnbr[i]) {
         const int j = nbr[(long)i * kmax + la];
         const int k = nbr[(long)i * kmax + lb];
-        const REAL ri = r[i], rj = r[j], rk = r[k];
         const REAL ajx = x[j] - x[i], ajz = z[j] - z[i];
         const REAL akx = x[k] - x[i], akz = z[k] - z[i];
         const REAL nj2 = ajx * ajx + ajz * ajz, nk2 = akx * akx + akz * akz;
-        const REAL det = ajx * akz - ajz * akx;
-        if (fabs(det) > eps_det * sqrt(nj2) * sqrt(nk2)) {
-            const REAL bj = (REAL)0.5 * ((ri - rj) * (ri + rj) + nj2);
-            const REAL bk = (REAL)0.5 * ((ri - rk) * (ri + rk) + nk2);
-            const REAL px = (bj * akz - bk * ajz) / det;
-            const REAL pz = (ajx * bk - akx * bj) / det;
-            const REAL rho = sqrt(px * px + pz * pz);
-            if (ri - rho > (REAL)0) {
-                cx = px;
-                cz = pz;
-                cy = sqrt((ri - rho) * (ri + rho));
-                wt = amp[j] * exp(-nj2 * inv2sd2) + amp[k] * exp(-nk2 * inv2sd2);
-                ok = 1;
-            }
+        const REAL ri = r[i];
+        REAL px, py, pz;
+        if (triplet_s(ajx, ajz, TRIPLET_B(ri, r[j], nj2), eps_det * sqrt(nj2), akx, akz,
+                      TRIPLET_B(ri, r[k], nk2), sqrt(nk2), ri, &px, &py, &pz)) {
+            cx = px;
+            cy = py;
+            cz = pz;
+            wt = amp[j] * exp(-nj2 * inv2sd2) + amp[k] * exp(-nk2 * inv2sd2);
+            ok = 1;
         }
     }
     cand[gid] = cx;

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 
@@ -85,6 +86,16 @@ class RPMParams:
         sigma_x``); the rest are spread evenly over the cluster by distance
         rank (long, well-conditioned baselines; see
         :mod:`rpm_cl.rpm.neighbours`).  None: all nearest.
+    meanshift_iters : int
+        3-D: after the argmax over the list's triplets, at most this many
+        mean-shift steps towards the mode of the *exhaustive* eq. 10 density
+        (every pair of the cluster; :func:`rpm_cl.rpm.reference.meanshift_spheres`),
+        each O(pairs) per main RP; 0 turns it off (the list's argmax is the
+        point).
+    meanshift_point : {"sphere", "nearest", "mode"}
+        3-D, with mean shift: the image point is the mode put back on the main
+        RP's sphere (radially from its antenna), the triplet candidate nearest
+        to the start of the last step, or the mode itself.
     """
 
     sigma_x: float = 0.10
@@ -96,6 +107,8 @@ class RPMParams:
     max_neighbours: int = 24
     near_neighbours: int | None = 4
     pair_cutoff_2d: float = 4.0
+    meanshift_iters: int = 1
+    meanshift_point: Literal["sphere", "nearest", "mode"] = "sphere"
 
     def __post_init__(self):
         for name in ("sigma_x", "sigma_r"):
@@ -112,6 +125,11 @@ class RPMParams:
             raise InputError(f"max_neighbours must be in 2..4096, got {self.max_neighbours}")
         if self.near_neighbours is not None and not (0 <= self.near_neighbours <= self.max_neighbours):
             raise InputError(f"near_neighbours must be in 0..max_neighbours, got {self.near_neighbours}")
+        if not (0 <= self.meanshift_iters <= 1000):
+            raise InputError(f"meanshift_iters must be in 0..1000, got {self.meanshift_iters}")
+        if self.meanshift_point not in ("sphere", "nearest", "mode"):
+            raise InputError("meanshift_point must be 'sphere', 'nearest' or 'mode', got "
+                             f"{self.meanshift_point!r}")
         if self.chunk_slots < 1 or self.max_cluster_rps < self.min_cluster_rps:
             raise InputError("chunk_slots must be >= 1 and max_cluster_rps >= min_cluster_rps")
 
@@ -338,6 +356,8 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
             for i0, n in _chunks(idx.size, maxc, params.chunk_slots):
                 parts.append(engine.rpm_spheres(x, z, r, amp, nbr, nnbr, params.sigma_x,
                                                 params.sigma_r, i0, n))
+            if params.meanshift_iters > 0:
+                parts = _meanshift(parts, x, z, r, amp, start, count, params, engine)
     if not parts:
         return Image(np.zeros((0, dim)), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64))
     best = np.concatenate([p[0] for p in parts])
@@ -349,6 +369,31 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
     if dim == 3:
         pts[:, 2] += z[ok]
     return Image(pts, np.asarray(rps.cluster)[idx][ok], score[ok], idx[ok])
+
+
+def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
+    """3-D: move each chunk's argmax points to the exhaustive density's mode
+    (``RPMParams.meanshift_iters``), all clusters in one launch per chunk; the
+    score becomes the exhaustive density there."""
+    best = np.concatenate([p[0] for p in parts])
+    score = np.concatenate([p[1] for p in parts]).astype(np.float64)
+    local = np.concatenate([p[2] for p in parts], axis=1).astype(np.float64)
+    # the scratch holds 5 rows of the largest cluster per main RP
+    for i0, n in _chunks(x.size, 5 * int(count.max()), params.chunk_slots):
+        sl = slice(i0, i0 + n)
+        mode, dens, near = engine.meanshift_spheres(x, z, r, amp, start, count, local[:, sl],
+                                                    params.sigma_x, params.sigma_r,
+                                                    params.meanshift_iters, i0, n)
+        mode, dens, near = (np.asarray(v, np.float64) for v in (mode, dens, near))
+        if params.meanshift_point == "sphere":
+            norm = np.linalg.norm(mode, axis=0)
+            new = mode * (r[sl] / np.where(norm > 0, norm, 1.0))
+        else:
+            new = near if params.meanshift_point == "nearest" else mode
+        moved = (best[sl] >= 0) & (dens > 0) & np.all(np.isfinite(new), axis=0)
+        local[:, sl] = np.where(moved, new, local[:, sl])
+        score[sl] = np.where(moved, dens, score[sl])
+    return [(best, score, local)]
 
 
 def _kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:

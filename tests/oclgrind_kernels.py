@@ -38,6 +38,10 @@ def main():
         got = e.rpm_spheres(x, z, r, amp, nbr, nn, 0.02, 0.05)
         want = ref.rpm_spheres(x, z, r, amp, nbr, nn, 0.02, 0.05)
         assert np.array_equal(got[0] >= 0, want[0] >= 0) and got[0][3] == -1
+        pt = want[2][:, 2:7]  # mean shift of a chunk, from the argmax points
+        ms = e.meanshift_spheres(x, z, r, amp, st, ct, pt, 0.02, 0.05, 2, 2, 5)
+        ms_ref = ref.meanshift_spheres(x, z, r, amp, st, ct, pt, 0.02, 0.05, 2, 2, 5)
+        assert np.abs(ms[0] - ms_ref[0]).max() <= 1e-4 and np.array_equal(ms[1] > 0, ms_ref[1] > 0)
         arr = Array(np.arange(3) * 7.5e-3, np.arange(2) * 7.5e-3)
         data = RadarData(rng.normal(size=(3, 2, 20)) + 1j * rng.normal(size=(3, 2, 20)), arr,
                          0.3 + 2.5e-3 * np.arange(20), Waveform(20e9, 3e9))

@@ -93,14 +93,16 @@ def test_params_round_trip(files, tmp_path, capsys, which):
     src = files[which]
     out1 = tmp_path / "a.toml"
     assert main(["params", str(src), "-o", str(out1), "--sigma-r", "0.0123456789012345",
-                 "--near-neighbours", "auto", "--pair-cutoff", "inf"]) == 0
+                 "--near-neighbours", "auto", "--pair-cutoff", "inf", "--meanshift-iters", "0",
+                 "--meanshift-point", "nearest"]) == 0
     capsys.readouterr()
     assert main(["params", str(src), "--config", str(out1)]) == 0
     text2 = capsys.readouterr().out
     assert text2.split("\n", 1)[1] == out1.read_text().split("\n", 1)[1]  # all but the file name
     data = load_npz(src)
     p1 = resolve(data, load_config(out1))
-    want = default_params(data, sigma_r=0.0123456789012345, pair_cutoff=float("inf"))
+    want = default_params(data, sigma_r=0.0123456789012345, pair_cutoff=float("inf"),
+                          meanshift_iters=0, meanshift_point="nearest")
     want = dataclasses.replace(want, rpm=dataclasses.replace(want.rpm, near_neighbours=None))
     assert p1 == want
     assert p1.rpm.near_neighbours is None and p1.rpm.pair_cutoff == np.inf
@@ -154,6 +156,8 @@ BAD = [
     ("[kspace]\npad = 0\n", "pad"),
     ("[kspace]\npeak_threshold_db = 3.0\n", "peak_threshold_db"),
     ("[rpm]\nnear_neighbours = 99\n", "near_neighbours"),
+    ("[rpm]\nmeanshift_iters = -2\n", "meanshift_iters"),
+    ('[rpm]\nmeanshift_point = "centre"\n', "meanshift_point"),
     ("[imaging]\nrp_threshold_db = 0.0\n", "rp_threshold_db"),
     ("[kspace]\nwindow_z = 100.0\n", "window_z"),                 # linear array
     ('[engine]\nprecision = "float16"\n', "precision"),
@@ -180,6 +184,7 @@ def test_bad_config_one_line_exit_2(files, tmp_path, capsys, text, key):
     (["--pad", "2.5"], "--pad"),
     (["--align", "perhaps"], "--align"),
     (["--near-neighbours", "4096"], "near_neighbours"),
+    (["--meanshift-iters", "1.5"], "--meanshift-iters"),
     (["--window-z", "90"], "window_z"),
     (["--precision", "float16"], "--precision"),
 ])

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..cl import CLEnv, get_kernels
 from ..data import InputError
-from .reference import EPS_DET, pair_table
+from .reference import EPS_DET, MS_CUTOFF, MS_PAIR_CUTOFF, MS_TOL, pair_table
 
 __all__ = ["DeviceRPM"]
 
@@ -55,7 +55,7 @@ class DeviceRPM:
         Kernel arithmetic; float64 needs a device with ``double_fp_config``.
     timing : bool
         Wait for each kernel and add its wall time (s) to ``kernel_times``
-        (``intersect``, ``score``, ``argmax``), and the Gaussian kernel
+        (``intersect``, ``score``, ``argmax``, ``meanshift``), and the Gaussian kernel
         evaluations the scoring kernel performed to ``kernel_evals``.  For
         benchmarks: the waits serialise host and device.
     """
@@ -68,7 +68,7 @@ class DeviceRPM:
         self.env = env
         self.precision = precision
         self.timing = timing
-        self.kernel_times = {"intersect": 0.0, "score": 0.0, "argmax": 0.0}
+        self.kernel_times = {"intersect": 0.0, "score": 0.0, "argmax": 0.0, "meanshift": 0.0}
         self.kernel_evals = 0
         self.dtype = np.dtype(np.float32 if precision == "float32" else np.float64)
         base = {"REAL": "float" if precision == "float32" else "double"}
@@ -76,6 +76,7 @@ class DeviceRPM:
             base["REAL_IS_DOUBLE"] = 1
         self._k = dict(get_kernels(env, "circles.cl", ["intersect_circles"], base))
         self._k.update(get_kernels(env, "spheres.cl", ["intersect_spheres"], base))
+        self._k.update(get_kernels(env, "meanshift.cl", ["meanshift_spheres"], base))
         self._pairs = {}  # kmax -> device pair table
         # device buffers by role, reused from call to call (a batch of frames
         # or the chunks of one image) and grown when a call needs more; the
@@ -290,3 +291,46 @@ class DeviceRPM:
         cand, w, valid, n, st = self._intersect3(x, z, r, amp, nbr, nnbr, sigma_d, i0, n)
         score = self._score(3, n, st, cand, w, valid, sigma_r)
         return self._argmax(3, n, st, score, cand)
+
+    def meanshift_spheres(self, x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, iters,
+                          i0=0, n=None):
+        """Device twin of :func:`rpm_cl.rpm.reference.meanshift_spheres`.
+
+        One work-item per main RP; its scratch (5 rows of the largest cluster
+        of the chunk, padded to 8) is the only memory that grows with the
+        clusters, so chunks bound it.
+        """
+        x = np.asarray(x, np.float64)
+        z = np.asarray(z, np.float64)
+        total = x.size
+        n = total - i0 if n is None else int(n)
+        _check_chunk(total, int(i0), n)
+        cs, cc = np.asarray(cstart), np.asarray(ccount)
+        if (any(np.size(v) != total for v in (z, r, amp, cs, cc))
+                or (total and (cs.min() < 0 or cc.min() < 0 or (cs + cc).max() > total))):
+            raise InputError("x, z, r, amp, cstart, ccount must have one entry per RP, and every "
+                             "cluster must lie within the RPs")
+        if int(iters) < 0:
+            raise InputError(f"iters must be >= 0, got {iters}")
+        pt = np.asarray(point, np.float64).reshape(3, n)
+        stride = _stride(int(cc[i0:i0 + n].max()) if n else 1)
+        x0 = float(np.mean(x)) if total else 0.0  # outputs are in the main antennas' frames
+        z0 = float(np.mean(z)) if total else 0.0
+        mode = self._out((3, n), role="ms_mode")
+        dens = self._out((n,), role="ms_density")
+        near = self._out((3, n), role="ms_nearest")
+        scratch = self._out((5, n, stride), role="ms_scratch")
+        self._run(self._k["meanshift_spheres"], n,
+                  self._buf(x - x0, role="x"), self._buf(z - z0, role="z"),
+                  self._buf(r, role="r"), self._buf(amp, role="amp"),
+                  self._buf(cstart, np.int32, role="cstart"),
+                  self._buf(ccount, np.int32, role="ccount"),
+                  np.int32(i0), np.int32(n), np.int32(stride),
+                  self.dtype.type(1.0 / (2.0 * sigma_d**2)),
+                  self.dtype.type((MS_PAIR_CUTOFF * sigma_d) ** 2),
+                  self.dtype.type(MS_CUTOFF * sigma_r),
+                  self.dtype.type(np.log2(np.e) / (2.0 * sigma_r**2)),
+                  self.dtype.type(EPS_DET), np.int32(iters),
+                  self.dtype.type((MS_TOL * sigma_r) ** 2),
+                  self._buf(pt, role="ms_point"), mode, dens, near, scratch, stage="meanshift")
+        return self._read(mode, (3, n)), self._read(dens, (n,)), self._read(near, (3, n))

@@ -3,7 +3,8 @@
 Each function here has the same signature and returns the same arrays as the
 method of the same name on :class:`rpm_cl.rpm.device.DeviceRPM`; tests compare
 the two on fresh random inputs.  The maths is documented once, in the kernel
-files (``kernels/circles.cl``, ``kernels/score.cl``) and repeated in short here.
+files (``kernels/circles.cl``, ``kernels/spheres.cl``, ``kernels/score.cl``,
+``kernels/meanshift.cl``) and repeated in short here.
 
 Layout shared with the kernels: ``n`` main RPs, each with ``maxc`` candidate
 slots; candidate coordinates are ``DIM`` planes of shape ``(n, maxc)`` in the
@@ -16,9 +17,13 @@ import numpy as np
 
 __all__ = [
     "EPS_DET",
+    "MS_CUTOFF",
+    "MS_PAIR_CUTOFF",
+    "MS_TOL",
     "argmax_candidates",
     "intersect_circles",
     "intersect_spheres",
+    "meanshift_spheres",
     "pair_table",
     "rpm_circles",
     "rpm_spheres",
@@ -29,6 +34,18 @@ __all__ = [
 #: |a_j| |a_k|, the sine of the angle at the main antenna) are skipped: below
 #: it, float32 rounding of det is comparable to det itself.
 EPS_DET = 1e-4
+
+#: Mean shift (:func:`meanshift_spheres`): candidates farther than
+#: ``MS_CUTOFF * sigma_r`` from the current point do not enter the sums (their
+#: kernel value is below exp(-MS_CUTOFF^2 / 2) = 3.4e-4 of a coincident one).
+MS_CUTOFF = 4.0
+#: Mean shift: pairs whose two sub RPs both lie farther than ``MS_PAIR_CUTOFF
+#: * sigma_D`` from the main antenna are skipped (g of eq. 11 below
+#: 2 exp(-MS_PAIR_CUTOFF^2 / 2) = 6.7e-4 of the largest amplitude, 1).
+MS_PAIR_CUTOFF = 4.0
+#: Mean shift stops when a step is shorter than ``MS_TOL * sigma_r`` (0.5 mm
+#: at the body's 50 mm: far below the 10 mm accuracy figure).
+MS_TOL = 1e-2
 
 
 def intersect_circles(x, r, amp, cstart, ccount, maxc, sigma_x, i0=0, n=None):
@@ -267,3 +284,111 @@ def rpm_spheres(x, z, r, amp, nbr, nnbr, sigma_d, sigma_r, i0=0, n=None):
     """
     cand, w, valid = intersect_spheres(x, z, r, amp, nbr, nnbr, sigma_d, i0, n)
     return argmax_candidates(score_candidates(cand, w, valid, sigma_r), cand)
+
+
+def _cluster_triplets(x, z, r, amp, lo, hi, i, sigma_d):
+    """Every valid triplet (i, j, k), j < k, of the cluster ``lo .. hi``: the
+    candidates (P, 3) in the main antenna's frame and their weights g (P,),
+    pairs of two far sub RPs (see :data:`MS_PAIR_CUTOFF`) left out."""
+    js, ks = np.triu_indices(hi - lo, 1)
+    j, k = lo + js, lo + ks
+    ajx, ajz, akx, akz = x[j] - x[i], z[j] - z[i], x[k] - x[i], z[k] - z[i]
+    nj2, nk2 = ajx**2 + ajz**2, akx**2 + akz**2
+    det = ajx * akz - ajz * akx
+    ri = r[i]
+    far2 = (MS_PAIR_CUTOFF * sigma_d) ** 2
+    ok = (np.abs(det) > EPS_DET * np.sqrt(nj2) * np.sqrt(nk2)) & ((nj2 <= far2) | (nk2 <= far2))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        bj = 0.5 * ((ri - r[j]) * (ri + r[j]) + nj2)
+        bk = 0.5 * ((ri - r[k]) * (ri + r[k]) + nk2)
+        px = (bj * akz - bk * ajz) / det
+        pz = (ajx * bk - akx * bj) / det
+        rho = np.sqrt(px**2 + pz**2)
+        ok &= ri - rho > 0
+        py = np.sqrt((ri - rho) * (ri + rho))
+    inv = 1.0 / (2.0 * sigma_d**2)
+    g = amp[j] * np.exp(-nj2 * inv) + amp[k] * np.exp(-nk2 * inv)
+    return np.stack([px[ok], py[ok], pz[ok]], axis=1), g[ok]
+
+
+def _shift_sums(c, g, p, sigma_r):
+    """Kernel sums at ``p`` over the candidates within MS_CUTOFF sigma_r:
+    (sum w G, sum w G c, nearest candidate or None)."""
+    d2 = np.sum((c - p) ** 2, axis=1)
+    inside = d2 <= (MS_CUTOFF * sigma_r) ** 2
+    wg = np.where(inside, g * np.exp(-d2 / (2.0 * sigma_r**2)), 0.0)
+    near = c[np.argmin(np.where(inside, d2, np.inf))] if inside.any() else None
+    return float(wg.sum()), wg @ c, near
+
+
+def meanshift_spheres(x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, iters,
+                      i0=0, n=None):
+    """Mean shift of each main RP's point to a mode of the exhaustive eq. 10 density.
+
+    The density of a point p for main RP i is
+    ``f(p) = sum_{j<k} g_jk exp(-|p - c_jk|^2 / (2 sigma_r^2))`` over every
+    valid triplet (i, j, k) of i's cluster (:func:`intersect_spheres`' maths
+    and validity, with every pair of the cluster instead of a list), c_jk the
+    intersection and g_jk its eq. 11 weight; the exhaustive RPM picks the
+    candidate with the largest f.  Starting from ``point``, each step moves p
+    to ``sum g G c / sum g G`` (G the Gaussian), which climbs f; at most
+    ``iters`` steps, fewer when a step is shorter than ``MS_TOL * sigma_r``
+    or no candidate is near.  Truncations: candidates farther than
+    ``MS_CUTOFF * sigma_r`` from p, and pairs of two sub RPs farther than
+    ``MS_PAIR_CUTOFF * sigma_d`` from the main antenna, are left out.
+
+    Parameters
+    ----------
+    x, z, r, amp : ndarray, shape (N,)
+        Antenna coordinates (m), ranges (m) and amplitudes (>= 0) of the RPs.
+    cstart, ccount : ndarray of int, shape (N,)
+        First index and size of each RP's cluster (clusters contiguous).
+    point : ndarray, shape (3, n)
+        Start points of main RPs ``i0 .. i0+n-1`` in each main antenna's
+        frame, m (the argmax of :func:`rpm_spheres`).
+    sigma_d, sigma_r : float
+        sigma_D of eq. 11 and sigma_r of eq. 10, m.
+    iters : int
+        Most mean-shift steps, >= 0 (0: ``point`` returned unchanged).
+    i0, n : int
+        The main RPs are ``i0 .. i0+n-1`` (a chunk; default all RPs).
+
+    Returns
+    -------
+    mode : ndarray, shape (3, n)
+        The point after the last step, m, main antenna's frame.
+    density : ndarray, shape (n,)
+        f (truncated as above) at the last point evaluated, the start of the
+        last step (within ``MS_TOL * sigma_r`` of the mode when the steps
+        converged): no extra pass; 0 where no candidate is within the cutoff
+        or ``iters`` is 0.
+    nearest : ndarray, shape (3, n)
+        The candidate nearest to that point within the cutoff, m; the point
+        itself where there is none.
+    """
+    x, z, r, amp = (np.asarray(v, np.float64) for v in (x, z, r, amp))
+    cstart = np.asarray(cstart, np.int64)
+    ccount = np.asarray(ccount, np.int64)
+    n = x.size - i0 if n is None else n
+    mode = np.array(point, np.float64).reshape(3, n)
+    density = np.zeros(n)
+    nearest = mode.copy()
+    tol2 = (MS_TOL * sigma_r) ** 2
+    for il in range(n):
+        i = i0 + il
+        c, g = _cluster_triplets(x, z, r, amp, cstart[i], cstart[i] + ccount[i], i, sigma_d)
+        p = mode[:, il].copy()
+        s, near = 0.0, None
+        for _ in range(int(iters)):
+            s, sc, near = _shift_sums(c, g, p, sigma_r)
+            near = p.copy() if near is None else near
+            if not s > 0:
+                break
+            step = sc / s
+            done = np.sum((step - p) ** 2) <= tol2
+            p = step
+            if done:
+                break
+        mode[:, il], density[il] = p, s
+        nearest[:, il] = p if near is None else near
+    return mode, density, nearest
