@@ -158,6 +158,7 @@ BAD = [
     ("[rpm]\nnear_neighbours = 99\n", "near_neighbours"),
     ("[rpm]\nmeanshift_iters = -2\n", "meanshift_iters"),
     ('[rpm]\nmeanshift_point = "centre"\n', "meanshift_point"),
+    ("[rpm]\nmeanshift_max_rps = -1\n", "meanshift_max_rps"),
     ("[imaging]\nrp_threshold_db = 0.0\n", "rp_threshold_db"),
     ("[kspace]\nwindow_z = 100.0\n", "window_z"),                 # linear array
     ('[engine]\nprecision = "float16"\n', "precision"),

@@ -143,3 +143,30 @@ def test_params_validate():
     for bad in ({"meanshift_iters": -1}, {"meanshift_point": "centre"}):
         with pytest.raises(InputError):
             RPMParams(**bad)
+
+
+def test_meanshift_only_in_clusters_up_to_max_rps(dev64, rng):
+    """Clusters larger than ``meanshift_max_rps`` keep the list's argmax
+    exactly; the others get the mean-shift point, as with no cap."""
+    from dataclasses import replace
+
+    from rpm_cl.imaging import rpm_image
+    from rpm_cl.rangepoints import RangePoints
+
+    sizes = [15, 40, 20]
+    x, z, r, amp, ant, st, ct = planar_cluster(rng, sizes, noise=3e-3, dup=False)
+    cl = np.repeat(np.arange(3), sizes)
+    rps = RangePoints(ant, x, z, r, amp, cl)
+    base = RPMParams(sigma_x=SD, sigma_r=SR, meanshift_iters=2)
+    off = rpm_image(rps, replace(base, meanshift_iters=0), dev64)
+    on = rpm_image(rps, replace(base, meanshift_max_rps=10_000), dev64)
+    capped = rpm_image(rps, replace(base, meanshift_max_rps=25), dev64)
+    big = capped.cluster == 1
+    assert big.sum() > 30 and (~big).sum() > 25
+    # the cap changes something: mean shift moves most points
+    assert np.mean(np.linalg.norm(on.points[~big] - off.points[~big], axis=1) > 1e-6) > 0.5
+    np.testing.assert_array_equal(capped.rp_index, on.rp_index)
+    np.testing.assert_array_equal(capped.points[big], off.points[big])
+    np.testing.assert_array_equal(capped.points[~big], on.points[~big])
+    with pytest.raises(InputError):
+        RPMParams(meanshift_max_rps=-1)
