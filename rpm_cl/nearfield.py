@@ -120,7 +120,6 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-from scipy import ndimage
 from scipy.optimize import least_squares
 
 from .blas import one_blas_thread
@@ -376,6 +375,38 @@ def _explained_pairs(qm, qn, sp):
     with np.errstate(divide="ignore", invalid="ignore"):
         joint = np.where(det > 0, tr / det, 0.0)
     return em[:, None] + joint
+
+
+def _peaks(fmap, size, floor, count):
+    """Indices (i, j) of the ``count`` largest local maxima of ``fmap`` (2-D)
+    at or above ``floor``, largest first (ties in row-major order).
+
+    A local maximum is a point equal to the maximum of the ``size`` window
+    centred on it, clipped at the edges: the points where ``fmap`` equals
+    ``ndimage.maximum_filter(fmap, size, mode="nearest")``.  Such a point is
+    no smaller than its eight neighbours, so only those points (a few dozen
+    on a focused map) are checked against their whole window, strongest
+    first, until ``count`` are found: the same peaks for a tenth of the
+    filter's time (windows of one point along an axis leave its neighbours
+    out)."""
+    nu, nr = fmap.shape
+    pad = np.pad(fmap, 1, mode="edge")
+    ok = fmap >= floor
+    for a in (0, 1, 2) if size[0] > 1 else (1,):
+        for b in (0, 1, 2) if size[1] > 1 else (1,):
+            if a != 1 or b != 1:
+                ok &= fmap >= pad[a:a + nu, b:b + nr]
+    idx = np.argwhere(ok)
+    idx = idx[np.argsort(-fmap[tuple(idx.T)], kind="stable")]
+    hu, hr = size[0] // 2, size[1] // 2
+    out = []
+    for i, j in idx:
+        if len(out) == count:
+            break
+        win = fmap[max(i - hu, 0):i + size[0] - hu, max(j - hr, 0):j + size[1] - hr]
+        if fmap[i, j] >= win.max():
+            out.append((int(i), int(j)))
+    return out
 
 
 def _abs2(z):
@@ -732,11 +763,8 @@ class _Search:
             q, _ = np.linalg.qr(self.model.columns(fixed))
             s = s - q @ (q.conj().T @ s)
         fmap = self.focus_map(s)
-        local = fmap == ndimage.maximum_filter(fmap, size=self.nms, mode="nearest")
-        local &= fmap >= self.thr * self.gmax
-        idx = np.argwhere(local)
-        idx = idx[np.argsort(-fmap[tuple(idx.T)], kind="stable")][:CANDIDATES]
-        return [(float(self.u_det[i]), float(self.r_det[j]), float(fmap[i, j])) for i, j in idx]
+        return [(float(self.u_det[i]), float(self.r_det[j]), float(fmap[i, j]))
+                for i, j in _peaks(fmap, self.nms, self.thr * self.gmax, CANDIDATES)]
 
     def best_with(self, fixed, exclude=None):
         """Best candidate added to ``fixed``, all centres re-placed:
