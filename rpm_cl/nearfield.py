@@ -95,7 +95,7 @@ range samples or a one-sample spike: no search (milliseconds).
 The decomposed signal of cluster m is its term of the joint least-squares fit
 over every range gate: the clusters are separated jointly, so the part of one
 target that a window around another's k would also pass is not counted twice.
-The paper's sparse case takes about 55 ms from s(X, R) to points on one
+The paper's sparse case took about 55 ms from s(X, R) to points on one
 core of the reference machine (decomposition 50 ms, median of 20 after
 warm-up; 107 ms with the search before the noise floor and the kept
 focusing table, 2.0x, measured interleaved in the same run; 0.70 s before
@@ -107,7 +107,24 @@ a new geometry pays about 10 ms more.  A third round measured 52 ms
 50.7 ms decomposition; the pair scan's 2 x 2 algebra written out once, 1.7x
 faster in itself, about 1 % of the image, interleaved); coarser pair grids
 (9 x 9, 11 x 7) and a map sampled half as finely in sin(theta) saved 10-15 ms
-but lost 0.8-1.9 points on layouts 20-199 and were not kept.
+but lost 0.8-1.9 points on layouts 20-199 and were not kept.  A fourth
+round found the map's peaks without the full maximum filter (:func:`_peaks`,
+the same peaks): the same centres on layouts 0-199, 48 ms against 51.5 ms
+per image interleaved in one run (1.06-1.08x over three runs; four
+interleaved ``rpm-cl bench`` runs, medians of 20: 47.0-51.2 ms against
+49.2-52.0 ms).
+Tried there and not kept: the grid re-placements replaced by a joint
+Levenberg-Marquardt refinement of every centre (variable projection) lost
+0.5-1.1 points on layouts 20-199 noise-free and was slower on the paper's
+case (78 ms: its solutions set off more pair scans); a pair scan first on
+every other grid point, skipped where that one stays, lost 1.5-2.6 points;
+the pair scan in float32 with the best 32 pairs re-scored in float64 chose
+another pair in 1 of 7686 scans and gained about 2 %; the re-seat deferred
+until no centre can be added cost more pair scans; skipping the pair scans
+of a trial at the noise floor, or its further candidates, lost up to 0.7
+points of RP <= 10 mm (the latter alone held but gained nothing); one or two
+candidates per re-seat instead of three lost 3-5 points and 0.6 points of
+RP <= 10 mm.
 ``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
 case and on random three-target layouts.
 
