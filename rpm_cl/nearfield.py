@@ -95,7 +95,7 @@ range samples or a one-sample spike: no search (milliseconds).
 The decomposed signal of cluster m is its term of the joint least-squares fit
 over every range gate: the clusters are separated jointly, so the part of one
 target that a window around another's k would also pass is not counted twice.
-The paper's sparse case takes about 55 ms from s(X, R) to points on one
+The paper's sparse case took about 55 ms from s(X, R) to points on one
 core of the reference machine (decomposition 50 ms, median of 20 after
 warm-up; 107 ms with the search before the noise floor and the kept
 focusing table, 2.0x, measured interleaved in the same run; 0.70 s before
@@ -107,7 +107,24 @@ a new geometry pays about 10 ms more.  A third round measured 52 ms
 50.7 ms decomposition; the pair scan's 2 x 2 algebra written out once, 1.7x
 faster in itself, about 1 % of the image, interleaved); coarser pair grids
 (9 x 9, 11 x 7) and a map sampled half as finely in sin(theta) saved 10-15 ms
-but lost 0.8-1.9 points on layouts 20-199 and were not kept.
+but lost 0.8-1.9 points on layouts 20-199 and were not kept.  A fourth
+round found the map's peaks without the full maximum filter (:func:`_peaks`,
+the same peaks): the same centres on layouts 0-199, 48 ms against 51.5 ms
+per image interleaved in one run (1.06-1.08x over three runs; four
+interleaved ``rpm-cl bench`` runs, medians of 20: 47.0-51.2 ms against
+49.2-52.0 ms).
+Tried there and not kept: the grid re-placements replaced by a joint
+Levenberg-Marquardt refinement of every centre (variable projection) lost
+0.5-1.1 points on layouts 20-199 noise-free and was slower on the paper's
+case (78 ms: its solutions set off more pair scans); a pair scan first on
+every other grid point, skipped where that one stays, lost 1.5-2.6 points;
+the pair scan in float32 with the best 32 pairs re-scored in float64 chose
+another pair in 1 of 7686 scans and gained about 2 %; the re-seat deferred
+until no centre can be added cost more pair scans; skipping the pair scans
+of a trial at the noise floor, or its further candidates, lost up to 0.7
+points of RP <= 10 mm (the latter alone held but gained nothing); one or two
+candidates per re-seat instead of three lost 3-5 points and 0.6 points of
+RP <= 10 mm.
 ``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
 case and on random three-target layouts.
 
@@ -120,7 +137,6 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-from scipy import ndimage
 from scipy.optimize import least_squares
 
 from .blas import one_blas_thread
@@ -400,6 +416,39 @@ def _explained_pairs(qm, qn, sp):
     with np.errstate(divide="ignore", invalid="ignore"):
         joint = np.where(det > 0, tr / det, 0.0)
     return em[:, None] + joint
+
+
+def _peaks(fmap, size, floor, count):
+    """Indices (i, j) of the ``count`` largest local maxima of ``fmap`` (2-D)
+    at or above ``floor``, largest first (ties in row-major order).
+
+    A local maximum is a point equal to the maximum of the ``size`` window
+    centred on it, clipped at the edges: the points where ``fmap`` equals
+    ``ndimage.maximum_filter(fmap, size, mode="nearest")``.  Such a point is
+    no smaller than its eight neighbours (windows of one point along an axis
+    leave those neighbours out), so only those points are checked against
+    their whole window, strongest first, until ``count`` are found: the same
+    peaks (the paper's sparse case: 140-300 of the map's 45864 points pass
+    the first test; 0.25 ms against 0.45 ms for the filter alone)."""
+    near = fmap.copy()   # the maximum over each point's 3 x 3 neighbours, by rows then columns
+    if size[0] > 1:
+        np.maximum(near[1:], fmap[:-1], out=near[1:])
+        np.maximum(near[:-1], fmap[1:], out=near[:-1])
+    if size[1] > 1:
+        rows = near.copy()
+        np.maximum(near[:, 1:], rows[:, :-1], out=near[:, 1:])
+        np.maximum(near[:, :-1], rows[:, 1:], out=near[:, :-1])
+    idx = np.argwhere((fmap >= near) & (fmap >= floor))
+    idx = idx[np.argsort(-fmap[tuple(idx.T)], kind="stable")]
+    hu, hr = size[0] // 2, size[1] // 2
+    out = []
+    for i, j in idx:
+        if len(out) == count:
+            break
+        win = fmap[max(i - hu, 0):i + size[0] - hu, max(j - hr, 0):j + size[1] - hr]
+        if fmap[i, j] >= win.max():
+            out.append((int(i), int(j)))
+    return out
 
 
 def _abs2(z):
@@ -756,11 +805,8 @@ class _Search:
             q, _ = np.linalg.qr(self.model.columns(fixed))
             s = s - q @ (q.conj().T @ s)
         fmap = self.focus_map(s)
-        local = fmap == ndimage.maximum_filter(fmap, size=self.nms, mode="nearest")
-        local &= fmap >= self.thr * self.gmax
-        idx = np.argwhere(local)
-        idx = idx[np.argsort(-fmap[tuple(idx.T)], kind="stable")][:CANDIDATES]
-        return [(float(self.u_det[i]), float(self.r_det[j]), float(fmap[i, j])) for i, j in idx]
+        return [(float(self.u_det[i]), float(self.r_det[j]), float(fmap[i, j]))
+                for i, j in _peaks(fmap, self.nms, self.thr * self.gmax, CANDIDATES)]
 
     def best_with(self, fixed, exclude=None):
         """Best candidate added to ``fixed``, all centres re-placed:
