@@ -43,7 +43,7 @@ def test_blocked_specular_point_is_dropped():
     front = Ellipsoid((0.0, 0.5, 0.0), (0.1, 0.05, 0.1), (0.0, 0.0, 0.0))
     back = Ellipsoid((0.0, 0.8, 0.0), (0.03, 0.03, 0.03), (0.0, 0.0, 0.0))
     arr = Array(np.array([-0.005, 0.005]), np.array([-0.005, 0.005]))
-    ant, rng, amp, tgt = echoes(Scene((front, back)), arr)
+    _, _, _, tgt = echoes(Scene((front, back)), arr)
     assert set(tgt.tolist()) == {0}
 
 
@@ -155,3 +155,27 @@ def test_near_field_focusing_keeps_a_large_aperture_whole():
         got[focus] = int(np.sum(e <= 0.002))
     assert got[None] >= 0.95 * 1024  # measured 997 RPs, all within 2 mm (median 0.05 mm)
     assert got[None] > got[False]
+
+
+def test_alias_ranking_survives_point_focusing_of_elongated_surfaces():
+    """The human body's two thighs (0.42 m tall ellipsoids 1.1 m away) seen
+    by 64 x 64 antennas at 7.5 mm: focused on a point, their clusters at
+    kx = +-32.7 rad/m lose coherence (coherent peak 2.4 at the true
+    u_x = -+0.04) and the u_x = +-0.96 alias (7.3) won, with 86 % of the RPs
+    within 10 mm; ranked by the better of the focused and the plain
+    alignment (14.1 at the true alias) every cluster points at the thighs,
+    which lie within |u_x| < 0.2 of the array's centre."""
+    from rpm_cl.scene import HUMAN_BODY_ARRAY_Z
+
+    n = 64
+    arr = Array((np.arange(n) - (n - 1) / 2) * 7.5e-3,
+                HUMAN_BODY_ARRAY_Z + (np.arange(n) - (n - 1) / 2) * 7.5e-3)
+    thighs = Scene(tuple(Ellipsoid((sx * 0.10, 1.11, 0.63), (0.075, 0.08, 0.21)) for sx in (1, -1)))
+    data = simulate(thighs, arr, Waveform(20e9, 3e9), np.arange(0.9, 1.4, 2.5e-3))
+    params = default_params(data, pad=2)
+    dec = decompose(data, params.kspace)
+    assert len(dec.clusters) >= 2
+    assert all(abs(c.direction[0]) < 0.2 for c in dec.clusters), [c.direction for c in dec.clusters]
+    rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
+    e = err_range(rps.antenna, rps.range, data.truth)
+    assert np.mean(e <= 0.010) >= 0.97  # measured 98.9 %

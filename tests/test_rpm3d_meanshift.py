@@ -154,7 +154,7 @@ def test_meanshift_only_in_clusters_up_to_max_rps(dev64, rng):
     from rpm_cl.rangepoints import RangePoints
 
     sizes = [15, 40, 20]
-    x, z, r, amp, ant, st, ct = planar_cluster(rng, sizes, noise=3e-3, dup=False)
+    x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=3e-3, dup=False)
     cl = np.repeat(np.arange(3), sizes)
     rps = RangePoints(ant, x, z, r, amp, cl)
     base = RPMParams(sigma_x=SD, sigma_r=SR, meanshift_iters=2)
