@@ -170,21 +170,8 @@ def intersect_spheres(x, z, r, amp, nbr, nnbr, sigma_d, i0=0, n=None):
     inrange = pb[None, :] < nnbr[i]
     j = np.where(inrange, nbr[i, pa[None, :]], i)
     k = np.where(inrange, nbr[i, pb[None, :]], i)
-    ajx, ajz, akx, akz = x[j] - x[i], z[j] - z[i], x[k] - x[i], z[k] - z[i]
-    nj2, nk2 = ajx**2 + ajz**2, akx**2 + akz**2
-    det = ajx * akz - ajz * akx
-    ri = r[i]
-    ok = inrange & (np.abs(det) > EPS_DET * np.sqrt(nj2) * np.sqrt(nk2))
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        bj = 0.5 * ((ri - r[j]) * (ri + r[j]) + nj2)
-        bk = 0.5 * ((ri - r[k]) * (ri + r[k]) + nk2)
-        px = (bj * akz - bk * ajz) / det
-        pz = (ajx * bk - akx * bj) / det
-        rho = np.sqrt(px**2 + pz**2)
-        ok &= ri - rho > 0
-        py = np.sqrt((ri - rho) * (ri + rho))
-        inv = 1.0 / (2.0 * sigma_d**2)
-        g = amp[j] * np.exp(-nj2 * inv) + amp[k] * np.exp(-nk2 * inv)
+    px, py, pz, ok, g, _ = _triplet(x, z, r, amp, i, j, k, sigma_d)
+    ok &= inrange
     cand = np.zeros((3, n, pa.size))
     cand[0] = np.where(ok, px, 0.0)
     cand[1] = np.where(ok, py, 0.0)
@@ -292,12 +279,26 @@ def _cluster_triplets(x, z, r, amp, lo, hi, i, sigma_d):
     pairs of two far sub RPs (see :data:`MS_PAIR_CUTOFF`) left out."""
     js, ks = np.triu_indices(hi - lo, 1)
     j, k = lo + js, lo + ks
+    px, py, pz, ok, g, (nj2, nk2) = _triplet(x, z, r, amp, i, j, k, sigma_d)
+    far2 = (MS_PAIR_CUTOFF * sigma_d) ** 2
+    ok &= (nj2 <= far2) | (nk2 <= far2)
+    return np.stack([px[ok], py[ok], pz[ok]], axis=1), g[ok]
+
+
+def _triplet(x, z, r, amp, i, j, k, sigma_d):
+    """The y > 0 intersection of the spheres of RPs i, j, k (index arrays
+    that broadcast) in i's antenna frame, the maths of kernels/triplet.h
+    (module notes of kernels/spheres.cl), and the weight g of eq. 11.
+
+    Returns px, py, pz (m), ok (False where the antennas are collinear or
+    coincident, or there is no real, non-tangent intersection; the
+    coordinates there are meaningless), g, and (|a_j|^2, |a_k|^2) (m^2).
+    """
     ajx, ajz, akx, akz = x[j] - x[i], z[j] - z[i], x[k] - x[i], z[k] - z[i]
     nj2, nk2 = ajx**2 + ajz**2, akx**2 + akz**2
     det = ajx * akz - ajz * akx
     ri = r[i]
-    far2 = (MS_PAIR_CUTOFF * sigma_d) ** 2
-    ok = (np.abs(det) > EPS_DET * np.sqrt(nj2) * np.sqrt(nk2)) & ((nj2 <= far2) | (nk2 <= far2))
+    ok = np.abs(det) > EPS_DET * np.sqrt(nj2) * np.sqrt(nk2)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         bj = 0.5 * ((ri - r[j]) * (ri + r[j]) + nj2)
         bk = 0.5 * ((ri - r[k]) * (ri + r[k]) + nk2)
@@ -306,9 +307,9 @@ def _cluster_triplets(x, z, r, amp, lo, hi, i, sigma_d):
         rho = np.sqrt(px**2 + pz**2)
         ok &= ri - rho > 0
         py = np.sqrt((ri - rho) * (ri + rho))
-    inv = 1.0 / (2.0 * sigma_d**2)
-    g = amp[j] * np.exp(-nj2 * inv) + amp[k] * np.exp(-nk2 * inv)
-    return np.stack([px[ok], py[ok], pz[ok]], axis=1), g[ok]
+        inv = 1.0 / (2.0 * sigma_d**2)
+        g = amp[j] * np.exp(-nj2 * inv) + amp[k] * np.exp(-nk2 * inv)
+    return px, py, pz, ok, g, (nj2, nk2)
 
 
 def _shift_sums(c, g, p, sigma_r):
