@@ -40,26 +40,14 @@
 #include "triplet.h"
 
 #if defined(REAL_IS_DOUBLE)
-#define VABS(v) as_double4(as_long4(v) & (long4)(0x7fffffffffffffffL))
 #define LANES ((INTV)(0, 1, 2, 3))
 #else
-#define VABS(v) as_float8(as_int8(v) & (int8)(0x7fffffff))
 #define LANES ((INTV)(0, 1, 2, 3, 4, 5, 6, 7))
 #endif
-#define VROW(p, c) (((__global const REALV *)(p))[c])
 
 RPM_DEFINE_TRIPLET(triplet_v, REALV, INTV, VSQRT, VABS)
 
 typedef union { REALV v; REAL a[VW]; } lanes_t;
-
-inline REAL lane_sum(const REALV v)
-{
-    lanes_t u;
-    u.v = v;
-    REAL s = (REAL)0;
-    for (int q = 0; q < VW; ++q) s += u.a[q];
-    return s;
-}
 
 /* Sub RPs of main RP i (cluster lo .. hi) whose sphere passes within `cut`
  * of p, near ones first, into the scratch rows (a_x, a_z, b, |a|, w: the
@@ -129,9 +117,9 @@ inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
             bz = better ? cz : bz;
         }
     }
-    sc[0] = lane_sum(sx);
-    sc[1] = lane_sum(sy);
-    sc[2] = lane_sum(sz);
+    sc[0] = hsum(sx);
+    sc[1] = hsum(sy);
+    sc[2] = hsum(sz);
     lanes_t d, ux, uy, uz;
     d.v = bd;
     ux.v = bx;
@@ -146,7 +134,7 @@ inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
             near[2] = uz.a[q];
         }
     }
-    return lane_sum(s);
+    return hsum(s);
 }
 
 __kernel void meanshift_spheres(

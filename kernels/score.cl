@@ -36,16 +36,6 @@
  * as whole vectors (vload8 and exp2 are calls on PoCL's CPU device, see
  * simd.h; vexp2_neg is inline). */
 #include "simd.h"
-#define VROW(p, c) (((__global const REALV *)(p))[c])
-
-inline REAL hsum(const REALV a)
-{
-#if VW == 8
-    return dot(a.lo, (CAT(REAL, 4))((REAL)1)) + dot(a.hi, (CAT(REAL, 4))((REAL)1));
-#else
-    return dot(a, (REALV)((REAL)1));
-#endif
-}
 
 __kernel void score_candidates(
     __global const REAL *cand, __global const REAL *w, __global const char *valid,

@@ -18,6 +18,11 @@
  *                |y| = |f ln 2| <= 0.347 (remainder < 6e-9 at degree 7,
  *                < 3e-16 at degree 12); relative error below 2e-7 (float) / 1e-14
  *                (double).
+ *   VABS(x)      |x| of a REALV by clearing the sign bits.
+ *   VROW(p, c)   the c-th REALV of a row of REAL at p (32-byte aligned: the
+ *                host pads rows to whole vectors), a plain load, not vload.
+ *   hsum(x)      the sum of a REALV's lanes (two dot products; a call on
+ *                PoCL, so for the end of a loop, not its body).
  */
 #ifndef RPM_SIMD_H
 #define RPM_SIMD_H
@@ -58,6 +63,22 @@ inline REALV rpm_sqrt_v(const REALV x)
 #else
 #define VSQRT(x) sqrt(x)
 #endif
+
+#if defined(REAL_IS_DOUBLE)
+#define VABS(v) as_double4(as_long4(v) & (long4)(0x7fffffffffffffffL))
+#else
+#define VABS(v) as_float8(as_int8(v) & (int8)(0x7fffffff))
+#endif
+#define VROW(p, c) (((__global const REALV *)(p))[c])
+
+inline REAL hsum(const REALV a)
+{
+#if VW == 8
+    return dot(a.lo, (CAT(REAL, 4))((REAL)1)) + dot(a.hi, (CAT(REAL, 4))((REAL)1));
+#else
+    return dot(a, (REALV)((REAL)1));
+#endif
+}
 
 inline REALV vexp2_neg(REALV x)
 {
