@@ -160,11 +160,12 @@ def test_near_field_focusing_keeps_a_large_aperture_whole():
 def test_alias_ranking_survives_point_focusing_of_elongated_surfaces():
     """The human body's two thighs (0.42 m tall ellipsoids 1.1 m away) seen
     by 64 x 64 antennas at 7.5 mm: focused on a point, their clusters at
-    kx = +-32.7 rad/m lose coherence (coherent peak 2.4 at the true
-    u_x = -+0.04) and the u_x = +-0.96 alias (7.3) won, with 86 % of the RPs
-    within 10 mm; ranked by the better of the focused and the plain
-    alignment (14.1 at the true alias) every cluster points at the thighs,
-    which lie within |u_x| < 0.2 of the array's centre."""
+    kx = +-32.7 rad/m lose coherence and the u_x = +-0.96 alias won (in the
+    whole body's scene: coherent peak 2.4 focused and 14.1 plain at the
+    true u_x = -+0.04, 7.3 focused at the alias); here 86 % of the RPs were
+    within 10 mm.  Ranked by the better of the focused and the plain
+    alignment every cluster points at the thighs, which lie within
+    |u_x| < 0.2 of the array's centre."""
     from rpm_cl.scene import HUMAN_BODY_ARRAY_Z
 
     n = 64
