@@ -226,3 +226,77 @@ def test_neighbour_lists_near_plus_spread(rng):
         k = int(min(4, np.sum(dall <= 0.03)))
         np.testing.assert_allclose(d[:k], dall[:k])  # the nearest part
         assert d[-1] == pytest.approx(dall[-1])  # the spread part reaches the farthest
+
+
+def grid_cluster(rng, steps=(7.5e-3, 5e-3), shape=(9, 7), keep=0.7, origin=(0.0, 0.0)):
+    """RPs at a random subset of a uniform grid's antennas, one antenna twice.
+
+    Returns x, z (m), antenna, the integer grid offsets (ix, iz) and the
+    steps in units of 0.5 mm (so that squared distances are exact integers).
+    """
+    gx, gz = np.meshgrid(np.arange(shape[0]), np.arange(shape[1]), indexing="ij")
+    gx, gz = gx.ravel(), gz.ravel()
+    sel = np.flatnonzero(rng.random(gx.size) < keep)
+    sel = np.sort(np.r_[sel, sel[rng.integers(sel.size)]])  # a second RP at one antenna
+    ix, iz = gx[sel], gz[sel]
+    x = origin[0] + ix * steps[0]
+    z = origin[1] + iz * steps[1]
+    units = [round(s / 0.5e-3) for s in steps]
+    return x, z, sel, ix, iz, units
+
+
+@pytest.mark.parametrize("steps", [(7.5e-3, 7.5e-3), (7.5e-3, 5e-3)])
+def test_grid_ranking_is_exact_distance_then_index(rng, steps):
+    """On a uniform grid the RPs are ranked by their exact distance (integer
+    squared offsets, so that equal distances such as offsets (3, 4) and
+    (5, 0), or (2, 0) and (0, 3) at 7.5 / 5 mm, tie exactly) and then by
+    index; RPs at the row's own antenna come last and are not eligible."""
+    from rpm_cl.rpm.neighbours import _grid_offsets, _ranked_grid
+
+    x, z, ant, ix, iz, (ux, uz) = grid_cluster(rng, steps)
+    c = x.size
+    grid = _grid_offsets(x, z)
+    assert grid is not None
+    radius = 3.2 * steps[0]
+    same = ant[:, None] == ant[None, :]
+    order, eligible, within = _ranked_grid(grid, same, 0, c, radius)
+    ties = 0
+    for i in range(c):
+        d2 = [(ux * (ix[j] - ix[i])) ** 2 + (uz * (iz[j] - iz[i])) ** 2 for j in range(c)]
+        others = [j for j in range(c) if ant[j] != ant[i]]
+        want = sorted(others, key=lambda j: (d2[j], j))
+        ties += len(others) - len({d2[j] for j in others})
+        assert order[i, :len(want)].tolist() == want
+        assert eligible[i] == len(others)
+        assert within[i] == sum(d2[j] * 0.25e-6 <= radius ** 2 for j in others)
+    assert ties > 0  # the layout has ties to break
+
+
+def test_grid_neighbour_lists_are_translation_invariant(rng):
+    """The same grid layout anywhere in the plane gets the same lists (ties
+    are broken by index, not by how the coordinates happen to round)."""
+    x, z, ant, *_ = grid_cluster(rng, shape=(12, 10))
+    n = x.size
+    st_, ct = np.zeros(n, int), np.full(n, n)
+    want = neighbour_lists(x, z, ant, st_, ct, 0.03, 12, near=4)
+    for shift in ((0.3137, -1.2719), (-0.0371, 0.0123), (17.3, 4.1)):
+        got = neighbour_lists(x + shift[0], z + shift[1], ant, st_, ct, 0.03, 12, near=4)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+
+
+def test_off_grid_antennas_take_the_float_ranking(rng):
+    """Antennas off any uniform grid: no grid offsets, and the lists still
+    hold the nearest RPs by distance."""
+    from rpm_cl.rpm.neighbours import _grid_offsets
+
+    x, z, *_ = planar_cluster(rng, [40], dup=False)
+    assert _grid_offsets(x, z) is None
+    xg, zg, antg, *_ = grid_cluster(rng)
+    xg[3] += 1e-4 * np.sqrt(2)  # one antenna moved off the grid (by 1e-4 it is on a 0.1 mm one)
+    assert _grid_offsets(xg, zg) is None
+    nbr, nn = neighbour_lists(xg, zg, antg, np.zeros(xg.size, int), np.full(xg.size, xg.size), np.inf, 6)
+    for i in range(xg.size):
+        d = np.hypot(xg[nbr[i, :nn[i]]] - xg[i], zg[nbr[i, :nn[i]]] - zg[i])
+        dall = np.sort(np.hypot(xg - xg[i], zg - zg[i])[antg != antg[i]])
+        np.testing.assert_allclose(d, dall[:6])

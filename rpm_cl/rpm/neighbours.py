@@ -16,6 +16,18 @@ Which RPs it holds matters:
   near + 20 spread, against 84 % for the 24 nearest and 97 % exhaustive
   (which takes 1500 times longer), all at 100 % within 50 mm
   (``benchmarks/RESULTS.md``).
+
+RPs are ranked by distance and then by index.  Antennas on one uniform grid
+(every planar array of the input contract) are ranked by integer keys built
+from their offsets in steps (:func:`_ranked_grid`): equal distances tie
+exactly, so the lists do not move with the array, and the lists are built
+2-3.5 times faster (``python benchmarks/neighbour_lists.py``, interleaved on a
+loaded machine: 11 x 17 body 11 against 23 ms, 32 x 32 0.14 against 0.51 s,
+64 x 64 (32 613 RPs in 16 clusters) 1.6 against 3.8 s).  Other layouts take
+a stable float sort (:func:`_ranked`).  Which of the RPs at equal distances
+are taken changes with the tie-break, not the accuracy: RPM points within
+10 mm on the body 97.1 -> 97.6 % noise-free, 96.0 -> 96.1 % at 20 dB (seeds
+0-9), 32 x 32 97.9 -> 97.9 %, 64 x 64 80.3 -> 80.1 %.
 """
 
 from __future__ import annotations
@@ -71,14 +83,14 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
     for s in np.unique(cstart):
         c = int(ccount[s])
         px, pz, ant = x[s:s + c], z[s:s + c], antenna[s:s + c]
+        grid = _grid_offsets(px, pz)
         for b0 in range(0, c, _BLOCK):
             b1 = min(c, b0 + _BLOCK)
-            d = np.hypot(px[b0:b1, None] - px[None, :], pz[b0:b1, None] - pz[None, :])
-            d[ant[b0:b1, None] == ant[None, :]] = np.inf  # itself and its antenna
-            order = np.argsort(d, axis=1, kind="stable")
-            ds = np.take_along_axis(d, order, axis=1)
-            eligible = np.isfinite(ds).sum(axis=1)  # per row, sorted first
-            within = (ds <= radius).sum(axis=1)
+            same = ant[b0:b1, None] == ant[None, :]  # itself and its antenna
+            if grid is None:
+                order, eligible, within = _ranked(px, pz, same, b0, b1, radius)
+            else:
+                order, eligible, within = _ranked_grid(grid, same, b0, b1, radius)
             t = np.minimum(n_near, within)  # nearest taken
             rows = np.arange(b1 - b0)
             lists = np.full((b1 - b0, kmax), -1, np.int64)
@@ -109,3 +121,83 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
             counts[s + b0:s + b1] = cnt
     width = int(counts.max(initial=0))
     return nbr[:, :width].copy(), counts
+
+
+#: Largest table of grid distance classes (offsets in x times offsets in z)
+#: for :func:`_ranked_grid`; sparser layouts take the float path.
+_GRID_TABLE_MAX = 1 << 22
+
+
+def _grid_offsets(x, z):
+    """A cluster's antennas as integer offsets on one uniform grid, or None.
+
+    Returns
+    -------
+    (ix, iz, cls_table, keys, sx) or None
+        ``x = x0 + ix sx`` and ``z = z0 + iz sz`` to 1e-6 of a step (int64,
+        shape (C,)); ``keys`` the sorted distinct squared distances of the
+        offsets in units of ``sx^2``, ``dx^2 + (sz / sx)^2 dz^2``, distances
+        within 1e-9 of each other counted as one (they tie: offsets (3, 4)
+        and (5, 0) at equal steps, (2, 0) and (0, 3) at steps 7.5 and 5 mm);
+        ``cls_table[|dx|, |dz|]`` the rank of an offset's distance in
+        ``keys`` (int32).  None when the
+        antennas are not on one grid or the table would exceed
+        ``_GRID_TABLE_MAX`` entries.
+    """
+    ints, steps = [], []
+    for v in (x, z):
+        u = np.unique(v)
+        step = float(np.min(np.diff(u))) if u.size > 1 else 0.0
+        if step == 0.0:
+            ints.append(np.zeros(v.size, np.int64))
+            steps.append(0.0)
+            continue
+        i = np.rint((v - u[0]) / step)
+        if not np.all(np.abs(i * step + u[0] - v) <= 1e-6 * step):
+            return None
+        ints.append(i.astype(np.int64))
+        steps.append(step)
+    (ix, iz), (sx, sz) = (i.astype(np.int32) for i in ints), steps
+    nx, nz = int(ix.max(initial=0)) + 1, int(iz.max(initial=0)) + 1
+    if nx * nz > _GRID_TABLE_MAX:
+        return None
+    sx, sz = sx or sz or 1.0, sz or sx or 1.0  # one row or column: either step
+    dx, dz = np.arange(nx, dtype=np.float64), np.arange(nz, dtype=np.float64)
+    d2, inv = np.unique(dx[:, None] ** 2 + (sz / sx) ** 2 * dz[None, :] ** 2, return_inverse=True)
+    # distances within 1e-9 (relative) of each other are one class: they tie
+    cls = np.cumsum(np.r_[0, np.diff(d2) > 1e-9 * d2[1:]])
+    keys = d2[np.r_[True, np.diff(cls) > 0]]  # each class's smallest
+    return ix, iz, cls[inv].reshape(nx, nz).astype(np.int32), keys, sx
+
+
+def _ranked(px, pz, same, b0, b1, radius):
+    """Rows b0..b1 of a cluster: every RP's index by (distance, index), the
+    RPs at other antennas and those within ``radius``."""
+    d = np.hypot(px[b0:b1, None] - px[None, :], pz[b0:b1, None] - pz[None, :])
+    d[same] = np.inf
+    order = np.argsort(d, axis=1, kind="stable")
+    ds = np.take_along_axis(d, order, axis=1)
+    return order, np.isfinite(ds).sum(axis=1), (ds <= radius).sum(axis=1)
+
+
+def _ranked_grid(grid, same, b0, b1, radius):
+    """:func:`_ranked` for antennas on a uniform grid, where the distance of
+    two RPs is a function of their offset in steps: each offset's distance
+    class (its rank among the grid's distances) times the cluster size plus
+    the RP index is a unique integer key in (distance, index) order, and
+    int32 keys sort about 4 times faster than a stable float sort.  Distances
+    come from the integer offsets, so equal distances tie exactly wherever
+    the array is (the float differences of coordinates broke such ties by
+    rounding, so the lists moved with the array)."""
+    ix, iz, cls_table, keys, sx = grid
+    c, nz = ix.size, cls_table.shape[1]
+    ncls = keys.size
+    flat = np.abs(ix[b0:b1, None] - ix[None, :]) * nz + np.abs(iz[b0:b1, None] - iz[None, :])
+    cls = cls_table.ravel()[flat]
+    cls[same] = ncls  # after every distance
+    within = (cls < np.searchsorted(keys, (radius / sx) ** 2 * (1 + 1e-12), side="right")).sum(axis=1)
+    # int32 keys sort 2.6 times faster than int64 here
+    kt = np.int32 if (ncls + 1) * c < 2**31 else np.int64
+    key = np.sort(cls.astype(kt) * kt(c) + np.arange(c, dtype=kt)[None, :], axis=1)
+    order = key % c
+    return order, (key < ncls * c).sum(axis=1), within
