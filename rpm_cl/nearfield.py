@@ -125,6 +125,22 @@ of a trial at the noise floor, or its further candidates, lost up to 0.7
 points of RP <= 10 mm (the latter alone held but gained nothing); one or two
 candidates per re-seat instead of three lost 3-5 points and 0.6 points of
 RP <= 10 mm.
+A fifth round moved the pair scans' per-pair 2 x 2 algebra
+(:func:`_pair_algebra`) into an OpenCL float64 kernel (``pair_energy`` in
+kernels/nearfield.cl, :mod:`rpm_cl.nearfield_cl`), used where the caller
+passes an OpenCL environment with float64 (``rpm_cl.imaging`` passes the
+engine's; otherwise NumPy, as before); the BLAS products over antennas and
+gates stay on the host.  The same figures on every image of layouts 20-199
+(noise-free and 20 dB) and the same centres on the paper's case; one
+pair scan (121 x 121 pairs) 1.3 ms against 1.6 ms (the algebra 0.44 ms
+against 0.98 ms, of which 0.30 ms is the launch and 0.13 ms the copies);
+per image 1.06-1.14x faster interleaved in one run (see the README for the
+``rpm-cl bench`` medians).  Tried there and not kept: the one-centre scan as
+one kernel (steering, atoms, projection, Gram-Schmidt and energy per
+candidate, one launch per scan) took 0.25 ms per 63-candidate scan against
+0.13 ms in NumPy: PoCL's launch alone costs 0.06 ms, the six uploads
+0.09 ms and the kernel 0.08 ms, so the 88 small scans of an image do not
+pay for a launch each.
 ``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
 case and on random three-target layouts.
 
@@ -206,6 +222,9 @@ RESEAT_CYCLES = 2
 #: searched energy (see :meth:`_Search.floor`).
 FLOOR_MARGIN = 1.5
 FLOOR_REL = 1e-3
+#: Grids of atoms kept per search (:meth:`_Model._atoms`; at most
+#: N x 121 x SEARCH_TERMS complex numbers each, 81 kB for 21 antennas).
+ATOM_CACHE = 128
 #: Largest table of focusing phases kept for the detection map, bytes.
 MAP_TABLE_BYTES = 128 << 20
 #: Most terms (directions x antennas x range samples) of one focused map:
@@ -282,6 +301,7 @@ class _Model:
         self.energy = float(np.sum(np.abs(sc) ** 2))
         self.fits = 0  # candidate fits evaluated (see FIT_BUDGET)
         self._last = None
+        self._atom_cache = {}
 
     def columns(self, centres):
         n = self.x.size
@@ -308,8 +328,19 @@ class _Model:
 
     def _atoms(self, u, r, proj):
         n, t = self.x.size, self.b.shape[1]
-        a = _steer(self.x, u, r, self.k0)[:, :, None] * self.b[:, None, :]
-        return proj(a.reshape(n, -1)).reshape(n, -1, t)
+        u, r = np.asarray(u, float), np.asarray(r, float)
+        # the unprojected atoms of a grid, kept: a centre re-placed because
+        # another one moved scans the same grid again (the paper's case:
+        # 23 of 102 grids), and the re-seat searches meet earlier grids
+        key = (u.tobytes(), r.tobytes())
+        a = self._atom_cache.pop(key, None)
+        if a is None:
+            a = (_steer(self.x, u, r, self.k0)[:, :, None] * self.b[:, None, :]).reshape(n, -1)
+            a.flags.writeable = False
+            while len(self._atom_cache) >= ATOM_CACHE:
+                self._atom_cache.pop(next(iter(self._atom_cache)))
+        self._atom_cache[key] = a    # most recently used last
+        return proj(a).reshape(n, -1, t)
 
     def _prepared(self, others):
         """Projector off ``others``' columns, the data projected and its
