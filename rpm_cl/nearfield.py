@@ -399,12 +399,24 @@ class _Model:
 
 
 def _orthonormal(a):
-    """Orthonormal bases (Gram-Schmidt) of each candidate's two atoms (N, n, 2)."""
+    """Orthonormal bases (Gram-Schmidt) of each candidate's two atoms (N, n, 2).
+
+    The column norms are ``np.linalg.norm(., axis=0)``'s own sum, written
+    out (the same numbers without its dispatch), and the two columns are
+    written into one array (no stack)."""
     a0, a1 = a[:, :, 0], a[:, :, 1]
-    q0 = a0 / np.maximum(np.linalg.norm(a0, axis=0), 1e-300)
-    v = a1 - q0 * np.sum(q0.conj() * a1, axis=0)
-    q1 = v / np.maximum(np.linalg.norm(v, axis=0), 1e-300)
-    return np.stack([q0, q1], axis=-1)
+    q = np.empty(a.shape, complex)
+    q0, q1 = q[:, :, 0], q[:, :, 1]
+    np.divide(a0, np.maximum(_colnorm(a0), 1e-300), out=q0)
+    v = a1 - q0 * np.add.reduce(q0.conj() * a1, axis=0)
+    np.divide(v, np.maximum(_colnorm(v), 1e-300), out=q1)
+    return q
+
+
+def _colnorm(z):
+    """Euclidean norms of the columns of a complex (N, n) array, as
+    ``np.linalg.norm(z, axis=0)`` computes them."""
+    return np.sqrt(np.add.reduce((z.conj() * z).real, axis=0))
 
 
 def _explained_pairs(qm, qn, sp, algebra=None):
