@@ -125,22 +125,37 @@ of a trial at the noise floor, or its further candidates, lost up to 0.7
 points of RP <= 10 mm (the latter alone held but gained nothing); one or two
 candidates per re-seat instead of three lost 3-5 points and 0.6 points of
 RP <= 10 mm.
-A fifth round moved the pair scans' per-pair 2 x 2 algebra
-(:func:`_pair_algebra`) into an OpenCL float64 kernel (``pair_energy`` in
-kernels/nearfield.cl, :mod:`rpm_cl.nearfield_cl`), used where the caller
-passes an OpenCL environment with float64 (``rpm_cl.imaging`` passes the
-engine's; otherwise NumPy, as before); the BLAS products over antennas and
-gates stay on the host.  The same figures on every image of layouts 20-199
-(noise-free and 20 dB) and the same centres on the paper's case; one
-pair scan (121 x 121 pairs) 1.3 ms against 1.6 ms (the algebra 0.44 ms
-against 0.98 ms, of which 0.30 ms is the launch and 0.13 ms the copies);
-per image 1.06-1.14x faster interleaved in one run (see the README for the
-``rpm-cl bench`` medians).  Tried there and not kept: the one-centre scan as
-one kernel (steering, atoms, projection, Gram-Schmidt and energy per
-candidate, one launch per scan) took 0.25 ms per 63-candidate scan against
-0.13 ms in NumPy: PoCL's launch alone costs 0.06 ms, the six uploads
-0.09 ms and the kernel 0.08 ms, so the 88 small scans of an image do not
-pay for a launch each.
+A fifth round did the same work faster, with the same numbers: the pair
+scans' per-pair 2 x 2 algebra (:func:`_pair_algebra`) runs as an OpenCL
+float64 kernel (``pair_energy``, kernels/nearfield.cl,
+:mod:`rpm_cl.nearfield_cl`) where the caller passes an OpenCL environment
+with float64 (``rpm_cl.imaging`` passes the RPM engine's; without one, NumPy
+as before), its arrays handed over in place (the copies of the two 0.9 MB
+product matrices cost as much as the kernel); the BLAS products over the
+antennas and gates stay on the host.  Inside the search a pair scan's
+algebra takes 0.64 ms against 1.2-1.4 ms.  A search also keeps its grids'
+unprojected atoms (23 of the paper's 102 grids are scanned again), and
+:func:`_orthonormal` skips ``np.linalg.norm``'s dispatch.  The same figures on
+every image of layouts 20-199 and pooled on layouts 0-19 and the paper's
+case (noise-free and 20 dB), and bit for bit the same centres on layouts
+20-59 and the paper's case, with the device and without; per image 1.12-1.19x faster
+than the fourth round's code interleaved in one run (two runs of 20,
+medians; ``rpm-cl bench --scene sparse-20mm --repeats 20 --no-das``
+alternated three times: 60.9-65.5 ms against 74.7-78.9 ms on the machine
+shared with two other jobs, 1.17-1.23x).  Tried there and not kept: the
+one-centre scan as one kernel (steering, atoms, projection, Gram-Schmidt and
+energy per candidate, one launch per scan) took 0.25 ms per 63-candidate
+scan against 0.13 ms in NumPy: PoCL's launch alone costs 0.06 ms, the six
+uploads 0.09 ms and the kernel 0.08 ms, so the 88 small scans of an image
+do not pay for a launch each; a hand-written Levenberg-Marquardt polish
+(box-clipped steps) in place of ``least_squares`` ended elsewhere on 26 of
+80 images of layouts 20-59 (higher cost on 22, 100 evaluations on several),
+and no other optimiser can meet scipy's solution to 1e-6 of a resolution
+cell: scipy's own default-tolerance solution lies up to 2e-4 cells (median
+3e-8) from its tight-tolerance one on those images.  The time left is spread
+over the search's some 20 000 NumPy calls an image (the focused map alone,
+8 maps of 0.96 M complex64 terms, reads its 7.7 MB table per map); issue
+2's 20 ms needs less work, not faster scans.
 ``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
 case and on random three-target layouts.
 
