@@ -416,7 +416,8 @@ def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
 
 def _kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     t0 = time.perf_counter()
-    dec = decompose(data, params.kspace)
+    # the near-field search's pair scans run on the engine's device, if any
+    dec = decompose(data, params.kspace, getattr(engine, "env", None))
     t1 = time.perf_counter()
     rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
     t2 = time.perf_counter()

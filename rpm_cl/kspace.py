@@ -361,13 +361,16 @@ def _centres(det: np.ndarray, size: list, n_k: int, threshold: float, g0: int, n
     return idx[keep], vals[keep]
 
 
-def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decomposition:
+def decompose(data: RadarData, params: KSpaceParams = KSpaceParams(), env=None) -> Decomposition:
     """Decompose the data into clusters in k-space (eq. 2-4, 7-9).
 
     Parameters
     ----------
     data : RadarData
     params : KSpaceParams
+    env : CLEnv, optional
+        OpenCL environment for the near-field search's pair scans
+        (:func:`rpm_cl.nearfield.decompose_near_field`); None: NumPy.
 
     Returns
     -------
@@ -377,10 +380,10 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams()) -> Decompo
         notes).
     """
     with one_blas_thread():   # small DFT matrices: see rpm_cl.blas
-        return _decompose(data, params)
+        return _decompose(data, params, env)
 
 
-def _decompose(data: RadarData, params: KSpaceParams) -> Decomposition:
+def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition:
     arr = data.array
     n_k = arr.dim - 1
     if params.near_field or (params.near_field is None and near_field_wanted(data)):
@@ -390,7 +393,7 @@ def _decompose(data: RadarData, params: KSpaceParams) -> Decomposition:
         mag = np.abs(spec)
         if not mag.max() > 0:
             return Decomposition(k_axes, mag, ())
-        return decompose_near_field(data, params, (mag, k_axes))
+        return decompose_near_field(data, params, (mag, k_axes), env)
     gate = params.range_gate or data.waveform.range_resolution
     dr = data.dr
     nr = data.range.size

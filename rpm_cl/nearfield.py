@@ -125,6 +125,37 @@ of a trial at the noise floor, or its further candidates, lost up to 0.7
 points of RP <= 10 mm (the latter alone held but gained nothing); one or two
 candidates per re-seat instead of three lost 3-5 points and 0.6 points of
 RP <= 10 mm.
+A fifth round did the same work faster, with the same numbers: the pair
+scans' per-pair 2 x 2 algebra (:func:`_pair_algebra`) runs as an OpenCL
+float64 kernel (``pair_energy``, kernels/nearfield.cl,
+:mod:`rpm_cl.nearfield_cl`) where the caller passes an OpenCL environment
+with float64 (``rpm_cl.imaging`` passes the RPM engine's; without one, NumPy
+as before), its arrays handed over in place (the copies of the two 0.9 MB
+product matrices cost as much as the kernel); the BLAS products over the
+antennas and gates stay on the host.  Inside the search a pair scan's
+algebra takes 0.64 ms against 1.2-1.4 ms.  A search also keeps its grids'
+unprojected atoms (23 of the paper's 102 grids are scanned again), and
+:func:`_orthonormal` skips ``np.linalg.norm``'s dispatch.  The same figures on
+every image of layouts 20-199 and pooled on layouts 0-19 and the paper's
+case (noise-free and 20 dB), and bit for bit the same centres on layouts
+20-59 and the paper's case, with the device and without; per image 1.12-1.19x faster
+than the fourth round's code interleaved in one run (two runs of 20,
+medians; ``rpm-cl bench --scene sparse-20mm --repeats 20 --no-das``
+alternated three times: 60.9-65.5 ms against 74.7-78.9 ms on the machine
+shared with two other jobs, 1.17-1.23x).  Tried there and not kept: the
+one-centre scan as one kernel (steering, atoms, projection, Gram-Schmidt and
+energy per candidate, one launch per scan) took 0.25 ms per 63-candidate
+scan against 0.13 ms in NumPy: PoCL's launch alone costs 0.06 ms, the six
+uploads 0.09 ms and the kernel 0.08 ms, so the 88 small scans of an image
+do not pay for a launch each; a hand-written Levenberg-Marquardt polish
+(box-clipped steps) in place of ``least_squares`` ended elsewhere on 26 of
+80 images of layouts 20-59 (higher cost on 22, 100 evaluations on several),
+and no other optimiser can meet scipy's solution to 1e-6 of a resolution
+cell: scipy's own default-tolerance solution lies up to 2e-4 cells (median
+3e-8) from its tight-tolerance one on those images.  The time left is spread
+over the search's some 20 000 NumPy calls an image (the focused map alone,
+8 maps of 0.96 M complex64 terms, reads its 7.7 MB table per map); issue
+2's 20 ms needs less work, not faster scans.
 ``benchmarks/sparse_layouts.py`` measures accuracy and time on the paper's
 case and on random three-target layouts.
 
@@ -141,6 +172,7 @@ from scipy.optimize import least_squares
 
 from .blas import one_blas_thread
 from .data import InputError
+from .nearfield_cl import device_for
 
 __all__ = ["decompose_near_field", "near_field_wanted"]
 
@@ -205,6 +237,9 @@ RESEAT_CYCLES = 2
 #: searched energy (see :meth:`_Search.floor`).
 FLOOR_MARGIN = 1.5
 FLOOR_REL = 1e-3
+#: Grids of atoms kept per search (:meth:`_Model._atoms`; at most
+#: N x 121 x SEARCH_TERMS complex numbers each, 81 kB for 21 antennas).
+ATOM_CACHE = 128
 #: Largest table of focusing phases kept for the detection map, bytes.
 MAP_TABLE_BYTES = 128 << 20
 #: Most terms (directions x antennas x range samples) of one focused map:
@@ -273,12 +308,15 @@ def _compress(s):
 class _Model:
     """Complex-amplitude model (search) on compressed data."""
 
-    def __init__(self, x, k0, sc, terms):
+    def __init__(self, x, k0, sc, terms, device=None):
         self.x, self.k0, self.sc = x, k0, sc
         self.b = _basis(x, terms).astype(complex)
+        # the pair scans' OpenCL twin (rpm_cl.nearfield_cl), or None: NumPy
+        self.device = device
         self.energy = float(np.sum(np.abs(sc) ** 2))
         self.fits = 0  # candidate fits evaluated (see FIT_BUDGET)
         self._last = None
+        self._atom_cache = {}
 
     def columns(self, centres):
         n = self.x.size
@@ -305,8 +343,19 @@ class _Model:
 
     def _atoms(self, u, r, proj):
         n, t = self.x.size, self.b.shape[1]
-        a = _steer(self.x, u, r, self.k0)[:, :, None] * self.b[:, None, :]
-        return proj(a.reshape(n, -1)).reshape(n, -1, t)
+        u, r = np.asarray(u, float), np.asarray(r, float)
+        # the unprojected atoms of a grid, kept: a centre re-placed because
+        # another one moved scans the same grid again (the paper's case:
+        # 23 of 102 grids), and the re-seat searches meet earlier grids
+        key = (u.tobytes(), r.tobytes())
+        a = self._atom_cache.pop(key, None)
+        if a is None:
+            a = (_steer(self.x, u, r, self.k0)[:, :, None] * self.b[:, None, :]).reshape(n, -1)
+            a.flags.writeable = False
+            while len(self._atom_cache) >= ATOM_CACHE:
+                self._atom_cache.pop(next(iter(self._atom_cache)))
+        self._atom_cache[key] = a    # most recently used last
+        return proj(a).reshape(n, -1, t)
 
     def _prepared(self, others):
         """Projector off ``others``' columns, the data projected and its
@@ -340,7 +389,8 @@ class _Model:
         proj, sp, esp = self._prepared(others)
         am, an = self._atoms(um, rm, proj), self._atoms(un, rn, proj)
         if am.shape[2] == 2:
-            return esp - _explained_pairs(_orthonormal(am), _orthonormal(an), sp)
+            algebra = None if self.device is None else self.device.pair_algebra
+            return esp - _explained_pairs(_orthonormal(am), _orthonormal(an), sp, algebra)
         nx, ni, t = am.shape
         nj = an.shape[1]
         fm, fn = am.reshape(nx, -1), an.reshape(nx, -1)
@@ -364,32 +414,78 @@ class _Model:
 
 
 def _orthonormal(a):
-    """Orthonormal bases (Gram-Schmidt) of each candidate's two atoms (N, n, 2)."""
+    """Orthonormal bases (Gram-Schmidt) of each candidate's two atoms (N, n, 2).
+
+    The column norms are ``np.linalg.norm(., axis=0)``'s own sum, written
+    out (the same numbers without its dispatch), and the two columns are
+    written into one array (no stack)."""
     a0, a1 = a[:, :, 0], a[:, :, 1]
-    q0 = a0 / np.maximum(np.linalg.norm(a0, axis=0), 1e-300)
-    v = a1 - q0 * np.sum(q0.conj() * a1, axis=0)
-    q1 = v / np.maximum(np.linalg.norm(v, axis=0), 1e-300)
-    return np.stack([q0, q1], axis=-1)
+    q = np.empty(a.shape, complex)
+    q0, q1 = q[:, :, 0], q[:, :, 1]
+    np.divide(a0, np.maximum(_colnorm(a0), 1e-300), out=q0)
+    v = a1 - q0 * np.add.reduce(q0.conj() * a1, axis=0)
+    np.divide(v, np.maximum(_colnorm(v), 1e-300), out=q1)
+    return q
 
 
-def _explained_pairs(qm, qn, sp):
+def _colnorm(z):
+    """Euclidean norms of the columns of a complex (N, n) array, as
+    ``np.linalg.norm(z, axis=0)`` computes them."""
+    return np.sqrt(np.add.reduce((z.conj() * z).real, axis=0))
+
+
+def _explained_pairs(qm, qn, sp, algebra=None):
     """Energy of ``sp`` explained jointly by candidates m and n, for every
     pair: shape (n_m, n_n).  ``qm``, ``qn``: orthonormal bases (N, n, 2).
 
-    With C = Qm^H Qn and the coefficients g = Q^H S, the energy is
-    |g_m|^2 + tr((I - C^H C)^-1 Y), Y = (g_n - C^H g_m)(g_n - C^H g_m)^H (the
-    block elimination of the joint Gram matrix [[I, C], [C^H, I]]); the 2 x 2
-    algebra is written out per element over all pairs at once (the stacked
-    2 x 2 matrix products it replaces cost 3-5 times more)."""
+    The products over the antennas and gates are BLAS matrix products here;
+    the 2 x 2 algebra of every pair is ``algebra`` (:func:`_pair_algebra`,
+    or its OpenCL twin :meth:`rpm_cl.nearfield_cl.NearFieldDevice.pair_algebra`
+    with the same signature)."""
     nx, ni, _ = qm.shape
     nj = qn.shape[1]
     fm, fn = qm.reshape(nx, -1), qn.reshape(nx, -1)
     gm, gn = fm.conj().T @ sp, fn.conj().T @ sp                     # (2 n, G)
-    c = (fm.conj().T @ fn).reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)  # c[a][b]: (ni, nj)
-    x = (gm @ gn.conj().T).reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)  # g_m g_n^H
+    c = fm.conj().T @ fn                                            # (2 ni, 2 nj)
+    x = gm @ gn.conj().T                                            # g_m g_n^H
     gm3, gn3 = gm.reshape(ni, 2, -1), gn.reshape(nj, 2, -1)
-    pm = (gm3 @ gm3.conj().transpose(0, 2, 1)).transpose(1, 2, 0)[:, :, :, None]  # (2, 2, ni, 1)
-    pn = (gn3 @ gn3.conj().transpose(0, 2, 1)).transpose(1, 2, 0)[:, :, None, :]  # (2, 2, 1, nj)
+    pm = gm3 @ gm3.conj().transpose(0, 2, 1)                        # (ni, 2, 2)
+    pn = gn3 @ gn3.conj().transpose(0, 2, 1)                        # (nj, 2, 2)
+    em = np.sum(np.abs(gm3) ** 2, axis=(1, 2))
+    return (algebra or _pair_algebra)(c, x, pm, pn, em)
+
+
+def _pair_algebra(c, x, pm, pn, em):
+    """Joint explained energy of every pair from its products (float64
+    NumPy reference of the ``pair_energy`` kernel, kernels/nearfield.cl).
+
+    Parameters
+    ----------
+    c : complex ndarray, shape (2 ni, 2 nj)
+        ``Fm^H Fn``: row ``2 i + a``, column ``2 j + b`` is
+        ``C_ij[a, b] = qm_i[:, a]^H qn_j[:, b]``.
+    x : complex ndarray, shape (2 ni, 2 nj)
+        ``Gm Gn^H``, the same layout (``g = Q^H S``, the data's coefficients).
+    pm : complex ndarray, shape (ni, 2, 2)
+        ``g_m g_m^H``.
+    pn : complex ndarray, shape (nj, 2, 2)
+        ``g_n g_n^H``.
+    em : ndarray, shape (ni,)
+        ``|g_m|^2``.
+
+    Returns
+    -------
+    ndarray, shape (ni, nj)
+        ``|g_m|^2 + tr((I - C^H C)^-1 Y)``, Y = (g_n - C^H g_m)(g_n - C^H g_m)^H
+        (the block elimination of the joint Gram matrix [[I, C], [C^H, I]]);
+        the 2 x 2 algebra is written out per element over all pairs at once
+        (the stacked 2 x 2 matrix products it replaces cost 3-5 times more).
+    """
+    ni, nj = pm.shape[0], pn.shape[0]
+    c = c.reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)              # c[a][b]: (ni, nj)
+    x = x.reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)
+    pm = pm.transpose(1, 2, 0)[:, :, :, None]                       # (2, 2, ni, 1)
+    pn = pn.transpose(1, 2, 0)[:, :, None, :]                       # (2, 2, 1, nj)
     # D = I - C^H C and Y = Pn - C^H X - X^H C + C^H Pm C, Hermitian 2 x 2,
     # element by element; tr(D^-1 Y) = tr(adj(D) Y) / det(D) with
     # tr(adj(D) Y) = d11 y00 + d00 y11 - 2 Re(conj(d01) y01)
@@ -412,10 +508,9 @@ def _explained_pairs(qm, qn, sp):
     d00, d11 = d00 + eps, d11 + eps
     det = d00 * d11 - _abs2(d01)
     tr = d11 * y00 + d00 * y11 - 2 * (d01.conj() * y01).real
-    em = np.sum(np.abs(gm3) ** 2, axis=(1, 2))
     with np.errstate(divide="ignore", invalid="ignore"):
         joint = np.where(det > 0, tr / det, 0.0)
-    return em[:, None] + joint
+    return np.asarray(em)[:, None] + joint
 
 
 def _peaks(fmap, size, floor, count):
@@ -546,7 +641,7 @@ class _Polish:
 class _Search:
     """Matching pursuit of the cluster centres (see the module docstring)."""
 
-    def __init__(self, data, thr, pad):
+    def __init__(self, data, thr, pad, device=None):
         x = np.asarray(data.array.x, float)
         self.x, self.n, self.k0 = x, x.size, data.waveform.kc
         self.dr = data.dr
@@ -558,7 +653,7 @@ class _Search:
         env = np.abs(sig).max(axis=0)
         gsel = np.nonzero(env >= thr * env.max())[0]
         self.gates = gsel[(gsel > 0) & (gsel < data.range.size - 1)]
-        self.model = _Model(x, self.k0, _compress(sig[:, self.gates]), SEARCH_TERMS)
+        self.model = _Model(x, self.k0, _compress(sig[:, self.gates]), SEARCH_TERMS, device)
         # noise energy per dimension across the array: the smaller half of the
         # data's squared singular values (the echoes take the larger ones)
         sv2 = np.sort(np.sum(np.abs(self.model.sc) ** 2, axis=0))
@@ -872,7 +967,7 @@ class _Search:
         return centres, peaks
 
 
-def decompose_near_field(data, params, spectrum):
+def decompose_near_field(data, params, spectrum, env=None):
     """Decompose a linear array's data with near-field (spherical-wave) clusters.
 
     Parameters
@@ -885,6 +980,10 @@ def decompose_near_field(data, params, spectrum):
     spectrum : (magnitude, k_axes)
         The plane-wave |S(k, R)| and its k grid, returned in the Decomposition
         as they are.
+    env : CLEnv, optional
+        OpenCL environment for the pair scans' 2 x 2 algebra
+        (:mod:`rpm_cl.nearfield_cl`, float64); None, or a device without
+        float64: NumPy.
 
     Returns
     -------
@@ -894,10 +993,10 @@ def decompose_near_field(data, params, spectrum):
     # thousands of products of small matrices (21 x 2 ... 21 x 21): one BLAS
     # thread (rpm_cl.blas; 0.11 s against 0.20 s with OpenBLAS's threads)
     with one_blas_thread():
-        return _decompose_near_field(data, params, spectrum)
+        return _decompose_near_field(data, params, spectrum, env)
 
 
-def _decompose_near_field(data, params, spectrum):
+def _decompose_near_field(data, params, spectrum, env):
     from .kspace import Cluster, Decomposition
 
     mag, k_axes = spectrum
@@ -905,7 +1004,7 @@ def _decompose_near_field(data, params, spectrum):
         raise InputError("the near-field decomposition needs a linear array of at least 4 antennas")
     if not np.any(data.signal):
         return Decomposition(k_axes, mag, ())
-    search = _Search(data, 10.0 ** (params.peak_threshold_db / 20.0), params.pad)
+    search = _Search(data, 10.0 ** (params.peak_threshold_db / 20.0), params.pad, device_for(env))
     if search.gates.size < MIN_SEARCH_GATES:
         return Decomposition(k_axes, mag, ())
     centres, peaks = search.run()
