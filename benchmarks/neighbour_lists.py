@@ -18,26 +18,18 @@ import argparse
 import time
 
 import numpy as np
+from pareto import body_on_array  # benchmarks/pareto.py, beside this script
 
-from rpm_cl.data import Array
-from rpm_cl.imaging import _prepare, default_params
+from rpm_cl.imaging import _prepare
 from rpm_cl.kspace import decompose
 from rpm_cl.rangepoints import rps_from_decomposition
 from rpm_cl.rpm import neighbours
-from rpm_cl.scene import HUMAN_BODY_ARRAY_Z, get_preset
-from rpm_cl.simulate import simulate
 
 
 def list_args(n):
     """neighbour_lists' arguments for the body on an n x n (11: 11 x 17) array."""
     nz = 17 if n == 11 else n
-    preset = get_preset("human-body")
-    arr = Array((np.arange(n) - (n - 1) / 2) * 7.5e-3,
-                HUMAN_BODY_ARRAY_Z + (np.arange(nz) - (nz - 1) / 2) * 7.5e-3)
-    d = simulate(preset.scene, arr, preset.waveform, preset.range_axis, 20.0, 0,
-                 boundary_spacing=preset.boundary_spacing)
-    extra = {"pad": 2} if n * nz > 1024 else {}
-    params = default_params(d, **{**preset.defaults, **extra})
+    d, params = body_on_array(n, nz)
     rps = rps_from_decomposition(d, decompose(d, params.kspace), params.rp_threshold_db)
     p = params.rpm
     idx, _, _, start, count = _prepare(rps, p)

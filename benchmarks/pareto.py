@@ -108,18 +108,25 @@ def main():
     larger_arrays(engines["float32"])
 
 
+def body_on_array(nx, nz, snr=20.0, seed=0):
+    """The human body seen by an nx x nz array at 7.5 mm (centred where the
+    preset's is) and its default parameters (the decomposition's
+    zero-padding lowered to 2 above 1024 antennas to bound its memory)."""
+    preset = get_preset("human-body")
+    arr = Array((np.arange(nx) - (nx - 1) / 2) * 7.5e-3,
+                HUMAN_BODY_ARRAY_Z + (np.arange(nz) - (nz - 1) / 2) * 7.5e-3)
+    d = simulate(preset.scene, arr, preset.waveform, preset.range_axis, snr, seed,
+                 boundary_spacing=preset.boundary_spacing)
+    extra = {"pad": 2} if nx * nz > 1024 else {}
+    return d, default_params(d, **{**preset.defaults, **extra})
+
+
 def larger_arrays(engine):
     print("\nLarger arrays at 7.5 mm, default settings, S/N 20 dB:")
-    preset = get_preset("human-body")
     for nx, nz in ((11, 17), (32, 32), (64, 64)):
-        arr = Array((np.arange(nx) - (nx - 1) / 2) * 7.5e-3,
-                    HUMAN_BODY_ARRAY_Z + (np.arange(nz) - (nz - 1) / 2) * 7.5e-3)
-        d = simulate(preset.scene, arr, preset.waveform, preset.range_axis, 20.0, 0,
-                     boundary_spacing=preset.boundary_spacing)
-        extra = {"pad": 2} if nx * nz > 1024 else {}
-        params = default_params(d, **{**preset.defaults, **extra})
+        d, params = body_on_array(nx, nz)
         res, sec, st = timed_run("kspace-rpm", d, params, engine, repeats=1)
-        rp10, rpm50, rpm10, s = figures(res, d.truth)
+        rp10, rpm50, rpm10, _ = figures(res, d.truth)
         print(f"{nx:3d} x {nz:3d}: {len(res.rps):6d} RPs ({d.truth.rp_range.size} true), "
               f"{len(res.image.points):6d} points in "
               f"{sec:7.2f} s (decompose {st['decompose']:.2f}, rpm {st['rpm']:.2f})  "
