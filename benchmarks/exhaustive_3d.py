@@ -44,15 +44,16 @@ def main():
                   {"meanshift_iters": k}) for k in args.steps)
     rows += (("exhaustive", {"pair_cutoff": float("inf"), "max_neighbours": 4096,
                              "meanshift_iters": 0}),)
+    snr = np.inf if args.snr is None else args.snr  # as kept in the cache
     for name, extra in rows:
-        params = default_params(data, **{**pre.defaults, **extra})
         if name == "exhaustive" and args.cache and os.path.exists(args.cache):
             with np.load(args.cache) as f:
-                if float(f["snr"]) == (np.inf if args.snr is None else args.snr):
+                if float(f["snr"]) == snr:
                     out[name] = SimpleNamespace(rp_index=f["rp_index"], points=f["points"])
                     print(f"{name:18s}: {float(f['sec']):8.2f} s, {f['line']!s} "
                           f"(from {args.cache})")
                     continue
+        params = default_params(data, **{**pre.defaults, **extra})
         run_method("kspace-rpm", data, params, engine) if name != "exhaustive" else None
         t0 = time.perf_counter()
         res = run_method("kspace-rpm", data, params, engine)
@@ -65,7 +66,7 @@ def main():
         out[name] = res.image
         if name == "exhaustive" and args.cache:
             np.savez(args.cache, rp_index=res.image.rp_index, points=res.image.points,
-                     snr=np.inf if args.snr is None else args.snr, sec=sec, line=line)
+                     snr=snr, sec=sec, line=line)
     b = out["exhaustive"]
     for name, _ in rows[:-1]:
         a = out[name]

@@ -134,7 +134,7 @@ def _grid_offsets(x, z):
     Returns
     -------
     (ix, iz, cls_table, keys, sx) or None
-        ``x = x0 + ix sx`` and ``z = z0 + iz sz`` to 1e-6 of a step (int64,
+        ``x = x0 + ix sx`` and ``z = z0 + iz sz`` to 1e-6 of a step (int32,
         shape (C,)); ``keys`` the sorted distinct squared distances of the
         offsets in units of ``sx^2``, ``dx^2 + (sz / sx)^2 dz^2``, distances
         within 1e-9 of each other counted as one (they tie: offsets (3, 4)
@@ -149,15 +149,15 @@ def _grid_offsets(x, z):
         u = np.unique(v)
         step = float(np.min(np.diff(u))) if u.size > 1 else 0.0
         if step == 0.0:
-            ints.append(np.zeros(v.size, np.int64))
+            ints.append(np.zeros(v.size, np.int32))
             steps.append(0.0)
             continue
         i = np.rint((v - u[0]) / step)
         if not np.all(np.abs(i * step + u[0] - v) <= 1e-6 * step):
             return None
-        ints.append(i.astype(np.int64))
+        ints.append(i.astype(np.int32))
         steps.append(step)
-    (ix, iz), (sx, sz) = (i.astype(np.int32) for i in ints), steps
+    (ix, iz), (sx, sz) = ints, steps
     nx, nz = int(ix.max(initial=0)) + 1, int(iz.max(initial=0)) + 1
     if nx * nz > _GRID_TABLE_MAX:
         return None
@@ -185,7 +185,7 @@ def _ranked_grid(grid, same, b0, b1, radius):
     two RPs is a function of their offset in steps: each offset's distance
     class (its rank among the grid's distances) times the cluster size plus
     the RP index is a unique integer key in (distance, index) order, and
-    int32 keys sort about 4 times faster than a stable float sort.  Distances
+    integer keys sort faster than a stable float sort (module notes).  Distances
     come from the integer offsets, so equal distances tie exactly wherever
     the array is (the float differences of coordinates broke such ties by
     rounding, so the lists moved with the array)."""
@@ -196,7 +196,7 @@ def _ranked_grid(grid, same, b0, b1, radius):
     cls = cls_table.ravel()[flat]
     cls[same] = ncls  # after every distance
     within = (cls < np.searchsorted(keys, (radius / sx) ** 2 * (1 + 1e-12), side="right")).sum(axis=1)
-    # int32 keys sort 2.6 times faster than int64 here
+    # int32 wherever the keys fit: they sort faster than int64
     kt = np.int32 if (ncls + 1) * c < 2**31 else np.int64
     key = np.sort(cls.astype(kt) * kt(c) + np.arange(c, dtype=kt)[None, :], axis=1)
     order = key % c
