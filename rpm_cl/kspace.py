@@ -461,8 +461,8 @@ def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods,
         align = extent >= 0.25 * data.waveform.range_resolution
     if align:
         flat = data.signal.reshape(-1, data.range.size)
-        coeffs = (ndimage.spline_filter1d(flat.real, 3, axis=-1, mode="nearest"),
-                  ndimage.spline_filter1d(flat.imag, 3, axis=-1, mode="nearest"))
+        coeffs = (ndimage.spline_filter1d(flat.real, 3, axis=-1, mode="nearest")
+                  + 1j * ndimage.spline_filter1d(flat.imag, 3, axis=-1, mode="nearest"))
     # the zero-padded DFT of each array axis, shared by every cluster (none:
     # FFTs for a large array)
     dfts = ([_dft(k_axes[a].size, arr.shape[a]) for a in range(n_k)]
@@ -539,6 +539,51 @@ def _apply_axes(ops, sig):
 ALIAS_MARGIN = 1.05
 
 
+def shift_rows(coeffs: np.ndarray, shift: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """Each row of a cubic B-spline along the last axis, evaluated at samples
+    ``lo .. hi-1`` plus that row's ``shift``.
+
+    The rows are independent: each is interpolated along R only.  (Before,
+    ``ndimage.map_coordinates`` on the 2-D coefficient array also spread the
+    cubic B-spline across rows, at integer row coordinates weights 1/6, 2/3,
+    1/6, so every aligned profile was a blend of three antennas; the test
+    pins this.)  A row's shift is the same at every gate, so its four taps
+    and weights are found once per row.
+
+    Parameters
+    ----------
+    coeffs : ndarray, complex, shape (n_rows, nr)
+        Cubic B-spline coefficients along the last axis
+        (``ndimage.spline_filter1d(..., order 3, mode="nearest")``).
+    shift : ndarray, float, shape (n_rows,)
+        Shift of each row, in samples (range gates).
+    lo, hi : int
+        The gates evaluated, ``lo:hi``.
+
+    Returns
+    -------
+    ndarray, complex, shape (n_rows, hi - lo)
+        Equal to ``ndimage.map_coordinates`` on each row alone (order 3,
+        ``prefilter=False``) where all four taps lie on the axis; beyond its
+        ends the edge coefficients are repeated.
+    """
+    n = hi - lo
+    if n <= 0:
+        return np.zeros((coeffs.shape[0], 0), coeffs.dtype)
+    i0 = np.floor(shift)
+    t = (shift - i0)[:, None]
+    idx = i0.astype(np.intp)[:, None] + np.arange(lo - 1, hi + 2)[None, :]
+    np.clip(idx, 0, coeffs.shape[1] - 1, out=idx)
+    g = np.take_along_axis(coeffs, idx, axis=1)
+    t2 = t * t
+    t3 = t2 * t
+    w0 = (1.0 - t) ** 3 / 6.0
+    w1 = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0
+    w2 = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0
+    w3 = t3 / 6.0
+    return w0 * g[:, 0:n] + w1 * g[:, 1:n + 1] + w2 * g[:, 2:n + 2] + w3 * g[:, 3:n + 3]
+
+
 def _curvature(u, axes_x, r_c: float) -> np.ndarray:
     """q(X) = (|dX|^2 - (u . dX)^2) / (2 r_c), m: the curvature term of the
     range of a target at range r_c with range slope u (step 5)."""
@@ -558,10 +603,11 @@ def _max_curvature(axes_x, kc_w: float, r_c: float) -> float:
 def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=None):
     """Range-walk alignment of one cluster (module notes, step 4).
 
-    ``coeffs`` are the cubic-spline coefficients of the real and imaginary
-    parts of the profiles (n_antennas, nr) along R; the shifted profiles are
-    interpolated from them (a local interpolator: a Fourier shift would ring
-    where a profile does not vanish at the ends of the range axis).
+    ``coeffs`` are the cubic-spline coefficients of the profiles
+    (n_antennas, nr), complex, along R; the shifted profiles are
+    interpolated from them by :func:`shift_rows` (a local interpolator: a
+    Fourier shift would ring where a profile does not vanish at the ends of
+    the range axis).
 
     With ``r_c`` (focusing, step 5) the offsets include the curvature term
     q(X) at that range, and the signal's curvature phase exp(-j 2 k_c q) is
@@ -594,12 +640,7 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
     def aligned(delta, q):
         """The profiles shifted by ``delta`` (and the curvature phase of ``q``
         removed) over gates lo:hi, and their coherent peak at kc."""
-        rows = np.arange(delta.size)[:, None] + np.zeros((1, hi - lo))
-        cols = np.arange(lo, hi)[None, :] + (delta.ravel() / data.dr)[:, None]
-        sig = (ndimage.map_coordinates(coeffs[0], [rows, cols], order=3, mode="nearest",
-                                       prefilter=False)
-               + 1j * ndimage.map_coordinates(coeffs[1], [rows, cols], order=3, mode="nearest",
-                                              prefilter=False))
+        sig = shift_rows(coeffs, delta.ravel() / data.dr, lo, hi)
         sig = sig.reshape(data.array.shape + (hi - lo,))
         if q is not None:
             sig = sig * np.exp(2j * kc_w * q)[..., None]

@@ -1,0 +1,76 @@
+"""The range-walk alignment's interpolator shifts each antenna's profile alone.
+
+``kspace.shift_rows`` evaluates a cubic B-spline along R per row.  Its
+reference is SciPy's ``map_coordinates`` applied to one row at a time (1-D,
+so nothing can leak between rows).  The alignment used to call
+``map_coordinates`` on the 2-D (antenna, gate) coefficient array, which also
+spreads the spline across rows: every aligned profile was 1/6, 2/3, 1/6 of
+three neighbouring antennas.  The tests below fail on that.
+"""
+
+import secrets
+
+import numpy as np
+from scipy import ndimage
+
+from rpm_cl.kspace import shift_rows
+
+
+def _coeffs(sig):
+    return (ndimage.spline_filter1d(sig.real, 3, axis=-1, mode="nearest")
+            + 1j * ndimage.spline_filter1d(sig.imag, 3, axis=-1, mode="nearest"))
+
+
+def _row_reference(c, shift, lo, hi):
+    """map_coordinates on each row alone (1-D: no mixing across rows)."""
+    out = []
+    for row, s in zip(c, shift):
+        at = [np.arange(lo, hi) + s]
+        out.append(ndimage.map_coordinates(row.real, at, order=3, prefilter=False, mode="nearest")
+                   + 1j * ndimage.map_coordinates(row.imag, at, order=3, prefilter=False,
+                                                  mode="nearest"))
+    return np.array(out)
+
+
+def test_shift_rows_matches_one_row_at_a_time():
+    seed = secrets.randbits(32)
+    rng = np.random.default_rng(seed)
+    n_rows, nr = int(rng.integers(2, 40)), int(rng.integers(40, 200))
+    sig = rng.normal(size=(n_rows, nr)) + 1j * rng.normal(size=(n_rows, nr))
+    c = _coeffs(sig)
+    # shifts keep all four taps on the axis (the edge handling is checked below)
+    shift = rng.uniform(-8.0, 8.0, n_rows)
+    lo, hi = 10, nr - 11
+    got = shift_rows(c, shift, lo, hi)
+    ref = _row_reference(c, shift, lo, hi)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max(),
+                               err_msg=f"seed {seed}")
+
+
+def test_shift_rows_interpolates_and_keeps_rows_apart():
+    rng = np.random.default_rng(secrets.randbits(32))
+    sig = rng.normal(size=(5, 80)) + 1j * rng.normal(size=(5, 80))
+    c = _coeffs(sig)
+    # integer shifts return the samples themselves (an interpolating spline)
+    got = shift_rows(c, np.array([0.0, 1.0, -2.0, 3.0, 0.0]), 5, 70)
+    for row, s in enumerate((0, 1, -2, 3, 0)):
+        np.testing.assert_allclose(got[row], sig[row, 5 + s:70 + s], rtol=0, atol=1e-12)
+    # one antenna's profile changed: no other row of the result moves
+    sig2 = sig.copy()
+    sig2[2] *= 5.0
+    a = shift_rows(c, np.full(5, 0.37), 5, 70)
+    b = shift_rows(_coeffs(sig2), np.full(5, 0.37), 5, 70)
+    assert np.array_equal(np.delete(a, 2, axis=0), np.delete(b, 2, axis=0))
+    assert not np.allclose(a[2], b[2])
+
+
+def test_shift_rows_past_the_axis_is_finite_and_edge_valued():
+    sig = np.tile(np.linspace(1.0, 2.0, 30), (2, 1)).astype(complex)
+    c = _coeffs(sig)
+    out = shift_rows(c, np.array([-100.0, 100.0]), 0, 30)
+    assert np.all(np.isfinite(out))
+    # the edge coefficient repeated (weights sum to 1), within 1 % of the edge sample
+    np.testing.assert_allclose(out[0], c[0, 0], rtol=1e-12)
+    np.testing.assert_allclose(out[1], c[1, -1], rtol=1e-12)
+    np.testing.assert_allclose(out[:, 0], sig[:, [0, -1]].diagonal(), rtol=1e-2)
+    assert shift_rows(_coeffs(sig), np.zeros(2), 4, 4).shape == (2, 0)
