@@ -300,3 +300,26 @@ def test_off_grid_antennas_take_the_float_ranking(rng):
         d = np.hypot(xg[nbr[i, :nn[i]]] - xg[i], zg[nbr[i, :nn[i]]] - zg[i])
         dall = np.sort(np.hypot(xg - xg[i], zg - zg[i])[antg != antg[i]])
         np.testing.assert_allclose(d, dall[:6])
+
+
+@pytest.mark.parametrize("off_grid", [False, True])
+@pytest.mark.parametrize("near", [None, 0, 2, 6])
+def test_clusters_smaller_than_the_list(off_grid, near):
+    """A cluster of fewer RPs than the list is long (a weak part seen by a
+    few antennas) gives each RP the other RPs of its cluster, and only those.
+    With ``near`` > 0 this raised a broadcast error before (the ranking has
+    one column per RP of the cluster, the list ``kmax``), and off the grid
+    with an unbounded radius the float ranking counted the RP itself as
+    within (inf <= inf), so it was its own sub-RP."""
+    x = np.array([0.0, 7.5e-3, 15e-3, 0.0, 7.5e-3, 30e-3])
+    z = np.array([0.0, 0.0, 0.0, 7.5e-3, 7.5e-3, 0.0])
+    if off_grid:
+        x[1] += 1e-4 * np.sqrt(2)
+    start = np.array([0, 0, 0, 3, 3, 5])
+    count = np.array([3, 3, 3, 2, 2, 1])
+    nbr, nn = neighbour_lists(x, z, np.arange(6), start, count, np.inf, 8, near=near)
+    for i in range(6):
+        others = set(range(start[i], start[i] + count[i])) - {i}
+        assert nn[i] == len(others)
+        assert set(nbr[i, :nn[i]].tolist()) == others
+        assert np.all(nbr[i, nn[i]:] == -1)

@@ -91,6 +91,8 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
                 order, eligible, within = _ranked(px, pz, same, b0, b1, radius)
             else:
                 order, eligible, within = _ranked_grid(grid, same, b0, b1, radius)
+            if order.shape[1] < kmax:   # a cluster smaller than the list
+                order = np.pad(order, ((0, 0), (0, kmax - order.shape[1])), constant_values=-1)
             t = np.minimum(n_near, within)  # nearest taken
             rows = np.arange(b1 - b0)
             lists = np.full((b1 - b0, kmax), -1, np.int64)
@@ -177,7 +179,8 @@ def _ranked(px, pz, same, b0, b1, radius):
     d[same] = np.inf
     order = np.argsort(d, axis=1, kind="stable")
     ds = np.take_along_axis(d, order, axis=1)
-    return order, np.isfinite(ds).sum(axis=1), (ds <= radius).sum(axis=1)
+    ok = np.isfinite(ds)   # RPs at the same antenna (inf) are never within, even an inf radius
+    return order, ok.sum(axis=1), (ok & (ds <= radius)).sum(axis=1)
 
 
 def _ranked_grid(grid, same, b0, b1, radius):
