@@ -10,6 +10,16 @@
    the largest value within a quarter window period in k and half a range
    resolution in R (closer centres would decompose nearly the same signal).
    The decomposition itself uses the untapered spectrum.
+   Where clusters are focused (step 5), the maxima are searched on the
+   spectrum of the data with the Fresnel curvature removed per gate,
+   ``s(X, R) exp(j k_c |X - X_c|^2 / R)`` (a unit-modulus factor: the noise
+   floor is unchanged): the curvature spreads each target over about
+   ``2 k_c L / R`` of k, more than a window, and the overlapping spreads of
+   neighbouring parts raised maxima between them (the human body seen by a
+   32 x 32 array: a cluster at k_x = 0 between the thighs at +-72 rad/m,
+   359 of its 782 points more than 50 mm off; at 64 x 64 five such clusters).
+   A target's dechirped peak lies where its spread was centred (the k of the
+   array's centre), so the alignment's aliases are unchanged.
    Skips: a centre must also exceed the noise floor (``noise_pfa``: the
    level pure noise reaches anywhere in the map with that probability, from
    a known or estimated noise power, :func:`noise_floor`), and range gates
@@ -237,7 +247,8 @@ def _taper(shape: tuple) -> np.ndarray:
     return w
 
 
-def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=None):
+def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=None,
+                    dechirp=None):
     """Zero-padded FFT of the data along the array axes (eq. 2/7).
 
     Parameters
@@ -249,6 +260,10 @@ def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=No
         Multiply by a Hann window across each array axis first.
     gates : slice or None
         Range gates to transform (default: all).
+    dechirp : ndarray of bool, shape (nr,), or None
+        Gates whose wavefront curvature is removed first (module notes,
+        step 2): gate R is multiplied by ``exp(j k_c |X - X_c|^2 / R)``, the
+        conjugate of the Fresnel phase of a target at range R.
 
     Returns
     -------
@@ -258,7 +273,10 @@ def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=No
     """
     arr = data.array
     shape = tuple(pad * n for n in arr.shape)
-    sig = data.signal if gates is None else data.signal[..., gates]
+    gates = slice(None) if gates is None else gates
+    sig = data.signal[..., gates]
+    if dechirp is not None and np.any(dechirp[gates]):
+        sig = sig * _fresnel(data, dechirp[gates], data.range[gates])
     if taper:
         sig = sig * _taper(arr.shape)
     if max(arr.shape) <= MATRIX_DFT_MAX:
@@ -271,6 +289,51 @@ def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=No
     steps = (arr.dx,) if not arr.planar else (arr.dx, arr.dz)
     k_axes = tuple(2 * np.pi * np.fft.fftfreq(n, d) for n, d in zip(shape, steps))
     return spec, k_axes
+
+
+def _fresnel(data: RadarData, on: np.ndarray, ranges: np.ndarray) -> np.ndarray:
+    """exp(j k_c |X - X_c|^2 / R) per antenna and gate where ``on``, else 1;
+    shape (nx[, nz], n_gates)."""
+    axes_x = [data.array.x] if not data.array.planar else [data.array.x, data.array.z]
+    grids = np.meshgrid(*[ax - 0.5 * (ax[0] + ax[-1]) for ax in axes_x], indexing="ij")
+    d2 = sum(g * g for g in grids)
+    kc_w = 2 * np.pi * data.waveform.fc / C0
+    phase = kc_w * d2[..., None] / np.maximum(ranges, 1e-9)[None, :] * on[None, :]
+    return np.exp(1j * phase)
+
+
+def _dechirp_gates(data: RadarData, params: "KSpaceParams") -> np.ndarray | None:
+    """Gates whose clusters are focused (step 5) and where the Fresnel
+    (quadratic) phase describes a point's wavefront: there detection runs on
+    the spectrum with that phase removed (step 2).  None: no gate.
+
+    The quadratic phase holds while the next term of the expansion of the
+    two-way path, ``2 k_c h^4 / (8 R^3)`` at the array's corners (``h`` the
+    half-diagonal), stays under a quarter cycle: 1.3 rad for the human body
+    seen by a 64 x 64 array at 1 m, 72 rad for a 1 m linear array at 0.45 m
+    (whose detection keeps the plain spectrum)."""
+    if not _align_on(data, params) or params.focus is False:
+        return None
+    axes_x = [data.array.x] if not data.array.planar else [data.array.x, data.array.z]
+    kc_w = 2 * np.pi * data.waveform.fc / C0
+    r = np.maximum(data.range, 1e-9)
+    h2 = sum((0.5 * (ax[-1] - ax[0])) ** 2 for ax in axes_x)
+    quadratic = 2 * kc_w * h2 * h2 / (8 * r**3) < 0.5 * np.pi
+    if params.focus:
+        on = quadratic
+    else:
+        on = quadratic & np.array([_max_curvature(axes_x, kc_w, float(x)) > np.pi for x in r])
+    return on if on.any() else None
+
+
+def _align_on(data: RadarData, params: "KSpaceParams") -> bool:
+    """Whether clusters get the range-walk alignment (step 4): ``align``, or by
+    default where the aperture spans a quarter range resolution."""
+    if params.align is not None:
+        return bool(params.align)
+    axes_x = [data.array.x] if not data.array.planar else [data.array.x, data.array.z]
+    extent = max(float(ax[-1] - ax[0]) for ax in axes_x)
+    return extent >= 0.25 * data.waveform.range_resolution
 
 
 #: The noise power is estimated from the data only where the range axis spans
@@ -329,7 +392,7 @@ def _runs(mask: np.ndarray):
 
 
 def _search_gates(data: RadarData, weights, taper: bool, pad: int, rel: float, floor: float,
-                  margin: int):
+                  margin: int, dechirp=None):
     """Range gates that can hold a cluster centre, dilated by ``margin``.
 
     ``A(R) = sum_X w(X) |s(X, R)|`` bounds ``max_k |S(k, R)|`` from above
@@ -343,7 +406,8 @@ def _search_gates(data: RadarData, weights, taper: bool, pad: int, rel: float, f
     if bound.size == 0 or not bound.max() > 0:
         return np.zeros(data.range.size, bool)
     top = int(np.argmax(bound))
-    lower = float(np.abs(kspace_spectrum(data, pad, taper, slice(top, top + 1))[0]).max())
+    lower = float(np.abs(kspace_spectrum(data, pad, taper, slice(top, top + 1),
+                                         dechirp)[0]).max())
     active = bound >= max(rel * lower, floor)
     return ndimage.binary_dilation(active, iterations=margin) if margin > 0 else active
 
@@ -424,13 +488,15 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
     # neighbourhood and the strict test (half_r + 1) and for each cluster's
     # range interval (gate / dr + 1)
     margin = max(half_r + 1, int(np.ceil(gate / dr)) + 1)
-    need = (_search_gates(data, weights, params.detect_taper, params.pad, rel, floor, margin)
+    dechirp = _dechirp_gates(data, params)
+    need = (_search_gates(data, weights, params.detect_taper, params.pad, rel, floor, margin,
+                          dechirp)
             if params.skip_gates else np.ones(nr, bool))
     shape = tuple(len(k) for k in k_axes) + (nr,)
     det = np.zeros(shape)
     for g0, g1 in _runs(need):
         det[..., g0:g1] = np.abs(kspace_spectrum(data, params.pad, params.detect_taper,
-                                                 slice(g0, g1))[0])
+                                                 slice(g0, g1), dechirp)[0])
     dmax = float(det.max())
     threshold = max(dmax * rel, floor)
     # second pass: only gates whose spectrum reaches the threshold (and their
@@ -442,7 +508,7 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
     mag = np.zeros(shape)
     found = []
     for g0, g1 in _runs(need):
-        part = kspace_spectrum(data, params.pad, gates=slice(g0, g1))[0]
+        part = kspace_spectrum(data, params.pad, gates=slice(g0, g1), dechirp=dechirp)[0]
         spec[..., g0:g1] = part
         mag[..., g0:g1] = np.abs(part)
         found.append((det[..., g0:g1] if params.detect_taper else mag[..., g0:g1], g0))
@@ -465,10 +531,7 @@ def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods,
     k_periods = [2 * np.pi / st for st in steps]
     axes_x = [arr.x] if n_k == 1 else [arr.x, arr.z]
     kc_w = 2 * np.pi * data.waveform.fc / C0  # carrier wavenumber, rad/m
-    align = params.align
-    if align is None:
-        extent = max(float(ax[-1] - ax[0]) for ax in axes_x)
-        align = extent >= 0.25 * data.waveform.range_resolution
+    align = _align_on(data, params)
     if align:
         flat = data.signal.reshape(-1, data.range.size)
         coeffs = (ndimage.spline_filter1d(flat.real, 3, axis=-1, mode="nearest")

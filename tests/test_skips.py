@@ -47,8 +47,8 @@ class _GateCounter:
         self.gates = 0
         real = kspace.kspace_spectrum
 
-        def spy(data, pad=4, taper=False, gates=None):
-            spec, axes = real(data, pad, taper, gates)
+        def spy(data, pad=4, taper=False, gates=None, dechirp=None):
+            spec, axes = real(data, pad, taper, gates, dechirp)
             self.gates += spec.shape[-1]
             return spec, axes
 
