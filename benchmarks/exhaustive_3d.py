@@ -16,6 +16,7 @@ image in a file (with the S/N it was made for) and reuses it.
 """
 
 import argparse
+import hashlib
 import os
 import time
 from types import SimpleNamespace
@@ -45,10 +46,15 @@ def main():
     rows += (("exhaustive", {"pair_cutoff": float("inf"), "max_neighbours": 4096,
                              "meanshift_iters": 0}),)
     snr = np.inf if args.snr is None else args.snr  # as kept in the cache
+    # the cache holds for these RPs only (a change to the decomposition or
+    # the RP extraction moves them): keyed by a digest of the RPs
+    rps = run_method("kspace-rpm", data, default_params(data, **pre.defaults), engine).rps
+    key = hashlib.sha1(np.ascontiguousarray(np.stack(
+        [rps.range, rps.amp, rps.x, rps.z, rps.cluster.astype(float)])).tobytes()).hexdigest()
     for name, extra in rows:
         if name == "exhaustive" and args.cache and os.path.exists(args.cache):
             with np.load(args.cache) as f:
-                if float(f["snr"]) == snr:
+                if float(f["snr"]) == snr and "rps" in f and str(f["rps"]) == key:
                     out[name] = SimpleNamespace(rp_index=f["rp_index"], points=f["points"])
                     print(f"{name:18s}: {float(f['sec']):8.2f} s, {f['line']!s} "
                           f"(from {args.cache})")
@@ -66,7 +72,7 @@ def main():
         out[name] = res.image
         if name == "exhaustive" and args.cache:
             np.savez(args.cache, rp_index=res.image.rp_index, points=res.image.points,
-                     snr=snr, sec=sec, line=line)
+                     snr=snr, sec=sec, line=line, rps=key)
     b = out["exhaustive"]
     for name, _ in rows[:-1]:
         a = out[name]

@@ -302,7 +302,7 @@ def _fresnel(data: RadarData, on: np.ndarray, ranges: np.ndarray) -> np.ndarray:
     return np.exp(1j * phase)
 
 
-def _dechirp_gates(data: RadarData, params: "KSpaceParams") -> np.ndarray | None:
+def _dechirp_gates(data: RadarData, params: KSpaceParams) -> np.ndarray | None:
     """Gates whose clusters are focused (step 5) and where the Fresnel
     (quadratic) phase describes a point's wavefront: there detection runs on
     the spectrum with that phase removed (step 2).  None: no gate.
@@ -326,7 +326,7 @@ def _dechirp_gates(data: RadarData, params: "KSpaceParams") -> np.ndarray | None
     return on if on.any() else None
 
 
-def _align_on(data: RadarData, params: "KSpaceParams") -> bool:
+def _align_on(data: RadarData, params: KSpaceParams) -> bool:
     """Whether clusters get the range-walk alignment (step 4): ``align``, or by
     default where the aperture spans a quarter range resolution."""
     if params.align is not None:
@@ -677,7 +677,7 @@ def _block_peak(c: np.ndarray, block: int) -> float:
     out = c
     for a in range(c.ndim - 1):
         n = c.shape[a]
-        edges = np.linspace(0, n, max(1, int(round(n / max(block, 1)))) + 1).astype(int)
+        edges = np.linspace(0, n, max(1, round(n / max(block, 1))) + 1).astype(int)
         out = np.add.reduceat(out, edges[:-1], axis=a)
     val = np.abs(out).reshape(-1, c.shape[-1]).sum(axis=0)
     return float(val.max()) if val.size else 0.0
