@@ -47,7 +47,8 @@ def main():
                              "meanshift_iters": 0}),)
     snr = np.inf if args.snr is None else args.snr  # as kept in the cache
     # the cache holds for these RPs only (a change to the decomposition or
-    # the RP extraction moves them): keyed by a digest of the RPs
+    # the RP extraction moves them): keyed by a digest of the RPs.  A change
+    # to the RPM code itself is not seen: delete the cache then.
     rps = run_method("kspace-rpm", data, default_params(data, **pre.defaults), engine).rps
     key = hashlib.sha1(np.ascontiguousarray(np.stack(
         [rps.range, rps.amp, rps.x, rps.z, rps.cluster.astype(float)])).tobytes()).hexdigest()

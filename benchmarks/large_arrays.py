@@ -17,11 +17,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from pareto import body_on_array, figures  # noqa: E402
+from pareto import body_on_array, figures
 
-from rpm_cl.cl import create_env  # noqa: E402
-from rpm_cl.imaging import run_method  # noqa: E402
-from rpm_cl.rpm import DeviceRPM  # noqa: E402
+from rpm_cl.cl import create_env
+from rpm_cl.imaging import run_method
+from rpm_cl.rpm import DeviceRPM
 
 
 def main():
