@@ -94,7 +94,7 @@ from scipy import fft as sfft
 from scipy import ndimage
 
 from .blas import one_blas_thread
-from .data import C0, InputError, RadarData
+from .data import InputError, RadarData
 from .nearfield import decompose_near_field, near_field_wanted
 
 __all__ = ["Cluster", "Decomposition", "KSpaceParams", "decompose", "kspace_spectrum"]
@@ -295,13 +295,12 @@ def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=No
 
 def _fresnel(data: RadarData, on: np.ndarray, ranges: np.ndarray) -> np.ndarray:
     """exp(j k_c |X - X_c|^2 / R) per antenna and gate where ``on``, else 1;
-    shape (nx[, nz], n_gates)."""
-    axes_x = [data.array.x] if not data.array.planar else [data.array.x, data.array.z]
-    grids = np.meshgrid(*[ax - 0.5 * (ax[0] + ax[-1]) for ax in axes_x], indexing="ij")
-    d2 = sum(g * g for g in grids)
-    kc_w = 2 * np.pi * data.waveform.fc / C0
-    phase = kc_w * d2[..., None] / np.maximum(ranges, 1e-9)[None, :] * on[None, :]
-    return np.exp(1j * phase)
+    shape (nx[, nz], n_gates): the curvature phase of :func:`_curvature` at
+    u = 0, removed as :func:`_align` removes it."""
+    axes_x = _array_axes(data.array)
+    half_d2 = _curvature(np.zeros(len(axes_x)), axes_x, 1.0)   # |X - X_c|^2 / 2
+    phase = 2 * data.waveform.kc * half_d2[..., None] / np.maximum(ranges, 1e-9)[None, :]
+    return np.exp(1j * phase * on[None, :])
 
 
 def _dechirp_gates(data: RadarData, params: KSpaceParams) -> np.ndarray | None:
@@ -318,18 +317,26 @@ def _dechirp_gates(data: RadarData, params: KSpaceParams) -> np.ndarray | None:
     ``|u| = 0.5`` on 64 x 64), but its peak still gains (8.5 times for
     u = (-0.3, -0.2), 19 times at broadside, in a check at 1 m).  Dechirped
     and plain gates are thresholded apart (:func:`_regimes`)."""
-    if not _align_on(data, params) or (params.focus is not None and not params.focus):
+    focused = _focused_gates(data, params)
+    if not focused.any():
         return None
-    axes_x = [data.array.x] if not data.array.planar else [data.array.x, data.array.z]
-    kc_w = 2 * np.pi * data.waveform.fc / C0
+    h2 = _half_diagonal2(_array_axes(data.array))
     r = np.maximum(data.range, 1e-9)
-    h2 = sum((0.5 * (ax[-1] - ax[0])) ** 2 for ax in axes_x)
-    quadratic = 2 * kc_w * h2 * h2 / (8 * r**3) < 0.5 * np.pi
-    if params.focus:
-        on = quadratic
-    else:
-        on = quadratic & np.array([_max_curvature(axes_x, kc_w, float(x)) > np.pi for x in r])
+    on = focused & (2 * data.waveform.kc * h2 * h2 / (8 * r**3) < 0.5 * np.pi)
     return on if on.any() else None
+
+
+def _focused_gates(data: RadarData, params: KSpaceParams) -> np.ndarray:
+    """Per range gate, whether a cluster centred there is focused (step 5):
+    never without the alignment, everywhere or nowhere by ``focus``, and by
+    default where the curvature phase at the array's corners exceeds pi.
+    Detection (:func:`_dechirp_gates`) and the clusters (:func:`_clusters`)
+    both ask this."""
+    if not _align_on(data, params):
+        return np.zeros(data.range.size, bool)
+    if params.focus is not None:
+        return np.full(data.range.size, bool(params.focus))
+    return _max_curvature(_array_axes(data.array), data.waveform.kc, data.range) > np.pi
 
 
 def _align_on(data: RadarData, params: KSpaceParams) -> bool:
@@ -337,9 +344,13 @@ def _align_on(data: RadarData, params: KSpaceParams) -> bool:
     default where the aperture spans a quarter range resolution."""
     if params.align is not None:
         return bool(params.align)
-    axes_x = [data.array.x] if not data.array.planar else [data.array.x, data.array.z]
-    extent = max(float(ax[-1] - ax[0]) for ax in axes_x)
+    extent = max(float(ax[-1] - ax[0]) for ax in _array_axes(data.array))
     return extent >= 0.25 * data.waveform.range_resolution
+
+
+def _array_axes(arr) -> list:
+    """The antenna coordinates along each array axis, m: [x], or [x, z]."""
+    return [arr.x, arr.z] if arr.planar else [arr.x]
 
 
 #: The noise power is estimated from the data only where the range axis spans
@@ -553,9 +564,10 @@ def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods,
     dr = data.dr
     steps = (arr.dx,) if n_k == 1 else (arr.dx, arr.dz)
     k_periods = [2 * np.pi / st for st in steps]
-    axes_x = [arr.x] if n_k == 1 else [arr.x, arr.z]
-    kc_w = 2 * np.pi * data.waveform.fc / C0  # carrier wavenumber, rad/m
+    axes_x = _array_axes(arr)
+    kc_w = data.waveform.kc  # carrier wavenumber, rad/m
     align = _align_on(data, params)
+    focused = _focused_gates(data, params)
     if align:
         flat = data.signal.reshape(-1, data.range.size)
         coeffs = (ndimage.spline_filter1d(flat.real, 3, axis=-1, mode="nearest")
@@ -576,10 +588,7 @@ def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods,
         offset = np.zeros(arr.shape)
         u = np.zeros(n_k)
         if align:
-            focus = params.focus
-            if focus is None:
-                focus = _max_curvature(axes_x, kc_w, float(data.range[ir])) > np.pi
-            r_c = float(data.range[ir]) if focus else None
+            r_c = float(data.range[ir]) if focused[ir] else None
             u, offset, sig = _align(data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c)
         else:
             sig = spec[..., lo:hi]
@@ -720,10 +729,15 @@ def _curvature(u, axes_x, r_c: float) -> np.ndarray:
     return (d2 - ud * ud) / (2.0 * max(r_c, 1e-9))
 
 
-def _max_curvature(axes_x, kc_w: float, r_c: float) -> float:
-    """Curvature phase at the array's corners for a broadside target, rad."""
-    half2 = sum((0.5 * (ax[-1] - ax[0])) ** 2 for ax in axes_x)
-    return 2 * kc_w * half2 / (2.0 * max(r_c, 1e-9))
+def _half_diagonal2(axes_x) -> float:
+    """Squared distance from the array's centre to its corners, m^2."""
+    return sum((0.5 * (ax[-1] - ax[0])) ** 2 for ax in axes_x)
+
+
+def _max_curvature(axes_x, kc_w: float, r_c):
+    """Curvature phase at the array's corners for a broadside target at range
+    ``r_c`` (m, a number or an array of them), rad."""
+    return 2 * kc_w * _half_diagonal2(axes_x) / (2.0 * np.maximum(r_c, 1e-9))
 
 
 def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=None):
@@ -763,22 +777,19 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
         shp = [1] * n_k
         shp[a] = -1
         steer = steer * np.exp(-1j * kc[a] * axes_x[a]).reshape(shp)
+    # the coherent peak's sub-aperture, antennas a side (module notes, step
+    # 4): the whole array unless focused
+    block = (int(np.ceil(data.waveform.range_resolution * kc_w / np.pi)) if r_c is not None
+             else max(data.array.shape))
+
     def aligned(delta, q):
         """The profiles shifted by ``delta`` (and the curvature phase of ``q``
-        removed) over gates lo:hi, and their coherent peak at kc (over
-        sub-apertures when focused)."""
+        removed) over gates lo:hi, and their coherent peak at kc."""
         sig = shift_rows(coeffs, delta.ravel() / data.dr, lo, hi)
         sig = sig.reshape(data.array.shape + (hi - lo,))
         if q is not None:
             sig = sig * np.exp(2j * kc_w * q)[..., None]
-            return sig, _block_peak(sig * steer[..., None], block)
-        # coherent sum over the antennas (elementwise: BLAS threads cost more
-        # than they save on a few hundred antennas)
-        beam = (sig.reshape(steer.size, -1) * steer.reshape(-1, 1)).sum(axis=0)
-        return sig, (float(np.max(np.abs(beam))) if beam.size else 0.0)
-
-    # sub-aperture length, antennas (module notes, step 4)
-    block = int(np.ceil(data.waveform.range_resolution * kc_w / np.pi))
+        return sig, _block_peak(sig * steer[..., None], block)
 
     best = None
     for u in options:
