@@ -93,8 +93,9 @@ class RPMParams:
         each O(pairs) per main RP; 0 turns it off (the list's argmax is the
         point).  Default 2: on the human body at 20 dB the median distance
         to the exhaustive argmax's point is 5.8 mm with 0 steps, 1.1 mm with
-        1 and 0.43 mm with 2 (3: 0.35 mm), for about 50 ms a step
-        (``python benchmarks/exhaustive_3d.py --snr 20 --steps 0 1 2 3``).
+        1 and 0.40 mm with 2 (3: 0.33 mm), for about 80-100 ms a step on one
+        PoCL thread (``python benchmarks/exhaustive_3d.py --snr 20 --steps 0
+        1 2 3``, session 7; ``benchmarks/RESULTS.md``).
     meanshift_max_rps : int
         3-D: mean shift only in clusters of at most this many RPs.  A step
         costs about (near sub RPs) x (cluster RPs) pairs per main RP: the
