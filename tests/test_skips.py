@@ -153,24 +153,36 @@ def test_pair_windows_brute_force(rng):
 
 def test_pair_cutoff_2d_long_array(dev32):
     """A 1 m linear array (201 antennas) with sigma_x = 50 mm: pairing within
-    4 sigma_x keeps at most 81 of the cluster's RPs per main RP, and the image
+    4 sigma_x keeps, per main RP, the cluster's RPs at the 81 antennas within
+    0.2 m of its own (fewer than half the cluster), and the image
     is the exhaustive one up to near-ties of the argmax (the dropped weights
     are below exp(-8) of the largest, but their candidates go too): the same
-    number of points, the same accuracy, most points identical."""
+    number of points, the same accuracy, every point within 1 mm of the
+    exhaustive one (measured: 68 % identical, the rest neighbouring
+    intersections on the same arc)."""
     from rpm_cl.imaging import _prepare
     from rpm_cl.metrics import summary
 
     arr = Array((np.arange(201) - 100) * 5e-3)
-    scene = Scene((PointTarget((-0.1, 0.45)), PointTarget((0.15, 0.5))), "long")
+    # one point: two in one range cell (0.75 m at 0.2 GHz) are one cluster
+    # focused on neither, which the exact focus (kspace step 5) keeps small
+    scene = Scene((PointTarget((-0.1, 0.45)),), "long")
     data = simulate(scene, arr, Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3), 30.0, 0)
     params = default_params(data, sigma_x=0.05, sigma_r=0.05)
     rps = run_method("kspace-rpm", data, params, dev32).rps
     idx, _, _, s, c = _prepare(rps, params.rpm)
-    assert c.max() > 100 and pair_windows(np.asarray(rps.x)[idx], s, c, 0.2)[1].max() <= 81
+    x = np.asarray(rps.x)[idx]
+    w = pair_windows(x, s, c, 0.2)[1]
+    # antennas exactly 0.2 m apart may fall either side of the cutoff (rounding)
+    near = [np.array([np.sum(np.abs(x[s0:s0 + c0] - xi) <= 0.2 + tol)
+                      for xi, s0, c0 in zip(x, s, c)]) for tol in (-1e-9, 1e-9)]
+    assert c.max() > 200 and np.all((near[0] <= w) & (w <= near[1])) and w.max() < 0.5 * c.max()
     cut = rpm_image(rps, params.rpm, dev32)
     full = rpm_image(rps, dataclasses.replace(params.rpm, pair_cutoff_2d=np.inf), dev32)
     assert np.array_equal(cut.rp_index, full.rp_index)
     same = np.all(np.abs(cut.points - full.points) < 1e-6, axis=1)
-    assert same.mean() >= 0.85
+    assert same.mean() >= 0.5
+    assert np.linalg.norm(cut.points - full.points, axis=1).max() <= 1e-3
     sc, sf = summary(rps, cut, data.truth), summary(rps, full, data.truth)
-    assert abs(sc["rpm_within_50mm"] - sf["rpm_within_50mm"]) <= 2
+    for key in ("rpm_within_10mm", "rpm_within_50mm"):
+        assert abs(sc[key] - sf[key]) <= 2
