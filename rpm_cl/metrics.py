@@ -6,6 +6,8 @@
 - Err_RPM: per image point, the distance to the nearest sample of the densely
   sampled true boundary.
 - Cumulative fractions: the share of RPs / points with error <= a threshold.
+- Echoes found (not in the paper): the true echoes with an RP at their
+  antenna within a tolerance, i.e. how much of the scene the RPs cover.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from scipy.spatial import cKDTree
 
 from .data import Truth
 
-__all__ = ["cumulative", "err_range", "err_rpm", "summary"]
+__all__ = ["cumulative", "echoes_found", "err_range", "err_rpm", "summary"]
 
 
 def err_range(antenna, rng, truth: Truth) -> np.ndarray:
@@ -45,6 +47,24 @@ def err_range(antenna, rng, truth: Truth) -> np.ndarray:
         d = np.abs(rng - t_rng[np.minimum(k, t_rng.size - 1)])
         out = np.where(ok, np.minimum(out, d), out)
     return out
+
+
+def echoes_found(antenna, rng, truth: Truth, tol: float = 0.010) -> int:
+    """Number of true echoes with an RP at the same antenna within ``tol``
+    (m) of their range: Err_range with the roles of RPs and truth swapped.
+
+    Parameters
+    ----------
+    antenna : ndarray of int, shape (K,)
+        Flat antenna index of each RP.
+    rng : ndarray, shape (K,)
+        RP ranges, m.
+    truth : Truth
+    tol : float
+        Largest range difference, m.
+    """
+    rps = Truth(np.asarray(antenna, np.int64), rng, truth.boundary)
+    return cumulative(err_range(truth.rp_antenna, truth.rp_range, rps), tol)[0]
 
 
 def err_rpm(points, truth: Truth) -> np.ndarray:

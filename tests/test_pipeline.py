@@ -6,7 +6,7 @@ import pytest
 from rpm_cl.data import Array, Waveform
 from rpm_cl.imaging import ImagingParams, default_params, rpm_image, run_method
 from rpm_cl.kspace import KSpaceParams, decompose
-from rpm_cl.metrics import cumulative, err_range, err_rpm, summary
+from rpm_cl.metrics import cumulative, echoes_found, err_range, err_rpm, summary
 from rpm_cl.rangepoints import profile_peaks, rps_from_decomposition
 from rpm_cl.rpm import reference
 from rpm_cl.scene import PointTarget, Scene
@@ -99,6 +99,11 @@ def test_metrics_by_hand():
     assert np.isinf(e[3])  # no true echo at antenna 2
     assert cumulative(e, 0.010) == (1, 4)
     np.testing.assert_allclose(err_rpm([[0.0, 1.03], [0.5, 1.0]], truth), [0.03, 0.5])
+    # echoes found: (0, 1.0) by the RP at 1.004; (0, 1.5) is 0.2 m from the
+    # nearest RP; (1, 2.0) is 20 mm off, found with a 25 mm tolerance only
+    assert echoes_found([0, 0, 1, 2], [1.004, 1.3, 2.02, 1.0], truth) == 1
+    assert echoes_found([0, 0, 1, 2], [1.004, 1.3, 2.02, 1.0], truth, 0.025) == 2
+    assert echoes_found(np.zeros(0, int), [], truth) == 0
 
 
 def test_single_target_one_cluster_near_truth(dev32):
