@@ -55,11 +55,8 @@ def echoes_found(antenna, rng, truth: Truth, tol: float = 0.010) -> int:
 
     Parameters
     ----------
-    antenna : ndarray of int, shape (K,)
-        Flat antenna index of each RP.
-    rng : ndarray, shape (K,)
-        RP ranges, m.
-    truth : Truth
+    antenna, rng, truth
+        The RPs and the truth, as for :func:`err_range`.
     tol : float
         Largest range difference, m.
     """
