@@ -751,11 +751,17 @@ def _block_peak(c: np.ndarray, block: int) -> float:
 def _curvature(u, axes_x, r_c: float) -> np.ndarray:
     """q(X) = (|dX|^2 - (u . dX)^2) / (2 r_c), m: the curvature term of the
     range of a target at range r_c with range slope u (step 5)."""
-    centres = [0.5 * (ax[0] + ax[-1]) for ax in axes_x]
-    grids = np.meshgrid(*[ax - c for ax, c in zip(axes_x, centres)], indexing="ij")
+    grids = _centred_grids(axes_x)
     d2 = sum(g * g for g in grids)
     ud = sum(u[a] * grids[a] for a in range(len(u)))
     return (d2 - ud * ud) / (2.0 * max(r_c, 1e-9))
+
+
+def _centred_grids(axes_x) -> list:
+    """Each antenna's offset from the array's centre along each array axis,
+    m: one array of the array's shape per axis."""
+    centres = [0.5 * (ax[0] + ax[-1]) for ax in axes_x]
+    return np.meshgrid(*[ax - c for ax, c in zip(axes_x, centres)], indexing="ij")
 
 
 def _half_diagonal2(axes_x) -> float:
@@ -789,7 +795,7 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
     (:attr:`Cluster.focus`; None unfocused).
     """
     n_k = len(kc)
-    centres = [0.5 * (ax[0] + ax[-1]) for ax in axes_x]
+    offsets = _centred_grids(axes_x)
     # candidate direction cosines along each axis: every alias of kc with |u| < 1
     per_axis = []
     for a in range(n_k):
@@ -814,22 +820,21 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
     block = (int(np.ceil(data.waveform.range_resolution * kc_w / np.pi)) if r_c is not None
              else max(data.array.shape))
 
-    def aligned(delta, q):
-        """The profiles shifted by ``delta`` (and the curvature phase of ``q``
-        removed) over gates lo:hi, and their coherent peak at kc."""
-        sig = shift_rows(coeffs, delta.ravel() / data.dr, lo, hi)
-        sig = sig.reshape(data.array.shape + (hi - lo,))
+    def aligned(delta, q, gates=(lo, hi), block=block):
+        """The profiles shifted by ``delta`` (and the focus phase of ``q``
+        removed) over ``gates``, and their coherent peak at kc summed over
+        sub-apertures of ``block`` antennas (:func:`_block_peak`)."""
+        g0, g1 = gates
+        sig = shift_rows(coeffs, delta.ravel() / data.dr, g0, g1)
+        sig = sig.reshape(data.array.shape + (g1 - g0,))
         if q is not None:
             sig = sig * np.exp(2j * kc_w * q)[..., None]
         return sig, _block_peak(sig * steer[..., None], block)
 
     best = None
     for u in options:
-        delta = np.zeros(data.array.shape)
-        for a in range(n_k):
-            shp = [1] * n_k
-            shp[a] = -1
-            delta = delta + (u[a] * (axes_x[a] - centres[a])).reshape(shp)
+        delta = sum(u[a] * offsets[a] for a in range(n_k))
+        q = None
         if r_c is None:
             sig, peak = aligned(delta, None)
         else:
@@ -844,16 +849,18 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
         # of the resolution and loses far more than that; near-ties (flat or
         # degenerate data) keep the principal alias
         if best is None or peak > ALIAS_MARGIN * best[0]:
-            best = (peak, u, delta, sig)
-    u, delta, sig = best[1], best[2], best[3]
+            best = (peak, u, delta, sig, q)
+    _, u, delta, sig, q = best
     if r_c is None:
         return u, delta, sig, None
-    f = (_autofocus(coeffs, data, u, delta - _focus_range(u, axes_x, r_c), sig, steer, axes_x,
-                    kc_w, lo, r_c) if autofocus else None)
+    # the whole aperture as one block: the coherent peak itself
+    f = (_autofocus(aligned, delta - q, sig * steer[..., None], u, axes_x, r_c, lo,
+                    max(data.array.shape)) if autofocus else None)
     if f is None:
         return u, delta, sig, np.ones(n_k)
+    delta = delta - q
     q = _focus_range(u, axes_x, r_c, f)
-    delta = delta - _focus_range(u, axes_x, r_c) + q
+    delta = delta + q
     return u, delta, aligned(delta, q)[0], f
 
 
@@ -877,44 +884,45 @@ AUTOFOCUS_GATES = 2
 AUTOFOCUS_MARGIN = 1.25
 
 
-def _autofocus(coeffs, data, u, lin, sig, steer, axes_x, kc_w, lo, r_c):
+def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole):
     """Per-axis factors of the Fresnel part of the focus wavefront that
     maximise a cluster's whole-aperture coherent peak (module notes, step 6),
     or None where the point focus (all 1) stays best.
 
-    ``lin`` is the cluster's linear range walk u . dX (m, the alignment
-    without the focus term), ``sig`` its signal aligned and focused as a point
-    at ``r_c`` over gates ``lo:lo + n``, ``steer`` the conjugate plane wave of
-    its k.  Each candidate wavefront re-aligns the profiles (the focus term
-    is part of the range offset) over the ``2 AUTOFOCUS_GATES + 1`` gates
-    around the point focus's coherent peak only.  One axis at a time, the
+    ``aligned(delta, q, gates, block)`` is :func:`_align`'s: the profiles
+    shifted by ``delta`` and focused by ``q`` over ``gates``, and their
+    coherent peak over sub-apertures of ``block`` antennas (``whole``: the
+    whole aperture).  ``lin`` is the cluster's linear range walk u . dX (m,
+    the alignment without the focus term), ``coherent`` its signal aligned
+    and focused as a point at ``r_c``, times the conjugate plane wave of its
+    k, over gates ``lo:lo + n``.  Each candidate wavefront re-aligns the
+    profiles (the focus term is part of the range offset) over the
+    ``2 AUTOFOCUS_GATES + 1`` gates around the point focus's coherent peak
+    only.  One axis at a time, the
     others held: :data:`AUTOFOCUS_FACTORS`, then AUTOFOCUS_REFINE either side
     of the best (within the factors' range); two sweeps over the axes at
     most.  The result is kept only where its peak is AUTOFOCUS_MARGIN times
     the point focus's.
     """
-    shape = data.array.shape
-    n = sig.shape[-1]
-    g = int(np.argmax(np.abs((sig * steer[..., None]).reshape(-1, n).sum(axis=0))))
-    g0, g1 = lo + max(0, g - AUTOFOCUS_GATES), lo + min(n, g + AUTOFOCUS_GATES + 1)
-    exact, quads = _focus_terms(u, axes_x, r_c)
+    n = coherent.shape[-1]
+    g = int(np.argmax(np.abs(coherent.reshape(-1, n).sum(axis=0))))
+    gates = (lo + max(0, g - AUTOFOCUS_GATES), lo + min(n, g + AUTOFOCUS_GATES + 1))
+    terms = _focus_terms(u, axes_x, r_c)
     memo = {}
 
     def peak(f):
         key = tuple(np.round(f, 6))
         if key not in memo:
-            q = exact + sum((f[a] - 1.0) * quads[a] for a in range(len(quads)))
-            s = shift_rows(coeffs, (lin + q).ravel() / data.dr, g0, g1).reshape(shape + (g1 - g0,))
-            s = s * (np.exp(2j * kc_w * q) * steer)[..., None]
-            memo[key] = float(np.abs(s.reshape(-1, g1 - g0).sum(axis=0)).max())
+            q = _with_factors(*terms, f)
+            memo[key] = aligned(lin + q, q, gates, whole)[1]
         return memo[key]
 
-    f = np.ones(len(quads))
+    f = np.ones(len(axes_x))
     best = point = peak(f)
     lo_f, hi_f = min(AUTOFOCUS_FACTORS), max(AUTOFOCUS_FACTORS)
     for _ in range(2):
         start = f.copy()
-        for a in range(len(quads)):
+        for a in range(len(axes_x)):
             for values in (AUTOFOCUS_FACTORS, None):
                 if values is None:   # refine around the best so far
                     values = [v for v in (f[a] - AUTOFOCUS_REFINE, f[a] + AUTOFOCUS_REFINE)
@@ -934,8 +942,7 @@ def _focus_terms(u, axes_x, r_c: float):
     """The exact focus term of :func:`_focus_range` and the Fresnel part of
     each axis, ``(1 - u_a^2) dX_a^2 / (2 r_c)``, m (arrays of the array's
     shape)."""
-    centres = [0.5 * (ax[0] + ax[-1]) for ax in axes_x]
-    grids = np.meshgrid(*[ax - c for ax, c in zip(axes_x, centres)], indexing="ij")
+    grids = _centred_grids(axes_x)
     r_c = max(float(r_c), 1e-9)
     u = np.asarray(u, float)
     ud = sum(u[a] * grids[a] for a in range(len(grids)))
@@ -961,6 +968,9 @@ def _focus_range(u, axes_x, r_c: float, f=None) -> np.ndarray:
     ndarray, shape of the array
     """
     exact, quads = _focus_terms(u, axes_x, r_c)
-    if f is None:
-        return exact
+    return exact if f is None else _with_factors(exact, quads, f)
+
+
+def _with_factors(exact, quads, f) -> np.ndarray:
+    """The focus term with the Fresnel part of axis a scaled by ``f[a]``."""
     return exact + sum((f[a] - 1.0) * quads[a] for a in range(len(quads)))
