@@ -1,16 +1,22 @@
-/* Mean shift of 3-D RPM points to a mode of the exhaustive eq. 10 density.
+/* Newton / mean-shift steps of 3-D RPM points to a mode of the exhaustive
+ * eq. 10 density, and that density at given points.
  *
  * Maths. For main RP i the exhaustive kernel density of a point p (main
  * antenna's frame) is
  *     f(p) = sum_{j<k} g_jk exp(-|p - c_jk|^2 / (2 sigma_r^2))
  * over every valid triplet (i, j, k) of i's cluster, c_jk the intersection
  * (triplet.h, the maths of spheres.cl) and g_jk = w_j + w_k the eq. 11 weight,
- * w = amp exp(-|a|^2 / (2 sigma_D^2)).  Mean shift moves p to
- *     sum g G c / sum g G,   G = exp(-|p - c|^2 / (2 sigma_r^2)),
- * which climbs f; at most `iters` steps, fewer when a step is shorter than
- * sqrt(tol2) or no candidate is near.  The pass of the last step also gives
- * f at the point it started from (density) and the candidate nearest to
- * that point: no extra pass.
+ * w = amp exp(-|a|^2 / (2 sigma_D^2)).  Mean shift moves p by
+ *     sum g G d / sum g G,   G = exp(-|d|^2 / (2 sigma_r^2)),  d = c - p,
+ * which climbs f, but slowly (linearly, the slower the wider the candidates
+ * spread against sigma_r); where log f is concave enough at p the step is
+ * Newton's on log f instead, from the same pass's second moments
+ * (newton_step), which converges quadratically.  At most `iters` steps, fewer when a step is
+ * shorter than sqrt(tol2) or no candidate is near.  The pass of the last step also gives
+ * f at the point it started from (density) and the MS_NEAR_K candidates
+ * nearest to that point: no extra pass.  density_spheres then gives f at a
+ * few given points (the exhaustive score of candidates, to pick the argmax
+ * among those nearest the mode).
  * Truncations (stated, and the same in the NumPy reference):
  *   - candidates with |c - p| > cut (MS_CUTOFF sigma_r) are left out;
  *   - pairs whose two sub RPs both lie farther than sqrt(far2) (MS_PAIR_CUTOFF
@@ -31,9 +37,13 @@
  *
  * Outputs: mode (3, n) (the point after the last step), density (n,) (f at
  * the last point evaluated; 0: no candidate within cut, or iters = 0),
- * nearest (3, n) (the candidate nearest to that point; the point itself
- * where there is none).
- * NumPy reference: rpm_cl.rpm.reference.meanshift_spheres.
+ * nearest (3, MS_NEAR_K, n) (the candidates within cut nearest to that
+ * point, nearest first, ties in pair order; the point itself in the slots
+ * beyond count), count (n,) (how many slots hold candidates).  The nearest
+ * are kept in a sorted private list; a vector of candidates is looked at
+ * lane by lane only when one of them beats the list's last entry (rarely,
+ * once the list is full).
+ * NumPy references: rpm_cl.rpm.reference.meanshift_spheres, density_spheres.
  */
 #include "real.h"
 #include "simd.h"
@@ -48,6 +58,45 @@
 RPM_DEFINE_TRIPLET(triplet_v, REALV, INTV, VSQRT, VABS)
 
 typedef union { REALV v; REAL a[VW]; } lanes_t;
+typedef union { INTV v; IDX a[VW]; } ilanes_t;
+
+#ifndef MS_NEAR_K
+#define MS_NEAR_K 16
+#endif
+#ifndef MS_NEWTON_PIVOT
+#define MS_NEWTON_PIVOT 0.1
+#endif
+#ifndef MS_DENSITY_T
+#define MS_DENSITY_T 4   /* most points per main RP in one density_spheres call */
+#endif
+
+/* Nonzero where any lane of the mask m is set (swizzles and |: inline on
+ * PoCL, where any() is a call). */
+#if VW == 8
+#define VANY4(m) ((m).x | (m).y | (m).z | (m).w)
+#define VANY(m) VANY4((m).lo | (m).hi)
+#else
+#define VANY(m) ((m).x | (m).y | (m).z | (m).w)
+#endif
+
+/* Candidate (d2; c) into the sorted list of the nearest (*kn entries, at most
+ * MS_NEAR_K; kc holds 3 planes of MS_NEAR_K); equal distances keep their order. */
+inline void keep_nearest(REAL *kd, REAL *kc, int *kn, const REAL d2, const REAL cx,
+                         const REAL cy, const REAL cz)
+{
+    int q;
+    if (*kn < MS_NEAR_K) q = (*kn)++;
+    else if (d2 < kd[MS_NEAR_K - 1]) q = MS_NEAR_K - 1;
+    else return;
+    for (; q > 0 && d2 < kd[q - 1]; --q) {
+        kd[q] = kd[q - 1];
+        for (int d = 0; d < 3; ++d) kc[d * MS_NEAR_K + q] = kc[d * MS_NEAR_K + q - 1];
+    }
+    kd[q] = d2;
+    kc[q] = cx;
+    kc[MS_NEAR_K + q] = cy;
+    kc[2 * MS_NEAR_K + q] = cz;
+}
 
 /* Sub RPs of main RP i (cluster lo .. hi) whose sphere passes within `cut`
  * of p, near ones first, into the scratch rows (a_x, a_z, b, |a|, w: the
@@ -82,17 +131,20 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
     return m;
 }
 
-/* Kernel sums at p over the gathered pairs: s = sum g G, sc = sum g G c, and
- * the candidate nearest to p (*near, unchanged where there is none). */
+/* Kernel sums at p over the gathered pairs: s = sum g G, m1 = sum g G d,
+ * m2 = sum g G d d^T (xx, yy, zz, xy, xz, yz), d = c - p, and the candidates
+ * nearest to p (kd, kc, *kn: see keep_nearest). */
 inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
                        const int mnear, const REAL ri, const REAL px, const REAL py,
                        const REAL pz, const REAL cut2, const REAL l2inv2sr2, const REAL eps_det,
-                       REAL *sc, REAL *near)
+                       REAL *m1, REAL *m2, REAL *kd, REAL *kc, int *kn)
 {
     __global const REAL *gz = gx + plane, *gb = gz + plane, *gn = gb + plane, *gw = gn + plane;
     const int nv = (m + VW - 1) / VW;
-    REALV s = (REALV)((REAL)0), sx = s, sy = s, sz = s, bx = s, by = s, bz = s;
-    REALV bd = (REALV)((REAL)2 * cut2);
+    const REALV zero = (REALV)((REAL)0);
+    REALV s = zero, sx = s, sy = s, sz = s, sxx = s, syy = s, szz = s, sxy = s, sxz = s, syz = s;
+    REAL last = (REAL)2 * cut2;   /* a candidate nearer than this enters the list */
+    *kn = 0;
     for (int j = 0; j < mnear; ++j) {
         const REALV ajx = (REALV)gx[j], ajz = (REALV)gz[j], bj = (REALV)gb[j];
         const REALV ej = (REALV)(eps_det * gn[j]), wj = (REALV)gw[j];
@@ -101,40 +153,82 @@ inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
             INTV ok = triplet_v(ajx, ajz, bj, ej, VROW(gx, c), VROW(gz, c), VROW(gb, c),
                                 VROW(gn, c), (REALV)ri, &cx, &cy, &cz);
             ok &= (LANES + (IDX)(c * VW)) > (IDX)j;
-            const REALV dx = cx - px, dy = cy - py, dz = cz - pz;
+            REALV dx = cx - px, dy = cy - py, dz = cz - pz;
             const REALV d2 = dx * dx + dy * dy + dz * dz;
             ok &= d2 <= cut2;
-            const REALV wg = ok ? (wj + VROW(gw, c)) * vexp2_neg(-d2 * l2inv2sr2)
-                                : (REALV)((REAL)0);
+            dx = ok ? dx : zero;   /* masked lanes may hold NaN */
+            dy = ok ? dy : zero;
+            dz = ok ? dz : zero;
+            const REALV wg = ok ? (wj + VROW(gw, c)) * vexp2_neg(-d2 * l2inv2sr2) : zero;
+            const REALV wx = wg * dx, wy = wg * dy, wz = wg * dz;
             s += wg;
-            sx += wg * (ok ? cx : (REALV)((REAL)0));
-            sy += wg * (ok ? cy : (REALV)((REAL)0));
-            sz += wg * (ok ? cz : (REALV)((REAL)0));
-            const INTV better = ok & (d2 < bd);
-            bd = better ? d2 : bd;
-            bx = better ? cx : bx;
-            by = better ? cy : by;
-            bz = better ? cz : bz;
+            sx += wx;
+            sy += wy;
+            sz += wz;
+            sxx += wx * dx;
+            syy += wy * dy;
+            szz += wz * dz;
+            sxy += wx * dy;
+            sxz += wx * dz;
+            syz += wy * dz;
+            const INTV hit = ok & (d2 < (REALV)last);
+            if (VANY(hit)) {   /* rare once the list is full: lane by lane */
+                ilanes_t h;
+                lanes_t ld, ux, uy, uz;
+                h.v = hit;
+                ld.v = d2;
+                ux.v = cx;
+                uy.v = cy;
+                uz.v = cz;
+                for (int q = 0; q < VW; ++q)
+                    if (h.a[q]) keep_nearest(kd, kc, kn, ld.a[q], ux.a[q], uy.a[q], uz.a[q]);
+                if (*kn == MS_NEAR_K) last = kd[MS_NEAR_K - 1];
+            }
         }
     }
-    sc[0] = hsum(sx);
-    sc[1] = hsum(sy);
-    sc[2] = hsum(sz);
-    lanes_t d, ux, uy, uz;
-    d.v = bd;
-    ux.v = bx;
-    uy.v = by;
-    uz.v = bz;
-    REAL best = (REAL)2 * cut2;
-    for (int q = 0; q < VW; ++q) {
-        if (d.a[q] < best) {
-            best = d.a[q];
-            near[0] = ux.a[q];
-            near[1] = uy.a[q];
-            near[2] = uz.a[q];
-        }
-    }
+    m1[0] = hsum(sx);
+    m1[1] = hsum(sy);
+    m1[2] = hsum(sz);
+    m2[0] = hsum(sxx);
+    m2[1] = hsum(syy);
+    m2[2] = hsum(szz);
+    m2[3] = hsum(sxy);
+    m2[4] = hsum(sxz);
+    m2[5] = hsum(syz);
     return hsum(s);
+}
+
+/* The step from p given the sums at p: Newton's on log f,
+ *     dp = (I - V / sigma_r^2)^-1 b,   b = m1 / s (the mean-shift step),
+ * V = m2 / s - b b^T the kernel-weighted covariance of the candidates (the
+ * Hessian of log f is -(I - V / sigma_r^2) / sigma_r^2, its gradient
+ * b / sigma_r^2): exact in one step for a single Gaussian, quadratic
+ * convergence near a mode.  Taken where every Cholesky pivot of that matrix
+ * is at least MS_NEWTON_PIVOT (log f concave enough: the step is then at most
+ * 1 / MS_NEWTON_PIVOT times b), else the mean-shift step b. */
+inline void newton_step(const REAL s, const REAL *m1, const REAL *m2, const REAL inv_sr2,
+                        REAL *dp)
+{
+    const REAL q = inv_sr2 / s, piv = (REAL)MS_NEWTON_PIVOT;
+    const REAL b0 = m1[0] / s, b1 = m1[1] / s, b2 = m1[2] / s;
+    dp[0] = b0;
+    dp[1] = b1;
+    dp[2] = b2;
+    const REAL a00 = 1 - q * m2[0] + inv_sr2 * b0 * b0, a11 = 1 - q * m2[1] + inv_sr2 * b1 * b1;
+    const REAL a22 = 1 - q * m2[2] + inv_sr2 * b2 * b2, a01 = -q * m2[3] + inv_sr2 * b0 * b1;
+    const REAL a02 = -q * m2[4] + inv_sr2 * b0 * b2, a12 = -q * m2[5] + inv_sr2 * b1 * b2;
+    if (!(a00 >= piv)) return;
+    const REAL l00 = sqrt(a00), l10 = a01 / l00, l20 = a02 / l00;
+    const REAL p11 = a11 - l10 * l10;
+    if (!(p11 >= piv)) return;
+    const REAL l11 = sqrt(p11), l21 = (a12 - l20 * l10) / l11;
+    const REAL p22 = a22 - l20 * l20 - l21 * l21;
+    if (!(p22 >= piv)) return;
+    const REAL l22 = sqrt(p22);
+    const REAL y0 = b0 / l00, y1 = (b1 - l10 * y0) / l11, y2 = (b2 - l20 * y0 - l21 * y1) / l22;
+    dp[2] = y2 / l22;
+    dp[1] = (y1 - l21 * dp[2]) / l11;
+    dp[0] = (y0 - l10 * dp[1] - l20 * dp[2]) / l00;
 }
 
 __kernel void meanshift_spheres(
@@ -143,7 +237,7 @@ __kernel void meanshift_spheres(
     const int i0, const int n, const int stride, const REAL inv2sd2, const REAL far2,
     const REAL cut, const REAL l2inv2sr2, const REAL eps_det, const int iters, const REAL tol2,
     __global const REAL *point, __global REAL *mode, __global REAL *density,
-    __global REAL *nearest, __global REAL *scratch)
+    __global REAL *nearest, __global int *count, __global REAL *scratch)
 {
     const int il = get_global_id(0);
     if (il >= n) return;
@@ -153,29 +247,110 @@ __kernel void meanshift_spheres(
     __global REAL *gx = scratch + (long)il * stride;  /* 5 planes, see gather */
     const REAL ri = r[i], cut2 = cut * cut;
     REAL p[3] = {point[il], point[n + il], point[2 * n + il]};
-    REAL sc[3], near[3] = {p[0], p[1], p[2]};
+    REAL q0[3] = {p[0], p[1], p[2]};   /* the start of the last step */
+    REAL m1[3], m2[6], dp[3], kd[MS_NEAR_K], kc[3 * MS_NEAR_K];
+    const REAL inv_sr2 = (REAL)2 * l2inv2sr2 * (REAL)0.69314718055994530942;  /* 1 / sigma_r^2 */
+    int kn = 0;
     REAL s = (REAL)0;
     for (int t = 0; t < iters; ++t) {
         int mnear;
         const int m = gather(x, z, r, amp, lo, hi, i, p[0], p[1], p[2], cut, far2, inv2sd2,
                              gx, plane, &mnear);
-        near[0] = p[0];
-        near[1] = p[1];
-        near[2] = p[2];
-        s = shift_sums(gx, plane, m, mnear, ri, p[0], p[1], p[2], cut2, l2inv2sr2, eps_det, sc,
-                       near);
+        for (int d = 0; d < 3; ++d) q0[d] = p[d];
+        s = shift_sums(gx, plane, m, mnear, ri, p[0], p[1], p[2], cut2, l2inv2sr2, eps_det, m1,
+                       m2, kd, kc, &kn);
         if (!(s > (REAL)0)) break;
+        newton_step(s, m1, m2, inv_sr2, dp);
         REAL step2 = (REAL)0;
         for (int d = 0; d < 3; ++d) {
-            const REAL q = sc[d] / s;
-            step2 += (q - p[d]) * (q - p[d]);
-            p[d] = q;
+            step2 += dp[d] * dp[d];
+            p[d] += dp[d];
         }
         if (step2 <= tol2) break;
     }
     density[il] = s;
+    count[il] = kn;
     for (int d = 0; d < 3; ++d) {
         mode[(long)d * n + il] = p[d];
-        nearest[(long)d * n + il] = near[d];
+        for (int q = 0; q < MS_NEAR_K; ++q)
+            nearest[((long)d * MS_NEAR_K + q) * n + il] = q < kn ? kc[d * MS_NEAR_K + q] : q0[d];
     }
+}
+
+/* f at nt <= MS_DENSITY_T points t_u per main RP (point (3, nt, n), main
+ * antennas' frames; density (nt, n)), for points a few mm apart (the
+ * candidates nearest to a mode).  Truncation: the candidates within cut of
+ * the first point t_0 count for every point.  One Gaussian per candidate,
+ * G_0 = exp(-a |c - t_0|^2) (a = 1 / (2 sigma_r^2)); the others follow as
+ *     exp(-a |c - t_u|^2) = G_0 exp(y_u),  y_u = 2a (c - t_0) . e_u - a |e_u|^2,
+ * e_u = t_u - t_0, with exp(y) by its Taylor series to degree 6: relative
+ * error below |y|^7 / 5040 e^|y|, i.e. below 5e-7 while |e_u| <= sigma_r / 10
+ * (|c - t_0| <= cut = 4 sigma_r makes |y| <= 0.4), far below float32
+ * rounding for the nearby candidates that carry the sum.  One gather around
+ * t_0 (cut: the pruning above is exact). */
+inline REALV exp_series6(const REALV y)
+{
+    REALV e = (REALV)((REAL)(1.0 / 720));
+    e = e * y + (REAL)(1.0 / 120);
+    e = e * y + (REAL)(1.0 / 24);
+    e = e * y + (REAL)(1.0 / 6);
+    e = e * y + (REAL)0.5;
+    e = e * y + (REAL)1;
+    return e * y + (REAL)1;
+}
+
+__kernel void density_spheres(
+    __global const REAL *x, __global const REAL *z, __global const REAL *r,
+    __global const REAL *amp, __global const int *cstart, __global const int *ccount,
+    const int i0, const int n, const int stride, const REAL inv2sd2, const REAL far2,
+    const REAL cut, const REAL l2inv2sr2, const REAL eps_det, const int nt,
+    __global const REAL *point, __global REAL *density, __global REAL *scratch)
+{
+    const int il = get_global_id(0);
+    if (il >= n) return;
+    const int i = i0 + il;
+    const int lo = cstart[i], hi = lo + ccount[i];
+    const long plane = (long)n * stride;
+    __global REAL *gx = scratch + (long)il * stride;
+    __global const REAL *gz = gx + plane, *gb = gz + plane, *gn = gb + plane, *gw = gn + plane;
+    const REAL ri = r[i], cut2 = cut * cut;
+    const REAL a = l2inv2sr2 * (REAL)0.69314718055994530942;   /* 1 / (2 sigma_r^2) */
+    const REAL t0x = point[il], t0y = point[(long)nt * n + il], t0z = point[2L * nt * n + il];
+    REAL ex[MS_DENSITY_T], ey[MS_DENSITY_T], ez[MS_DENSITY_T], e0[MS_DENSITY_T];
+    for (int u = 0; u < nt; ++u) {   /* y_u = (c - t_0) . (2a e_u) - a |e_u|^2 */
+        const REAL dx = point[(long)u * n + il] - t0x;
+        const REAL dy = point[((long)nt + u) * n + il] - t0y;
+        const REAL dz = point[(2L * nt + u) * n + il] - t0z;
+        ex[u] = 2 * a * dx;
+        ey[u] = 2 * a * dy;
+        ez[u] = 2 * a * dz;
+        e0[u] = -a * (dx * dx + dy * dy + dz * dz);
+    }
+    int mnear;
+    const int m = gather(x, z, r, amp, lo, hi, i, t0x, t0y, t0z, cut, far2, inv2sd2, gx, plane,
+                         &mnear);
+    const int nv = (m + VW - 1) / VW;
+    REALV s[MS_DENSITY_T];
+    for (int u = 0; u < MS_DENSITY_T; ++u) s[u] = (REALV)((REAL)0);
+    for (int j = 0; j < mnear; ++j) {
+        const REALV ajx = (REALV)gx[j], ajz = (REALV)gz[j], bj = (REALV)gb[j];
+        const REALV ej = (REALV)(eps_det * gn[j]), wj = (REALV)gw[j];
+        for (int c = (j + 1) / VW; c < nv; ++c) {
+            REALV cx, cy, cz;
+            INTV ok = triplet_v(ajx, ajz, bj, ej, VROW(gx, c), VROW(gz, c), VROW(gb, c),
+                                VROW(gn, c), (REALV)ri, &cx, &cy, &cz);
+            ok &= (LANES + (IDX)(c * VW)) > (IDX)j;
+            const REALV dx = cx - t0x, dy = cy - t0y, dz = cz - t0z;
+            const REALV d2 = dx * dx + dy * dy + dz * dz;
+            ok &= d2 <= cut2;
+            const REALV wg = ok ? (wj + VROW(gw, c)) * vexp2_neg(-d2 * l2inv2sr2)
+                                : (REALV)((REAL)0);
+            s[0] += wg;
+            for (int u = 1; u < nt; ++u) {   /* masked lanes may hold NaN: select, not 0 * */
+                const REALV e = exp_series6(dx * ex[u] + dy * ey[u] + dz * ez[u] + e0[u]);
+                s[u] += ok ? wg * e : (REALV)((REAL)0);
+            }
+        }
+    }
+    for (int u = 0; u < nt; ++u) density[(long)u * n + il] = hsum(s[u]);
 }

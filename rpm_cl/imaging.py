@@ -23,6 +23,7 @@ from .data import InputError, RadarData
 from .kspace import KSpaceParams, decompose
 from .rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
 from .rpm.neighbours import neighbour_lists
+from .rpm.reference import MS_DENSITY_T
 
 #: The paper's sigma_r for 2-D (Section V-A2), m.
 SIGMA_R_DEFAULT = 0.05
@@ -88,14 +89,10 @@ class RPMParams:
         :mod:`rpm_cl.rpm.neighbours`).  None: all nearest.
     meanshift_iters : int
         3-D: after the argmax over the list's triplets, at most this many
-        mean-shift steps towards the mode of the *exhaustive* eq. 10 density
-        (every pair of the cluster; :func:`rpm_cl.rpm.reference.meanshift_spheres`),
-        each O(pairs) per main RP; 0 turns it off (the list's argmax is the
-        point).  Default 2: on the human body at 20 dB the median distance
-        to the exhaustive argmax's point is 5.8 mm with 0 steps, 1.1 mm with
-        1 and 0.40 mm with 2 (3: 0.33 mm), for about 80-100 ms a step on one
-        PoCL thread (``python benchmarks/exhaustive_3d.py --snr 20 --steps 0
-        1 2 3``, session 7; ``benchmarks/RESULTS.md``).
+        steps towards the mode of the *exhaustive* eq. 10 density (every pair
+        of the cluster; :func:`rpm_cl.rpm.reference.meanshift_spheres`):
+        Newton's on log f where it is concave enough, else mean shift's, each
+        O(pairs) per main RP; 0 turns it off (the list's argmax is the point).
     meanshift_max_rps : int
         3-D: mean shift only in clusters of at most this many RPs.  A step
         costs about (near sub RPs) x (cluster RPs) pairs per main RP: the
@@ -103,10 +100,20 @@ class RPMParams:
         a 32 x 32 array's (about 1000 RPs each) 5.3 s on top of the list's
         3.2 s (RPM <= 10 mm 99.0 % against 97.9 %), a 64 x 64 array's 60 s;
         so by default those keep the list's argmax.
-    meanshift_point : {"sphere", "nearest", "mode"}
-        3-D, with mean shift: the image point is the mode put back on the main
-        RP's sphere (radially from its antenna), the triplet candidate nearest
-        to the start of the last step, or the mode itself.
+    meanshift_point : {"argmax", "sphere", "nearest", "mode"}
+        3-D, with mean shift: the image point.  "argmax" (default): the
+        exhaustive argmax sought among the candidates nearest to the mode,
+        :data:`rpm_cl.rpm.reference.MS_DENSITY_T` of them scored with the
+        exhaustive density (:func:`rpm_cl.rpm.reference.density_spheres`, one
+        more pass).  On the human body (``python benchmarks/exhaustive_3d.py
+        --snr 20 --steps 2 3``) 97.5 % of the points are the exhaustive
+        eq. 10 image's own to 1 um, 98.9 % to 0.1 mm and 99.95 % to 1 mm
+        with the default 3 steps (2 steps: 95.7 %; the mode put back on the
+        sphere, the default before: 5.6 % to 0.1 mm, median 0.40 mm); the
+        rest start in another mode's basin or are float32 near-ties.
+        "sphere": the mode put back on the main RP's sphere (radially from
+        its antenna); "nearest": the candidate nearest to the start of the
+        last step; "mode": the mode itself.
     """
 
     sigma_x: float = 0.10
@@ -118,9 +125,9 @@ class RPMParams:
     max_neighbours: int = 24
     near_neighbours: int | None = 4
     pair_cutoff_2d: float = 4.0
-    meanshift_iters: int = 2
+    meanshift_iters: int = 3
     meanshift_max_rps: int = 512
-    meanshift_point: Literal["sphere", "nearest", "mode"] = "sphere"
+    meanshift_point: Literal["argmax", "sphere", "nearest", "mode"] = "argmax"
 
     def __post_init__(self):
         for name in ("sigma_x", "sigma_r"):
@@ -141,8 +148,8 @@ class RPMParams:
             raise InputError(f"meanshift_iters must be in 0..1000, got {self.meanshift_iters}")
         if self.meanshift_max_rps < 0:
             raise InputError(f"meanshift_max_rps must be >= 0, got {self.meanshift_max_rps}")
-        if self.meanshift_point not in ("sphere", "nearest", "mode"):
-            raise InputError("meanshift_point must be 'sphere', 'nearest' or 'mode', got "
+        if self.meanshift_point not in ("argmax", "sphere", "nearest", "mode"):
+            raise InputError("meanshift_point must be 'argmax', 'sphere', 'nearest' or 'mode', got "
                              f"{self.meanshift_point!r}")
         if self.chunk_slots < 1 or self.max_cluster_rps < self.min_cluster_rps:
             raise InputError("chunk_slots must be >= 1 and max_cluster_rps >= min_cluster_rps")
@@ -403,19 +410,42 @@ def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
     for i0, n in ((int(run[0]) + a, b) for run in runs
                   for a, b in _chunks(run.size, width, params.chunk_slots)):
         sl = slice(i0, i0 + n)
-        mode, dens, near = engine.meanshift_spheres(x, z, r, amp, start, count, local[:, sl],
-                                                    params.sigma_x, params.sigma_r,
-                                                    params.meanshift_iters, i0, n)
+        mode, dens, near, cnt = engine.meanshift_spheres(x, z, r, amp, start, count,
+                                                         local[:, sl], params.sigma_x,
+                                                         params.sigma_r, params.meanshift_iters,
+                                                         i0, n)
         mode, dens, near = (np.asarray(v, np.float64) for v in (mode, dens, near))
-        if params.meanshift_point == "sphere":
+        if params.meanshift_point == "argmax":
+            dens, new = _argmax_near(mode, near, np.asarray(cnt), engine, x, z, r, amp, start,
+                                     count, params, i0, n)
+        elif params.meanshift_point == "sphere":
             norm = np.linalg.norm(mode, axis=0)
             new = mode * (r[sl] / np.where(norm > 0, norm, 1.0))
         else:
-            new = near if params.meanshift_point == "nearest" else mode
+            new = near[:, 0] if params.meanshift_point == "nearest" else mode
         moved = (best[sl] >= 0) & (dens > 0) & np.all(np.isfinite(new), axis=0)
         local[:, sl] = np.where(moved, new, local[:, sl])
         score[sl] = np.where(moved, dens, score[sl])
     return [(best, score, local)]
+
+
+def _argmax_near(mode, near, cnt, engine, x, z, r, amp, start, count, params, i0, n):
+    """The exhaustive argmax among the candidates nearest to the mode
+    (``meanshift_point="argmax"``): of the ``count`` candidates the mean shift
+    returned (nearest to the start of its last step), the MS_DENSITY_T
+    nearest to the mode are scored with the exhaustive density and the best
+    is taken.  Returns its density (n,) (0 where there is no candidate) and
+    the point (3, n)."""
+    slot = np.arange(near.shape[1])[:, None]
+    d2 = np.where(slot < cnt, np.sum((near - mode[:, None]) ** 2, axis=0), np.inf)
+    pick = np.argsort(d2, axis=0, kind="stable")[:MS_DENSITY_T]          # (T, n)
+    cols = np.arange(n)
+    targets = near[:, pick, cols]                                          # (3, T, n)
+    f = np.asarray(engine.density_spheres(x, z, r, amp, start, count, targets, params.sigma_x,
+                                          params.sigma_r, i0, n), np.float64)
+    f = np.where(np.isfinite(d2[pick, cols]), f, -np.inf)
+    b = np.argmax(f, axis=0)
+    return np.where(cnt > 0, f[b, cols], 0.0), targets[:, b, cols]
 
 
 def _kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
