@@ -11,9 +11,10 @@
  * which climbs f, but slowly (linearly, the slower the wider the candidates
  * spread against sigma_r); where log f is concave enough at p the step is
  * Newton's on log f instead, from the same pass's second moments
- * (newton_step), which converges quadratically.  At most `iters` steps, fewer when a step is
- * shorter than sqrt(tol2) or no candidate is near.  The pass of the last step also gives
- * f at the point it started from (density) and the MS_NEAR_K candidates
+ * (newton_step), which converges quadratically.  At most `iters` steps,
+ * fewer when a step is shorter than sqrt(tol2) or no candidate is near.
+ * The pass of the last step also gives f at the point it started from
+ * (density) and the MS_NEAR_K candidates
  * nearest to that point: no extra pass.  density_spheres then gives f at a
  * few given points (the exhaustive score of candidates, to pick the argmax
  * among those nearest the mode).
@@ -131,6 +132,39 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
     return m;
 }
 
+/* The pair sweep both passes share: for each gathered near sub RP j and the
+ * sub RPs k > j a vector at a time, the intersection c (cx, cy, cz), then
+ * d = c - p (dx, dy, dz; 0 in masked lanes, which may hold NaN), d2 = |d|^2,
+ * ok (valid and within cut of p) and wg = g G (0 where not ok) are in scope
+ * of the statements __VA_ARGS__.  Uses the caller's gx, plane, m, mnear, ri,
+ * eps_det, cut2 and l2inv2sr2. */
+#define SWEEP_PAIRS(px, py, pz, ...)                                                        \
+    {                                                                                       \
+        __global const REAL *gz_ = gx + plane, *gb_ = gz_ + plane, *gn_ = gb_ + plane;      \
+        __global const REAL *gw_ = gn_ + plane;                                             \
+        const int nv_ = (m + VW - 1) / VW;                                                  \
+        const REALV zero_ = (REALV)((REAL)0);                                               \
+        for (int j = 0; j < mnear; ++j) {                                                   \
+            const REALV ajx = (REALV)gx[j], ajz = (REALV)gz_[j], bj = (REALV)gb_[j];        \
+            const REALV ej = (REALV)(eps_det * gn_[j]), wj = (REALV)gw_[j];                 \
+            for (int c = (j + 1) / VW; c < nv_; ++c) {                                      \
+                REALV cx, cy, cz;                                                           \
+                INTV ok = triplet_v(ajx, ajz, bj, ej, VROW(gx, c), VROW(gz_, c),            \
+                                    VROW(gb_, c), VROW(gn_, c), (REALV)ri, &cx, &cy, &cz);  \
+                ok &= (LANES + (IDX)(c * VW)) > (IDX)j;                                     \
+                REALV dx = cx - (px), dy = cy - (py), dz = cz - (pz);                       \
+                const REALV d2 = dx * dx + dy * dy + dz * dz;                               \
+                ok &= d2 <= cut2;                                                           \
+                dx = ok ? dx : zero_;                                                       \
+                dy = ok ? dy : zero_;                                                       \
+                dz = ok ? dz : zero_;                                                       \
+                const REALV wg = ok ? (wj + VROW(gw_, c)) * vexp2_neg(-d2 * l2inv2sr2)      \
+                                    : zero_;                                                \
+                __VA_ARGS__                                                                 \
+            }                                                                               \
+        }                                                                                   \
+    }
+
 /* Kernel sums at p over the gathered pairs: s = sum g G, m1 = sum g G d,
  * m2 = sum g G d d^T (xx, yy, zz, xy, xz, yz), d = c - p, and the candidates
  * nearest to p (kd, kc, *kn: see keep_nearest). */
@@ -139,53 +173,35 @@ inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
                        const REAL pz, const REAL cut2, const REAL l2inv2sr2, const REAL eps_det,
                        REAL *m1, REAL *m2, REAL *kd, REAL *kc, int *kn)
 {
-    __global const REAL *gz = gx + plane, *gb = gz + plane, *gn = gb + plane, *gw = gn + plane;
-    const int nv = (m + VW - 1) / VW;
-    const REALV zero = (REALV)((REAL)0);
-    REALV s = zero, sx = s, sy = s, sz = s, sxx = s, syy = s, szz = s, sxy = s, sxz = s, syz = s;
+    REALV s = (REALV)((REAL)0), sx = s, sy = s, sz = s, sxx = s, syy = s, szz = s, sxy = s;
+    REALV sxz = s, syz = s;
     REAL last = (REAL)2 * cut2;   /* a candidate nearer than this enters the list */
     *kn = 0;
-    for (int j = 0; j < mnear; ++j) {
-        const REALV ajx = (REALV)gx[j], ajz = (REALV)gz[j], bj = (REALV)gb[j];
-        const REALV ej = (REALV)(eps_det * gn[j]), wj = (REALV)gw[j];
-        for (int c = (j + 1) / VW; c < nv; ++c) {
-            REALV cx, cy, cz;
-            INTV ok = triplet_v(ajx, ajz, bj, ej, VROW(gx, c), VROW(gz, c), VROW(gb, c),
-                                VROW(gn, c), (REALV)ri, &cx, &cy, &cz);
-            ok &= (LANES + (IDX)(c * VW)) > (IDX)j;
-            REALV dx = cx - px, dy = cy - py, dz = cz - pz;
-            const REALV d2 = dx * dx + dy * dy + dz * dz;
-            ok &= d2 <= cut2;
-            dx = ok ? dx : zero;   /* masked lanes may hold NaN */
-            dy = ok ? dy : zero;
-            dz = ok ? dz : zero;
-            const REALV wg = ok ? (wj + VROW(gw, c)) * vexp2_neg(-d2 * l2inv2sr2) : zero;
-            const REALV wx = wg * dx, wy = wg * dy, wz = wg * dz;
-            s += wg;
-            sx += wx;
-            sy += wy;
-            sz += wz;
-            sxx += wx * dx;
-            syy += wy * dy;
-            szz += wz * dz;
-            sxy += wx * dy;
-            sxz += wx * dz;
-            syz += wy * dz;
-            const INTV hit = ok & (d2 < (REALV)last);
-            if (VANY(hit)) {   /* rare once the list is full: lane by lane */
-                ilanes_t h;
-                lanes_t ld, ux, uy, uz;
-                h.v = hit;
-                ld.v = d2;
-                ux.v = cx;
-                uy.v = cy;
-                uz.v = cz;
-                for (int q = 0; q < VW; ++q)
-                    if (h.a[q]) keep_nearest(kd, kc, kn, ld.a[q], ux.a[q], uy.a[q], uz.a[q]);
-                if (*kn == MS_NEAR_K) last = kd[MS_NEAR_K - 1];
-            }
-        }
-    }
+    SWEEP_PAIRS(px, py, pz,
+        const REALV wx = wg * dx, wy = wg * dy, wz = wg * dz;
+        s += wg;
+        sx += wx;
+        sy += wy;
+        sz += wz;
+        sxx += wx * dx;
+        syy += wy * dy;
+        szz += wz * dz;
+        sxy += wx * dy;
+        sxz += wx * dz;
+        syz += wy * dz;
+        const INTV hit = ok & (d2 < (REALV)last);
+        if (VANY(hit)) {   /* rare once the list is full: lane by lane */
+            ilanes_t h;
+            lanes_t ld, ux, uy, uz;
+            h.v = hit;
+            ld.v = d2;
+            ux.v = cx;
+            uy.v = cy;
+            uz.v = cz;
+            for (int q = 0; q < VW; ++q)
+                if (h.a[q]) keep_nearest(kd, kc, kn, ld.a[q], ux.a[q], uy.a[q], uz.a[q]);
+            if (*kn == MS_NEAR_K) last = kd[MS_NEAR_K - 1];
+        })
     m1[0] = hsum(sx);
     m1[1] = hsum(sy);
     m1[2] = hsum(sz);
@@ -312,7 +328,6 @@ __kernel void density_spheres(
     const int lo = cstart[i], hi = lo + ccount[i];
     const long plane = (long)n * stride;
     __global REAL *gx = scratch + (long)il * stride;
-    __global const REAL *gz = gx + plane, *gb = gz + plane, *gn = gb + plane, *gw = gn + plane;
     const REAL ri = r[i], cut2 = cut * cut;
     const REAL a = l2inv2sr2 * (REAL)0.69314718055994530942;   /* 1 / (2 sigma_r^2) */
     const REAL t0x = point[il], t0y = point[(long)nt * n + il], t0z = point[2L * nt * n + il];
@@ -329,28 +344,15 @@ __kernel void density_spheres(
     int mnear;
     const int m = gather(x, z, r, amp, lo, hi, i, t0x, t0y, t0z, cut, far2, inv2sd2, gx, plane,
                          &mnear);
-    const int nv = (m + VW - 1) / VW;
     REALV s[MS_DENSITY_T];
     for (int u = 0; u < MS_DENSITY_T; ++u) s[u] = (REALV)((REAL)0);
-    for (int j = 0; j < mnear; ++j) {
-        const REALV ajx = (REALV)gx[j], ajz = (REALV)gz[j], bj = (REALV)gb[j];
-        const REALV ej = (REALV)(eps_det * gn[j]), wj = (REALV)gw[j];
-        for (int c = (j + 1) / VW; c < nv; ++c) {
-            REALV cx, cy, cz;
-            INTV ok = triplet_v(ajx, ajz, bj, ej, VROW(gx, c), VROW(gz, c), VROW(gb, c),
-                                VROW(gn, c), (REALV)ri, &cx, &cy, &cz);
-            ok &= (LANES + (IDX)(c * VW)) > (IDX)j;
-            const REALV dx = cx - t0x, dy = cy - t0y, dz = cz - t0z;
-            const REALV d2 = dx * dx + dy * dy + dz * dz;
-            ok &= d2 <= cut2;
-            const REALV wg = ok ? (wj + VROW(gw, c)) * vexp2_neg(-d2 * l2inv2sr2)
-                                : (REALV)((REAL)0);
-            s[0] += wg;
-            for (int u = 1; u < nt; ++u) {   /* masked lanes may hold NaN: select, not 0 * */
-                const REALV e = exp_series6(dx * ex[u] + dy * ey[u] + dz * ez[u] + e0[u]);
-                s[u] += ok ? wg * e : (REALV)((REAL)0);
-            }
-        }
-    }
+    SWEEP_PAIRS(t0x, t0y, t0z,
+        s[0] += wg;
+        for (int u = 1; u < nt; ++u) {
+            /* the select (wg is 0 where not ok) keeps the product and the sum
+             * unfused: the rounding the session's figures were measured with */
+            const REALV e = exp_series6(dx * ex[u] + dy * ey[u] + dz * ez[u] + e0[u]);
+            s[u] += ok ? wg * e : (REALV)((REAL)0);
+        })
     for (int u = 0; u < nt; ++u) density[(long)u * n + il] = hsum(s[u]);
 }

@@ -393,9 +393,11 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
 
 
 def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
-    """3-D: move each chunk's argmax points to the exhaustive density's mode
-    (``RPMParams.meanshift_iters``), all clusters in one launch per chunk; the
-    score becomes the exhaustive density there."""
+    """3-D: move each chunk's argmax points towards the exhaustive density's
+    mode (``RPMParams.meanshift_iters`` steps), all clusters in one launch per
+    chunk, and put the point where ``meanshift_point`` says (by default the
+    exhaustive argmax among the candidates nearest the mode, see
+    :func:`_argmax_near`); the score becomes the exhaustive density there."""
     best = np.concatenate([p[0] for p in parts])
     score = np.concatenate([p[1] for p in parts]).astype(np.float64)
     local = np.concatenate([p[2] for p in parts], axis=1).astype(np.float64)
@@ -431,8 +433,8 @@ def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
 
 def _argmax_near(mode, near, cnt, engine, x, z, r, amp, start, count, params, i0, n):
     """The exhaustive argmax among the candidates nearest to the mode
-    (``meanshift_point="argmax"``): of the ``count`` candidates the mean shift
-    returned (nearest to the start of its last step), the MS_DENSITY_T
+    (``meanshift_point="argmax"``): of the ``cnt`` candidates the mean shift
+    returned per main RP (nearest to the start of its last step), the MS_DENSITY_T
     nearest to the mode are scored with the exhaustive density and the best
     is taken.  Returns its density (n,) (0 where there is no candidate) and
     the point (3, n)."""
