@@ -32,6 +32,66 @@ from rpm_cl.rpm import DeviceRPM
 from rpm_cl.simulate import simulate_preset
 
 
+#: The exhaustive eq. 10: every other-antenna RP of the cluster paired, no
+#: neighbour cap, no mean shift.
+EXHAUSTIVE = {"pair_cutoff": float("inf"), "max_neighbours": 4096, "meanshift_iters": 0}
+
+
+def rps_digest(rps) -> str:
+    """A digest of the RPs: an exhaustive image kept in a cache holds for
+    these RPs only (a change to the decomposition or the RP extraction moves
+    them).  A change to the RPM code itself is not seen: delete the cache then."""
+    return hashlib.sha1(np.ascontiguousarray(np.stack(
+        [rps.range, rps.amp, rps.x, rps.z, rps.cluster.astype(float)])).tobytes()).hexdigest()
+
+
+def exhaustive_image(data, pre, engine, snr, cache=None, **overrides):
+    """The exhaustive eq. 10 image of ``data`` (defaults of preset ``pre``,
+    with ``overrides``), from ``cache`` when it holds the image of these RPs
+    at this S/N, else computed (minutes) and kept there.
+
+    Returns
+    -------
+    image : SimpleNamespace
+        ``rp_index`` (M,) and ``points`` (M, 3), m.
+    sec : float
+        Its run time, s (when it was computed).
+    line : str
+        Its accuracy figures.
+    """
+    snr = np.inf if snr is None else snr   # as kept in the cache
+    rps = run_method("kspace-rpm", data, default_params(data, **{**pre.defaults, **overrides}),
+                     engine).rps
+    key = rps_digest(rps)
+    if cache and os.path.exists(cache):
+        with np.load(cache) as f:
+            if float(f["snr"]) == snr and "rps" in f and str(f["rps"]) == key:
+                return (SimpleNamespace(rp_index=f["rp_index"], points=f["points"]),
+                        float(f["sec"]), f"{f['line']!s} (from {cache})")
+    params = default_params(data, **{**pre.defaults, **overrides, **EXHAUSTIVE})
+    t0 = time.perf_counter()
+    res = run_method("kspace-rpm", data, params, engine)
+    sec = time.perf_counter() - t0
+    line = accuracy_line(res, data.truth)
+    if cache:
+        np.savez(cache, rp_index=res.image.rp_index, points=res.image.points,
+                 snr=snr, sec=sec, line=line, rps=key)
+    return res.image, sec, line
+
+
+def accuracy_line(res, truth) -> str:
+    s = summary(res.rps, res.image, truth)
+    m = max(1, s["rpm_total"])
+    return (f"{s['rpm_total']} points, RPM<=50 {s['rpm_within_50mm'] / m:.1%}, "
+            f"RPM<=10 {s['rpm_within_10mm'] / m:.1%}")
+
+
+def distances(a, b):
+    """Per main RP imaged by both images, the distance of a's point to b's, m."""
+    _, ia, ib = np.intersect1d(a.rp_index, b.rp_index, return_indices=True)
+    return np.linalg.norm(a.points[ia] - b.points[ib], axis=1)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--snr", type=float, default=None)
@@ -45,43 +105,19 @@ def main():
     default_steps = default_params(data, **pre.defaults).rpm.meanshift_iters
     rows = tuple((f"{k} steps" + (" (default)" if k == default_steps else ""),
                   {"meanshift_iters": k}) for k in args.steps)
-    rows += (("exhaustive", {"pair_cutoff": float("inf"), "max_neighbours": 4096,
-                             "meanshift_iters": 0}),)
-    snr = np.inf if args.snr is None else args.snr  # as kept in the cache
-    # the cache holds for these RPs only (a change to the decomposition or
-    # the RP extraction moves them): keyed by a digest of the RPs.  A change
-    # to the RPM code itself is not seen: delete the cache then.
-    rps = run_method("kspace-rpm", data, default_params(data, **pre.defaults), engine).rps
-    key = hashlib.sha1(np.ascontiguousarray(np.stack(
-        [rps.range, rps.amp, rps.x, rps.z, rps.cluster.astype(float)])).tobytes()).hexdigest()
     for name, extra in rows:
-        if name == "exhaustive" and args.cache and os.path.exists(args.cache):
-            with np.load(args.cache) as f:
-                if float(f["snr"]) == snr and "rps" in f and str(f["rps"]) == key:
-                    out[name] = SimpleNamespace(rp_index=f["rp_index"], points=f["points"])
-                    print(f"{name:18s}: {float(f['sec']):8.2f} s, {f['line']!s} "
-                          f"(from {args.cache})")
-                    continue
         params = default_params(data, **{**pre.defaults, **extra})
-        run_method("kspace-rpm", data, params, engine) if name != "exhaustive" else None
+        run_method("kspace-rpm", data, params, engine)
         t0 = time.perf_counter()
         res = run_method("kspace-rpm", data, params, engine)
         sec = time.perf_counter() - t0
-        s = summary(res.rps, res.image, data.truth)
-        m = max(1, s["rpm_total"])
-        line = (f"{s['rpm_total']} points, RPM<=50 {s['rpm_within_50mm'] / m:.1%}, "
-                f"RPM<=10 {s['rpm_within_10mm'] / m:.1%}")
-        print(f"{name:18s}: {sec:8.2f} s, {line}", flush=True)
+        print(f"{name:18s}: {sec:8.2f} s, {accuracy_line(res, data.truth)}", flush=True)
         out[name] = res.image
-        if name == "exhaustive" and args.cache:
-            np.savez(args.cache, rp_index=res.image.rp_index, points=res.image.points,
-                     snr=snr, sec=sec, line=line, rps=key)
-    b = out["exhaustive"]
-    for name, _ in rows[:-1]:
-        a = out[name]
-        common, ia, ib = np.intersect1d(a.rp_index, b.rp_index, return_indices=True)
-        d = np.linalg.norm(a.points[ia] - b.points[ib], axis=1)
-        print(f"{name:18s} to exhaustive, per main RP imaged by both ({len(common)}): "
+    b, sec, line = exhaustive_image(data, pre, engine, args.snr, args.cache)
+    print(f"{'exhaustive':18s}: {sec:8.2f} s, {line}", flush=True)
+    for name, _ in rows:
+        d = distances(out[name], b)
+        print(f"{name:18s} to exhaustive, per main RP imaged by both ({d.size}): "
               f"same point (< 1 um) {np.mean(d < 1e-6):.1%}, "
               f"< 0.1 mm {np.mean(d < 1e-4):.1%}, < 1 mm {np.mean(d < 1e-3):.1%}, "
               f"< 5 mm {np.mean(d < 5e-3):.1%}, median {1e3 * np.median(d):.2f} mm")

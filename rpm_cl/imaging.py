@@ -100,6 +100,11 @@ class RPMParams:
         a 32 x 32 array's (about 1000 RPs each) 5.3 s on top of the list's
         3.2 s (RPM <= 10 mm 99.0 % against 97.9 %), a 64 x 64 array's 60 s;
         so by default those keep the list's argmax.
+    meanshift_neighbours : int or None
+        3-D: the list length (``max_neighbours``) in the clusters the mean
+        shift refines; there the list's argmax is only where the mean shift
+        starts, so a shorter list gives the same points for less (see
+        README, "RPM 3-D").  None: ``max_neighbours``.
     meanshift_point : {"argmax", "sphere", "nearest", "mode"}
         3-D, with mean shift: the image point.  "argmax" (default): the
         exhaustive argmax sought among the candidates nearest to the mode,
@@ -127,6 +132,7 @@ class RPMParams:
     pair_cutoff_2d: float = 4.0
     meanshift_iters: int = 3
     meanshift_max_rps: int = 512
+    meanshift_neighbours: int | None = 12
     meanshift_point: Literal["argmax", "sphere", "nearest", "mode"] = "argmax"
 
     def __post_init__(self):
@@ -142,8 +148,12 @@ class RPMParams:
                 raise InputError(f"{name} must be > 0 (inf allowed), got {getattr(self, name)}")
         if not (2 <= self.max_neighbours <= 4096):
             raise InputError(f"max_neighbours must be in 2..4096, got {self.max_neighbours}")
-        if self.near_neighbours is not None and not (0 <= self.near_neighbours <= self.max_neighbours):
-            raise InputError(f"near_neighbours must be in 0..max_neighbours, got {self.near_neighbours}")
+        if self.meanshift_neighbours is not None and not (2 <= self.meanshift_neighbours <= 4096):
+            raise InputError(f"meanshift_neighbours must be in 2..4096, got {self.meanshift_neighbours}")
+        shortest = min(self.max_neighbours, self.meanshift_neighbours or self.max_neighbours)
+        if self.near_neighbours is not None and not (0 <= self.near_neighbours <= shortest):
+            raise InputError("near_neighbours must be in 0..max_neighbours (and ..meanshift_neighbours), "
+                             f"got {self.near_neighbours}")
         if not (0 <= self.meanshift_iters <= 1000):
             raise InputError(f"meanshift_iters must be in 0..1000, got {self.meanshift_iters}")
         if self.meanshift_max_rps < 0:
@@ -369,16 +379,25 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
                                             params.sigma_r, i0, n))
     else:
         z = np.asarray(rps.z, np.float64)[idx]
+        kmax = np.where(_refined(count, params), params.meanshift_neighbours or
+                        params.max_neighbours, params.max_neighbours)
         nbr, nnbr = neighbour_lists(x, z, np.asarray(rps.antenna)[idx], start, count,
-                                    params.pair_cutoff * params.sigma_x, params.max_neighbours,
+                                    params.pair_cutoff * params.sigma_x, kmax,
                                     params.near_neighbours)
-        if nbr.shape[1] >= 2:
-            maxc = nbr.shape[1] * (nbr.shape[1] - 1) // 2
-            for i0, n in _chunks(idx.size, maxc, params.chunk_slots):
-                parts.append(engine.rpm_spheres(x, z, r, amp, nbr, nnbr, params.sigma_x,
-                                                params.sigma_r, i0, n))
-            if params.meanshift_iters > 0:
-                parts = _meanshift(parts, x, z, r, amp, start, count, params, engine)
+        # runs of main RPs with one list length, each scored with its own width
+        cuts = np.flatnonzero(np.diff(kmax)) + 1
+        for a, b in zip(np.r_[0, cuts], np.r_[cuts, idx.size]):
+            width = int(nnbr[a:b].max())
+            if width < 2:  # no pair to intersect: no point
+                parts.append((np.full(b - a, -1, np.int32), np.zeros(b - a), np.zeros((3, b - a))))
+                continue
+            sub = np.ascontiguousarray(nbr[:, :width])
+            maxc = width * (width - 1) // 2
+            for i0, n in _chunks(int(b - a), maxc, params.chunk_slots):
+                parts.append(engine.rpm_spheres(x, z, r, amp, sub, np.minimum(nnbr, width),
+                                                params.sigma_x, params.sigma_r, int(a) + i0, n))
+        if parts and params.meanshift_iters > 0:
+            parts = _meanshift(parts, x, z, r, amp, start, count, params, engine)
     if not parts:
         return Image(np.zeros((0, dim)), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int64))
     best = np.concatenate([p[0] for p in parts])
@@ -392,6 +411,11 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
     return Image(pts, np.asarray(rps.cluster)[idx][ok], score[ok], idx[ok])
 
 
+def _refined(count, params: RPMParams):
+    """Which main RPs the mean shift refines (their cluster sizes ``count``)."""
+    return (np.asarray(count) <= params.meanshift_max_rps) & (params.meanshift_iters > 0)
+
+
 def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
     """3-D: move each chunk's argmax points towards the exhaustive density's
     mode (``RPMParams.meanshift_iters`` steps), all clusters in one launch per
@@ -403,7 +427,7 @@ def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
     local = np.concatenate([p[2] for p in parts], axis=1).astype(np.float64)
     # main RPs of clusters up to meanshift_max_rps (clusters are contiguous,
     # so these are runs of indices)
-    small = np.flatnonzero(count <= params.meanshift_max_rps)
+    small = np.flatnonzero(_refined(count, params))
     if small.size == 0:
         return [(best, score, local)]
     # the scratch holds 5 rows of the largest cluster per main RP

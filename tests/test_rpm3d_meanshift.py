@@ -143,14 +143,18 @@ def test_chunk_equals_slice_and_bad_chunk_refused(dev64, rng):
 
 def test_params_validate():
     assert RPMParams(meanshift_iters=0).meanshift_iters == 0
-    for bad in ({"meanshift_iters": -1}, {"meanshift_point": "centre"}):
+    assert RPMParams(meanshift_neighbours=None, near_neighbours=8).meanshift_neighbours is None
+    for bad in ({"meanshift_iters": -1}, {"meanshift_point": "centre"},
+                {"meanshift_neighbours": 1}, {"meanshift_neighbours": 3, "near_neighbours": 4}):
         with pytest.raises(InputError):
             RPMParams(**bad)
 
 
 def test_meanshift_only_in_clusters_up_to_max_rps(dev64, rng):
     """Clusters larger than ``meanshift_max_rps`` keep the list's argmax
-    exactly; the others get the mean-shift point, as with no cap."""
+    exactly, with the ``max_neighbours`` list; the others get the mean-shift
+    point, as with no cap, from the start of a ``meanshift_neighbours``
+    list."""
     from dataclasses import replace
 
     from rpm_cl.imaging import rpm_image
@@ -160,7 +164,8 @@ def test_meanshift_only_in_clusters_up_to_max_rps(dev64, rng):
     x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=3e-3, dup=False)
     cl = np.repeat(np.arange(3), sizes)
     rps = RangePoints(ant, x, z, r, amp, cl)
-    base = RPMParams(sigma_x=SD, sigma_r=SR, meanshift_iters=2, meanshift_point="sphere")
+    base = RPMParams(sigma_x=SD, sigma_r=SR, meanshift_iters=2, meanshift_point="sphere",
+                     max_neighbours=16, meanshift_neighbours=6)
     off = rpm_image(rps, replace(base, meanshift_iters=0), dev64)
     on = rpm_image(rps, replace(base, meanshift_max_rps=10_000), dev64)
     capped = rpm_image(rps, replace(base, meanshift_max_rps=25), dev64)
@@ -171,6 +176,10 @@ def test_meanshift_only_in_clusters_up_to_max_rps(dev64, rng):
     np.testing.assert_array_equal(capped.rp_index, on.rp_index)
     np.testing.assert_array_equal(capped.points[big], off.points[big])
     np.testing.assert_array_equal(capped.points[~big], on.points[~big])
+    # the refined clusters started from the short list: a 16 list moves them
+    longer = rpm_image(rps, replace(base, meanshift_max_rps=25, meanshift_neighbours=16), dev64)
+    np.testing.assert_array_equal(longer.points[big], off.points[big])
+    assert np.any(np.linalg.norm(longer.points[~big] - capped.points[~big], axis=1) > 1e-9)
     with pytest.raises(InputError):
         RPMParams(meanshift_max_rps=-1)
 

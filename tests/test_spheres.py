@@ -228,6 +228,22 @@ def test_neighbour_lists_near_plus_spread(rng):
         assert d[-1] == pytest.approx(dall[-1])  # the spread part reaches the farthest
 
 
+def test_neighbour_lists_per_cluster_length(rng):
+    """A list length per cluster (the refined clusters' shorter lists): each
+    cluster's lists are those of a call with its own length alone, padded
+    with -1 to the longest."""
+    x, z, r, amp, ant, st_, ct = planar_cluster(rng, [30, 50, 20], dup=False)
+    kmax = np.repeat([8, 16, 5], [30, 50, 20])
+    nbr, nn = neighbour_lists(x, z, ant, st_, ct, 0.03, kmax, near=4)
+    assert nbr.shape == (x.size, 16)
+    for k in (8, 16, 5):
+        rows = kmax == k
+        want, wn = neighbour_lists(x, z, ant, st_, ct, 0.03, k, near=4)
+        np.testing.assert_array_equal(nn[rows], wn[rows])
+        np.testing.assert_array_equal(nbr[rows, :want.shape[1]], want[rows])
+        assert np.all(nbr[rows, want.shape[1]:] == -1) and nn[rows].max() == k
+
+
 def grid_cluster(rng, steps=(7.5e-3, 5e-3), shape=(9, 7), keep=0.7, origin=(0.0, 0.0)):
     """RPs at a random subset of a uniform grid's antennas, one antenna twice.
 

@@ -54,12 +54,14 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
     radius : float
         The nearest part is taken within this distance in the array plane, m
         (inf: no bound).
-    kmax : int
-        Longest list, >= 2.
+    kmax : int or ndarray of int, shape (N,)
+        Longest list, >= 2; per RP, the same within a cluster (a cluster's
+        lists are built with its first RP's value).
     near : int or None
-        How many of the list are the nearest RPs (within ``radius``); the rest
-        are spread evenly by distance rank over the cluster's remaining RPs.
-        None: all ``kmax`` nearest (within ``radius``).
+        How many of the list are the nearest RPs (within ``radius``, at most
+        ``kmax``); the rest are spread evenly by distance rank over the
+        cluster's remaining RPs.  None: all ``kmax`` nearest (within
+        ``radius``).
 
     Returns
     -------
@@ -73,15 +75,16 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
     z = np.asarray(z, np.float64)
     antenna = np.asarray(antenna)
     n = x.size
-    kmax = int(kmax)
-    n_near = kmax if near is None else max(0, min(int(near), kmax))
-    n_far = kmax - n_near
+    kmaxs = np.broadcast_to(np.asarray(kmax, np.int64), (n,))
     cstart = np.asarray(cstart, np.int64)
     ccount = np.asarray(ccount, np.int64)
-    nbr = np.full((n, kmax), -1, np.int32)
+    nbr = np.full((n, int(kmaxs.max(initial=2))), -1, np.int32)
     counts = np.zeros(n, np.int32)
     for s in np.unique(cstart):
         c = int(ccount[s])
+        kmax = int(kmaxs[s])
+        n_near = kmax if near is None else max(0, min(int(near), kmax))
+        n_far = kmax - n_near
         px, pz, ant = x[s:s + c], z[s:s + c], antenna[s:s + c]
         grid = _grid_offsets(px, pz)
         for b0 in range(0, c, _BLOCK):
@@ -119,7 +122,7 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
             lists = np.take_along_axis(lists, comp, axis=1)[:, :kmax]
             cnt = np.minimum(valid.sum(axis=1), kmax)
             lists = np.where(np.arange(kmax)[None, :] < cnt[:, None], lists + s, -1)
-            nbr[s + b0:s + b1] = lists
+            nbr[s + b0:s + b1, :kmax] = lists
             counts[s + b0:s + b1] = cnt
     width = int(counts.max(initial=0))
     return nbr[:, :width].copy(), counts
