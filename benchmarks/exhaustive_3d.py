@@ -31,7 +31,6 @@ from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
 from rpm_cl.simulate import simulate_preset
 
-
 #: The exhaustive eq. 10: every other-antenna RP of the cluster paired, no
 #: neighbour cap, no mean shift.
 EXHAUSTIVE = {"pair_cutoff": float("inf"), "max_neighbours": 4096, "meanshift_iters": 0}

@@ -27,7 +27,6 @@ import argparse
 import itertools
 
 import numpy as np
-
 from exhaustive_3d import distances, exhaustive_image
 
 from rpm_cl.cl import create_env
@@ -37,7 +36,6 @@ from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
 from rpm_cl.scene import HUMAN_BODY_ARRAY_Z, get_preset
 from rpm_cl.simulate import simulate, simulate_preset
-
 
 #: The default's row: list (meanshift_neighbours on the body), mean-shift
 #: steps, pair_cutoff, window (rad/m), precision; checked against the defaults.

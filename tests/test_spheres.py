@@ -232,7 +232,7 @@ def test_neighbour_lists_per_cluster_length(rng):
     """A list length per cluster (the refined clusters' shorter lists): each
     cluster's lists are those of a call with its own length alone, padded
     with -1 to the longest."""
-    x, z, r, amp, ant, st_, ct = planar_cluster(rng, [30, 50, 20], dup=False)
+    x, z, _, _, ant, st_, ct = planar_cluster(rng, [30, 50, 20], dup=False)
     kmax = np.repeat([8, 16, 5], [30, 50, 20])
     nbr, nn = neighbour_lists(x, z, ant, st_, ct, 0.03, kmax, near=4)
     assert nbr.shape == (x.size, 16)
