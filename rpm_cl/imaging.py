@@ -28,9 +28,9 @@ from .rpm.reference import MS_DENSITY_T
 #: The paper's sigma_r for 2-D (Section V-A2), m.
 SIGMA_R_DEFAULT = 0.05
 #: k-space window period for planar arrays, rad/m: the measured best on the
-#: paper's 3-D scene (1.3-2 k-space resolution cells of its 11 x 17 array;
+#: paper's 3-D scene (1-1.5 k-space resolution cells of its 11 x 17 array;
 #: see rpm_cl.scene._human_body).  Linear arrays default to the paper's 417.
-WINDOW_PLANAR_DEFAULT = 100.0
+WINDOW_PLANAR_DEFAULT = 75.0
 #: RPs below this level relative to their cluster's maximum are dropped, dB.
 RP_THRESHOLD_DB_DEFAULT = -10.0
 

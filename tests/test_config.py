@@ -10,7 +10,7 @@ import pytest
 from rpm_cl.cli import build_parser, main
 from rpm_cl.config import EngineParams, dump_toml, load_config, resolve, settings
 from rpm_cl.data import InputError, load_npz
-from rpm_cl.imaging import ImagingParams, RPMParams, default_params
+from rpm_cl.imaging import WINDOW_PLANAR_DEFAULT, ImagingParams, RPMParams, default_params
 from rpm_cl.kspace import KSpaceParams
 
 try:
@@ -118,7 +118,7 @@ def test_derived_defaults_follow_the_array(files, capsys):
     assert lin["rpm"]["sigma_x"] == pytest.approx(0.10)
     assert pla["rpm"]["sigma_x"] == pytest.approx(2.5 * 7.5e-3)
     assert lin["kspace"]["window_z"] == "auto"
-    assert pla["kspace"]["window_z"] == pla["kspace"]["window_x"] == 100.0
+    assert pla["kspace"]["window_z"] == pla["kspace"]["window_x"] == WINDOW_PLANAR_DEFAULT
     # sigma_r = 10 mm x range / aperture: targets at 0.42-0.49 m, 0.1 m aperture;
     # the body's front about 1 m from a 0.12 m tall array
     assert 0.040 <= lin["rpm"]["sigma_r"] <= 0.050
