@@ -102,9 +102,14 @@ class RPMParams:
         so by default those keep the list's argmax.
     meanshift_neighbours : int or None
         3-D: the list length (``max_neighbours``) in the clusters the mean
-        shift refines; there the list's argmax is only where the mean shift
-        starts, so a shorter list gives the same points for less (see
-        README, "RPM 3-D").  None: ``max_neighbours``.
+        shift refines that hold one RP per antenna (the k-space
+        decomposition's: one echo per antenna, one surface); there the
+        list's argmax only picks where the steps start, so a shorter list
+        gives the same points for less (see README, "RPM 3-D").  Clusters
+        with several RPs at an antenna (the matched-filter and Capon
+        baselines put the whole scene in one) have a mode per surface, and
+        the longer list starts nearer the exhaustive argmax's.  None:
+        ``max_neighbours``.
     meanshift_point : {"argmax", "sphere", "nearest", "mode"}
         3-D, with mean shift: the image point.  "argmax" (default): the
         exhaustive argmax sought among the candidates nearest to the mode,
@@ -379,9 +384,11 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
                                             params.sigma_r, i0, n))
     else:
         z = np.asarray(rps.z, np.float64)[idx]
-        kmax = np.where(_refined(count, params), params.meanshift_neighbours or
-                        params.max_neighbours, params.max_neighbours)
-        nbr, nnbr = neighbour_lists(x, z, np.asarray(rps.antenna)[idx], start, count,
+        ant = np.asarray(rps.antenna)[idx]
+        short = _refined(count, params) & _one_per_antenna(ant, start)
+        kmax = np.where(short, params.meanshift_neighbours or params.max_neighbours,
+                        params.max_neighbours)
+        nbr, nnbr = neighbour_lists(x, z, ant, start, count,
                                     params.pair_cutoff * params.sigma_x, kmax,
                                     params.near_neighbours)
         # runs of main RPs with one list length, each scored with its own width
@@ -409,6 +416,18 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
     if dim == 3:
         pts[:, 2] += z[ok]
     return Image(pts, np.asarray(rps.cluster)[idx][ok], score[ok], idx[ok])
+
+
+def _one_per_antenna(antenna, start):
+    """Per RP: does its cluster (first RP ``start``) hold at most one RP per
+    antenna?"""
+    order = np.lexsort((antenna, start))
+    a, s = antenna[order], start[order]
+    dup = np.zeros(a.size, bool)
+    dup[1:] = (a[1:] == a[:-1]) & (s[1:] == s[:-1])
+    clash = np.zeros(a.size, bool)
+    clash[np.unique(s[dup])] = True   # clusters are indexed by their first RP
+    return ~clash[start]
 
 
 def _refined(count, params: RPMParams):

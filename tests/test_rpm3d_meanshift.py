@@ -265,3 +265,27 @@ def test_newton_steps_converge_faster_than_mean_shift(rng, monkeypatch):
     near = {k: np.mean(np.linalg.norm(v - mode, axis=0) < 1e-6)
             for k, v in (("newton", newton), ("shift", shift), ("slow", slow))}
     assert near["newton"] >= 0.6 and near["shift"] < 0.05 and near["slow"] >= 0.85
+
+
+def test_short_list_only_where_one_rp_per_antenna(dev64, rng):
+    """``meanshift_neighbours`` applies to refined clusters with one RP per
+    antenna; a cluster with two RPs at an antenna (the baselines' whole-scene
+    clusters) keeps the ``max_neighbours`` list, so its points are those of
+    ``meanshift_neighbours=None``."""
+    from dataclasses import replace
+
+    from rpm_cl.imaging import _one_per_antenna, rpm_image
+    from rpm_cl.rangepoints import RangePoints
+
+    sizes = [30, 40]
+    x, z, r, amp, ant, st_, _ = planar_cluster(rng, sizes, noise=3e-3, dup=False)
+    x[1], z[1], ant[1] = x[0], z[0], ant[0]       # cluster 0: a second RP at an antenna
+    np.testing.assert_array_equal(_one_per_antenna(ant, st_), np.repeat([False, True], sizes))
+    rps = RangePoints(ant, x, z, r, amp, np.repeat(np.arange(2), sizes))
+    base = RPMParams(sigma_x=SD, sigma_r=SR, meanshift_point="sphere", max_neighbours=16)
+    long_ = rpm_image(rps, replace(base, meanshift_neighbours=None), dev64)
+    short = rpm_image(rps, replace(base, meanshift_neighbours=6), dev64)
+    np.testing.assert_array_equal(short.rp_index, long_.rp_index)
+    dup = short.cluster == 0
+    np.testing.assert_array_equal(short.points[dup], long_.points[dup])
+    assert np.any(np.linalg.norm(short.points[~dup] - long_.points[~dup], axis=1) > 1e-9)
