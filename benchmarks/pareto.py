@@ -39,7 +39,7 @@ from rpm_cl.simulate import simulate, simulate_preset
 
 #: The default's row: list (meanshift_neighbours on the body), mean-shift
 #: steps, pair_cutoff, window (rad/m), precision; checked against the defaults.
-DEFAULT = (12, 3, 2.0, 75.0, "float32")
+DEFAULT = (12, 3, 2.0, 60.0, "float32")
 
 
 def figures(res, truth):
@@ -93,7 +93,7 @@ def main():
         [8, 12, 24, 32] if not args.quick else [8, 12, 24],
         [0, 2, 3],
         [1.5, 2.0, 3.0] if not args.quick else [2.0],
-        [75.0, 100.0, 150.0] if not args.quick else [DEFAULT[3]],
+        [50.0, 60.0, 75.0, 100.0] if not args.quick else [DEFAULT[3]],
         ["float32", "float64"] if not args.quick else ["float32"]))
     rows = []
     for k, steps, cut, w, prec in grid:

@@ -28,9 +28,9 @@ from .rpm.reference import MS_DENSITY_T
 #: The paper's sigma_r for 2-D (Section V-A2), m.
 SIGMA_R_DEFAULT = 0.05
 #: k-space window period for planar arrays, rad/m: the measured best on the
-#: paper's 3-D scene (1-1.5 k-space resolution cells of its 11 x 17 array;
+#: paper's 3-D scene (0.8-1.2 k-space resolution cells of its 11 x 17 array;
 #: see rpm_cl.scene._human_body).  Linear arrays default to the paper's 417.
-WINDOW_PLANAR_DEFAULT = 75.0
+WINDOW_PLANAR_DEFAULT = 60.0
 #: RPs below this level relative to their cluster's maximum are dropped, dB.
 RP_THRESHOLD_DB_DEFAULT = -10.0
 
@@ -116,11 +116,12 @@ class RPMParams:
         :data:`rpm_cl.rpm.reference.MS_DENSITY_T` of them scored with the
         exhaustive density (:func:`rpm_cl.rpm.reference.density_spheres`, one
         more pass).  On the human body (``python benchmarks/exhaustive_3d.py
-        --snr 20 --steps 2 3``) 97.5 % of the points are the exhaustive
-        eq. 10 image's own to 1 um, 98.9 % to 0.1 mm and 99.95 % to 1 mm
-        with the default 3 steps (2 steps: 95.7 %; the mode put back on the
-        sphere, the default before: 5.6 % to 0.1 mm, median 0.40 mm); the
-        rest start in another mode's basin or are float32 near-ties.
+        --snr 20 --steps 0 3``) 97.4 % of the points are the exhaustive
+        eq. 10 image's own to 1 um, 99.0 % to 0.1 mm and 100 % to 1 mm
+        with the default 3 steps (noise-free 98.1 / 99.4 / 99.8 %; the mode
+        put back on the sphere, the default before session 9: 5.6 % to 0.1
+        mm, median 0.40 mm); the rest start in another mode's basin or are
+        float32 near-ties.
         "sphere": the mode put back on the main RP's sphere (radially from
         its antenna); "nearest": the candidate nearest to the start of the
         last step; "mode": the mode itself.
