@@ -116,9 +116,9 @@ class RPMParams:
         :data:`rpm_cl.rpm.reference.MS_DENSITY_T` of them scored with the
         exhaustive density (:func:`rpm_cl.rpm.reference.density_spheres`, one
         more pass).  On the human body (``python benchmarks/exhaustive_3d.py
-        --snr 20 --steps 0 3``) 97.4 % of the points are the exhaustive
-        eq. 10 image's own to 1 um, 99.0 % to 0.1 mm and 100 % to 1 mm
-        with the default 3 steps (noise-free 98.1 / 99.4 / 99.8 %; the mode
+        --snr 20 --steps 0 3``) 97.8 % of the points are the exhaustive
+        eq. 10 image's own to 1 um, 98.9 % to 0.1 mm and 99.9 % to 1 mm
+        with the default 3 steps (noise-free 96.7 / 98.6 / 99.9 %; the mode
         put back on the sphere, the default before session 9: 5.6 % to 0.1
         mm, median 0.40 mm); the rest start in another mode's basin or are
         float32 near-ties.
