@@ -5,7 +5,8 @@ Usage::
     python benchmarks/exhaustive_3d.py [--snr 20] [--steps 0 1 2] [--cache FILE.npz]
 
 Images the human body with the list argmax (each main RP paired with a list
-of 24 sub RPs, 4 near + 20 spread) refined by ``--steps`` Newton / mean-shift
+of sub RPs: 12, 4 near + 8 spread, where steps follow; 24, 4 near + 20
+spread, with ``--steps 0``) refined by ``--steps`` Newton / mean-shift
 steps towards the exhaustive density's mode and the exhaustive argmax among
 the candidates nearest to it (0: the list's argmax alone; the default
 setting is marked), and exhaustively (every other-antenna RP of
@@ -27,7 +28,9 @@ import numpy as np
 
 from rpm_cl.cl import create_env
 from rpm_cl.imaging import default_params, run_method
+from rpm_cl.kspace import decompose
 from rpm_cl.metrics import summary
+from rpm_cl.rangepoints import rps_from_decomposition
 from rpm_cl.rpm import DeviceRPM
 from rpm_cl.simulate import simulate_preset
 
@@ -44,10 +47,10 @@ def rps_digest(rps) -> str:
         [rps.range, rps.amp, rps.x, rps.z, rps.cluster.astype(float)])).tobytes()).hexdigest()
 
 
-def exhaustive_image(data, pre, engine, snr, cache=None, **overrides):
-    """The exhaustive eq. 10 image of ``data`` (defaults of preset ``pre``,
-    with ``overrides``), from ``cache`` when it holds the image of these RPs
-    at this S/N, else computed (minutes) and kept there.
+def exhaustive_image(data, pre, engine, snr, cache=None):
+    """The exhaustive eq. 10 image of ``data`` (defaults of preset ``pre``),
+    from ``cache`` when it holds the image of these RPs at this S/N, else
+    computed (minutes) and kept there.
 
     Returns
     -------
@@ -59,15 +62,15 @@ def exhaustive_image(data, pre, engine, snr, cache=None, **overrides):
         Its accuracy figures.
     """
     snr = np.inf if snr is None else snr   # as kept in the cache
-    rps = run_method("kspace-rpm", data, default_params(data, **{**pre.defaults, **overrides}),
-                     engine).rps
+    params = default_params(data, **pre.defaults)
+    rps = rps_from_decomposition(data, decompose(data, params.kspace), params.rp_threshold_db)
     key = rps_digest(rps)
     if cache and os.path.exists(cache):
         with np.load(cache) as f:
             if float(f["snr"]) == snr and "rps" in f and str(f["rps"]) == key:
                 return (SimpleNamespace(rp_index=f["rp_index"], points=f["points"]),
                         float(f["sec"]), f"{f['line']!s} (from {cache})")
-    params = default_params(data, **{**pre.defaults, **overrides, **EXHAUSTIVE})
+    params = default_params(data, **{**pre.defaults, **EXHAUSTIVE})
     t0 = time.perf_counter()
     res = run_method("kspace-rpm", data, params, engine)
     sec = time.perf_counter() - t0

@@ -2,16 +2,16 @@
 
 Usage::
 
-    python benchmarks/pareto.py [--out benchmarks/pareto.png] [--quick]
+    python benchmarks/pareto.py [--out benchmarks/pareto.png] [--quick] [--arrays-only]
+        [--time-tol 0.15] [--exhaustive FILE.npz]
 
 1. Settings grid on the human body (11 x 17 array, S/N 20 dB, seed 0):
    list length x mean-shift steps x pair_cutoff x window period x kernel
-   precision.  The list length is ``max_neighbours`` and
-   ``meanshift_neighbours`` both: every body cluster is refined (at most
-   ``meanshift_max_rps`` RPs), so with steps its list is
-   ``meanshift_neighbours`` and ``max_neighbours`` does not enter, and with 0
-   steps (the list's argmax is the point) it is ``max_neighbours``.  The
-   default (24 / 12, 3 steps) is the row with list 12, 3 steps.  For each:
+   precision.  Every body cluster is refined (at most ``meanshift_max_rps``
+   RPs, one per antenna), so with steps the list length is
+   ``meanshift_neighbours`` (``max_neighbours`` keeps its default and does
+   not enter), and with 0 steps (the list's argmax is the point) it is
+   ``max_neighbours``.  The default is the row with list 12, 3 steps.  For each:
    the median time from s(X, Z, R) to points (3 runs after a warm-up) and the
    accuracy figures (RP <= 10 mm, RPM <= 50 mm, RPM <= 10 mm).  The table
    marks the settings on the Pareto front of (time, fraction of points
@@ -97,8 +97,8 @@ def main():
         ["float32", "float64"] if not args.quick else ["float32"]))
     rows = []
     for k, steps, cut, w, prec in grid:
-        params = default_params(data, **{**pre.defaults, "max_neighbours": k,
-                                         "meanshift_neighbours": k, "meanshift_iters": steps,
+        lists = {"meanshift_neighbours": k} if steps else {"max_neighbours": k}
+        params = default_params(data, **{**pre.defaults, **lists, "meanshift_iters": steps,
                                          "pair_cutoff": cut, "window_x": w, "window_z": w})
         res, sec, _ = timed_run("kspace-rpm", data, params, engines[prec], repeats=3)
         rp10, rpm50, rpm10, _ = figures(res, data.truth)

@@ -74,7 +74,9 @@ class RPMParams:
     max_neighbours : int
         3-D: at most this many sub RPs per main RP; the triplet candidates per
         main RP are their pairs, max_neighbours^2 / 2, and the scoring work per
-        main RP grows as their square.
+        main RP grows as their square.  Clusters the mean shift refines that
+        hold one RP per antenna take ``meanshift_neighbours`` instead (the
+        human body's, by default: there this field does not enter).
     pair_cutoff_2d : float
         2-D: sub RPs farther than ``pair_cutoff_2d * sigma_x`` from the main
         antenna are not paired (their weight exp(-D^2 / 2 sigma_x^2) in eq. 6
@@ -96,7 +98,8 @@ class RPMParams:
     meanshift_max_rps : int
         3-D: mean shift only in clusters of at most this many RPs.  A step
         costs about (near sub RPs) x (cluster RPs) pairs per main RP: the
-        human body's clusters (187 RPs, one per antenna) take 0.1 s in all,
+        human body's clusters (187 RPs, one per antenna) take about 0.2 s
+        in all (two passes and the density pass, session 10),
         a 32 x 32 array's (about 1000 RPs each) 5.3 s on top of the list's
         3.2 s (RPM <= 10 mm 99.0 % against 97.9 %), a 64 x 64 array's 60 s;
         so by default those keep the list's argmax.
@@ -108,7 +111,8 @@ class RPMParams:
         gives the same points for less (see README, "RPM 3-D").  Clusters
         with several RPs at an antenna (the matched-filter and Capon
         baselines put the whole scene in one) have a mode per surface, and
-        the longer list starts nearer the exhaustive argmax's.  None:
+        the longer list starts nearer the exhaustive argmax's.  Used as
+        given, also when longer than ``max_neighbours``; None:
         ``max_neighbours``.
     meanshift_point : {"argmax", "sphere", "nearest", "mode"}
         3-D, with mean shift: the image point.  "argmax" (default): the
@@ -156,10 +160,9 @@ class RPMParams:
             raise InputError(f"max_neighbours must be in 2..4096, got {self.max_neighbours}")
         if self.meanshift_neighbours is not None and not (2 <= self.meanshift_neighbours <= 4096):
             raise InputError(f"meanshift_neighbours must be in 2..4096, got {self.meanshift_neighbours}")
-        shortest = min(self.max_neighbours, self.meanshift_neighbours or self.max_neighbours)
-        if self.near_neighbours is not None and not (0 <= self.near_neighbours <= shortest):
-            raise InputError("near_neighbours must be in 0..max_neighbours (and ..meanshift_neighbours), "
-                             f"got {self.near_neighbours}")
+        # a shorter meanshift_neighbours list takes min(near, its length) nearest
+        if self.near_neighbours is not None and not (0 <= self.near_neighbours <= self.max_neighbours):
+            raise InputError(f"near_neighbours must be in 0..max_neighbours, got {self.near_neighbours}")
         if not (0 <= self.meanshift_iters <= 1000):
             raise InputError(f"meanshift_iters must be in 0..1000, got {self.meanshift_iters}")
         if self.meanshift_max_rps < 0:
@@ -394,16 +397,19 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
                                     params.near_neighbours)
         # runs of main RPs with one list length, each scored with its own width
         cuts = np.flatnonzero(np.diff(kmax)) + 1
+        narrowed = {}   # width -> the lists cut to it (at most two widths)
         for a, b in zip(np.r_[0, cuts], np.r_[cuts, idx.size]):
             width = int(nnbr[a:b].max())
             if width < 2:  # no pair to intersect: no point
                 parts.append((np.full(b - a, -1, np.int32), np.zeros(b - a), np.zeros((3, b - a))))
                 continue
-            sub = np.ascontiguousarray(nbr[:, :width])
+            if width not in narrowed:
+                narrowed[width] = (np.ascontiguousarray(nbr[:, :width]), np.minimum(nnbr, width))
+            sub, nsub = narrowed[width]
             maxc = width * (width - 1) // 2
             for i0, n in _chunks(int(b - a), maxc, params.chunk_slots):
-                parts.append(engine.rpm_spheres(x, z, r, amp, sub, np.minimum(nnbr, width),
-                                                params.sigma_x, params.sigma_r, int(a) + i0, n))
+                parts.append(engine.rpm_spheres(x, z, r, amp, sub, nsub, params.sigma_x,
+                                                params.sigma_r, int(a) + i0, n))
         if parts and params.meanshift_iters > 0:
             parts = _meanshift(parts, x, z, r, amp, start, count, params, engine)
     if not parts:

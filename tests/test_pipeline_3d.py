@@ -142,9 +142,10 @@ def test_chunked_rpm_equals_one_chunk(body, dev32):
 
 def test_near_field_focusing_keeps_a_large_aperture_whole():
     """32 x 32 antennas at 7.5 mm (0.23 m) see a point 0.6 m away with ~19 rad
-    of wavefront curvature at the corners: without focusing the 100 rad/m
-    window cuts the aperture's edges (fewer RPs, worse ranges); with it
-    (the default there) nearly every antenna gives an accurate RP."""
+    of wavefront curvature at the corners: without focusing the planar
+    window (60 rad/m; 100 when this was written, with the same outcome)
+    cuts the aperture's edges (fewer RPs, worse ranges); with it (the
+    default there) nearly every antenna gives an accurate RP."""
     from dataclasses import replace
 
     arr = Array((np.arange(32) - 15.5) * 7.5e-3, (np.arange(32) - 15.5) * 7.5e-3)
@@ -157,7 +158,9 @@ def test_near_field_focusing_keeps_a_large_aperture_whole():
         rps = rps_from_decomposition(data, decompose(data, ks), params.rp_threshold_db)
         e = err_range(rps.antenna, rps.range, data.truth)
         got[focus] = int(np.sum(e <= 0.002))
-    assert got[None] >= 0.95 * 1024  # measured 997 RPs, all within 2 mm (median 0.05 mm)
+    # measured 1024 RPs within 2 mm, median 0.15 mm (at 100 rad/m: 997,
+    # median 0.05 mm); without focusing 199
+    assert got[None] >= 0.95 * 1024
     assert got[None] > got[False]
 
 
@@ -183,4 +186,4 @@ def test_alias_ranking_survives_point_focusing_of_elongated_surfaces():
     assert all(abs(c.direction[0]) < 0.2 for c in dec.clusters), [c.direction for c in dec.clusters]
     rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
     e = err_range(rps.antenna, rps.range, data.truth)
-    assert np.mean(e <= 0.010) >= 0.97  # measured 98.9 %
+    assert np.mean(e <= 0.010) >= 0.97  # measured 100 % (98.9 % at 100 rad/m)

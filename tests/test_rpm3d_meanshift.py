@@ -144,8 +144,10 @@ def test_chunk_equals_slice_and_bad_chunk_refused(dev64, rng):
 def test_params_validate():
     assert RPMParams(meanshift_iters=0).meanshift_iters == 0
     assert RPMParams(meanshift_neighbours=None, near_neighbours=8).meanshift_neighbours is None
+    # near beyond the short list: that list is all nearest (neighbour_lists caps it)
+    assert RPMParams(max_neighbours=32, near_neighbours=16).near_neighbours == 16
     for bad in ({"meanshift_iters": -1}, {"meanshift_point": "centre"},
-                {"meanshift_neighbours": 1}, {"meanshift_neighbours": 3, "near_neighbours": 4}):
+                {"meanshift_neighbours": 1}, {"meanshift_neighbours": 5000}):
         with pytest.raises(InputError):
             RPMParams(**bad)
 
@@ -180,6 +182,10 @@ def test_meanshift_only_in_clusters_up_to_max_rps(dev64, rng):
     longer = rpm_image(rps, replace(base, meanshift_max_rps=25, meanshift_neighbours=16), dev64)
     np.testing.assert_array_equal(longer.points[big], off.points[big])
     assert np.any(np.linalg.norm(longer.points[~big] - capped.points[~big], axis=1) > 1e-9)
+    # runs of two list lengths, each in several chunks: the same image
+    chunked = rpm_image(rps, replace(base, meanshift_max_rps=25, chunk_slots=100), dev64)
+    np.testing.assert_array_equal(chunked.rp_index, capped.rp_index)
+    np.testing.assert_array_equal(chunked.points, capped.points)
     with pytest.raises(InputError):
         RPMParams(meanshift_max_rps=-1)
 
@@ -288,4 +294,7 @@ def test_short_list_only_where_one_rp_per_antenna(dev64, rng):
     np.testing.assert_array_equal(short.rp_index, long_.rp_index)
     dup = short.cluster == 0
     np.testing.assert_array_equal(short.points[dup], long_.points[dup])
+    # and the other cluster's are those of 6-long lists everywhere
+    six = rpm_image(rps, replace(base, max_neighbours=6, meanshift_neighbours=None), dev64)
+    np.testing.assert_array_equal(short.points[~dup], six.points[~dup])
     assert np.any(np.linalg.norm(short.points[~dup] - long_.points[~dup], axis=1) > 1e-9)

@@ -15,7 +15,9 @@ Which RPs it holds matters:
   nearest: on the human body (S/N 20 dB) 94 % of points within 10 mm with 4
   near + 20 spread, against 84 % for the 24 nearest and 97 % exhaustive
   (which takes 1500 times longer), all at 100 % within 50 mm
-  (``benchmarks/RESULTS.md``).
+  (``benchmarks/RESULTS.md``, session 3, 100 rad/m, the list's argmax as
+  the point; since session 9 the point is refined to the exhaustive argmax,
+  and the list only matters where that refinement does not run).
 
 RPs are ranked by distance and then by index.  Antennas on one uniform grid
 (every planar array of the input contract) are ranked by integer keys built
@@ -66,7 +68,7 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
     Returns
     -------
     nbr : ndarray of int32, shape (N, K)
-        Sub-RP indices, the nearest first; K = the longest list (<= kmax);
+        Sub-RP indices, the nearest first; K = the longest list (<= max(kmax));
         -1 pads.
     nnbr : ndarray of int32, shape (N,)
         List lengths.
