@@ -363,11 +363,13 @@ def _human_body() -> Preset:
         # k-space resolution of this array is 2 pi / L = 76 rad/m (x) and
         # 49 rad/m (z), so those numbers cannot be periods in rad/m, and read
         # as rad/mm they span the whole k axis (838 rad/m) and merge clusters
-        # (measured: 5 clusters instead of 11).  60 rad/m, 0.8-1.2 resolution
-        # cells, is the measured best with the exhaustive refinement of the
-        # 3-D RPM (100 rad/m before it; benchmarks/RESULTS.md, session 10).
-        # sigma_D is left to the default, 2.5 antenna spacings (the paper: 2-3).
-        {"sigma_r": 0.05, "window_x": 60.0, "window_z": 60.0},
+        # (measured: 5 clusters instead of 11).  So the window is left to the
+        # planar default (rpm_cl.imaging.WINDOW_PLANAR_DEFAULT, 60 rad/m,
+        # 0.8-1.2 resolution cells), the measured best with the exhaustive
+        # refinement of the 3-D RPM (100 rad/m before it; benchmarks/RESULTS.md,
+        # session 10).  sigma_D is left to the default too, 2.5 antenna
+        # spacings (the paper: 2-3).
+        {"sigma_r": 0.05},
         boundary_spacing=3e-3,
     )
 
