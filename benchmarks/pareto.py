@@ -27,7 +27,7 @@ import argparse
 import itertools
 
 import numpy as np
-from exhaustive_3d import distances, exhaustive_image
+from exhaustive_3d import TIE_REL, exhaustive_image, exhaustive_ties
 
 from rpm_cl.cl import create_env
 from rpm_cl.data import Array
@@ -77,7 +77,9 @@ def main():
                     help="exhaustive_3d.py's cache for S/N 20 (made if missing, minutes): "
                          "adds each float32 default-window row's share of points equal to "
                          "the float32 exhaustive eq. 10 image's (within 1 um; float64 "
-                         "candidates differ from float32 ones by more than that)")
+                         "candidates differ from float32 ones by more than that), and the "
+                         "share equal or tied (eq. 10 in float64 within "
+                         "exhaustive_3d.TIE_REL of the exhaustive point's)")
     args = ap.parse_args()
     env = create_env()
     engines = {p: DeviceRPM(env, p) for p in ("float32", "float64")}
@@ -102,8 +104,10 @@ def main():
                                          "pair_cutoff": cut, "window_x": w, "window_z": w})
         res, sec, _ = timed_run("kspace-rpm", data, params, engines[prec], repeats=3)
         rp10, rpm50, rpm10, _ = figures(res, data.truth)
-        same = (f"{np.mean(distances(res.image, exh) < 1e-6):6.1%}"
-                if exh is not None and w == DEFAULT[3] and prec == "float32" else "     -")
+        same = "     -                "
+        if exh is not None and w == DEFAULT[3] and prec == "float32":
+            eq, rel = exhaustive_ties(res, exh, params)
+            same = f"{eq.mean():6.1%} (or tied {(eq.sum() + np.sum(rel < TIE_REL)) / eq.size:6.1%})"
         rows.append((k, steps, cut, w, prec, sec, rp10, rpm50, rpm10, same))
         print(f"{k:3d} {steps:2d} {cut:4.1f} {w:6.0f} {prec:8s} {1e3 * sec:8.1f} ms  "
               f"RP<=10 {rp10:6.1%}  RPM<=50 {rpm50:6.1%}  RPM<=10 {rpm10:6.1%}  "
