@@ -52,3 +52,42 @@ def test_eq10_density_is_the_untruncated_reference_density():
             np.testing.assert_allclose(got, want, rtol=1e-12)
         else:   # points 0.3 m off against 4 sigma_r = 0.2 m: the reference truncates
             assert np.all(got >= want) and np.any(got > want * (1 + 1e-9))
+
+
+def test_exhaustive_ties_tells_a_tie_from_another_point():
+    """``exhaustive_3d.exhaustive_ties``: the exhaustive image against itself
+    is the same point everywhere; its point moved along y by 1.1 um is no
+    longer the same point but a tie (eq. 10 changes by about 1.1e-6 |p - mode|
+    / sigma_r^2: measured at most 3.9e-6 at 1.5 um over seeds 0-199, under
+    TIE_REL = 1e-5); moved by 20 mm it is neither (a drop of about
+    (0.02 / 0.05)^2 / 2 = 8 %; measured at least 2.9 %)."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    import numpy as np
+    from exhaustive_3d import TIE_REL, exhaustive_ties
+    from test_spheres import planar_cluster
+
+    from rpm_cl.imaging import RPMParams, rpm_image
+    from rpm_cl.rangepoints import RangePoints
+    from rpm_cl.rpm import reference as ref
+
+    rng = np.random.default_rng()
+    sizes = [15, 12]
+    x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=1e-3, dup=False)
+    rps = RangePoints(ant, x, z, r, amp, np.repeat([0, 1], sizes))
+    rpm = replace(RPMParams(sigma_x=0.1, sigma_r=0.05), pair_cutoff=np.inf, max_neighbours=4096,
+                  meanshift_iters=0)
+    exh = rpm_image(rps, rpm, ref)
+    params = SimpleNamespace(rpm=rpm)
+
+    def moved(dy):
+        pts = exh.points + np.array([0.0, dy, 0.0])
+        return SimpleNamespace(rps=rps, image=SimpleNamespace(rp_index=exh.rp_index, points=pts))
+
+    same, rel = exhaustive_ties(SimpleNamespace(rps=rps, image=exh), exh, params)
+    assert same.all() and rel.size == 0 and same.size == x.size
+    same, rel = exhaustive_ties(moved(1.1e-6), exh, params)
+    assert not same.any() and np.all(np.abs(rel) < TIE_REL)
+    same, rel = exhaustive_ties(moved(0.02), exh, params)
+    assert not same.any() and np.all(rel > 100 * TIE_REL)
