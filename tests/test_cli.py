@@ -270,3 +270,26 @@ def test_constant_planar_input_gives_no_clusters(tmp_path):
     assert main(["image", src, "-o", str(out)]) == 0
     with np.load(out) as f:
         assert f["points"].shape == (0, 3)
+
+
+def test_bench_table_and_kernel_profile(capsys, dev32):
+    """``rpm-cl bench`` on the dense 2-D scene: a row per method (two S/N),
+    the kernel columns filled for the device engine, and the kernel
+    profile's medians consistent with its rate (evals / median score time);
+    k-space RPM at the paper's Table I / II noise-free figures or better
+    (94 % RP <= 10 mm, 67 % RPM <= 50 mm)."""
+    from rpm_cl.bench import bench_case, kernel_profile
+    from rpm_cl.imaging import METHODS, default_params
+    from rpm_cl.simulate import simulate_preset
+
+    assert main(["bench", "--scene", "points-5mm", "--repeats", "1", "--no-das"]) == 0
+    out = capsys.readouterr().out
+    for method in METHODS:
+        assert sum(f" {method} " in line for line in out.splitlines()) == 2, method
+    b = bench_case(dev32, "paper-2d", None, "kspace-rpm", repeats=1)
+    assert b["rp10"] >= 0.94 and b["rpm50"] >= 0.67
+    assert b["kernel_evals"] > 0 and b["score_ms"] > 0
+    assert b["kernel_evals_per_s"] == pytest.approx(b["kernel_evals"] / (1e-3 * b["score_ms"]))
+    data, pre = simulate_preset("paper-2d", None, 0)
+    p = kernel_profile(dev32, "kspace-rpm", data, default_params(data, **pre.defaults), runs=3)
+    assert p["kernel_evals"] == b["kernel_evals"] and not dev32.timing
