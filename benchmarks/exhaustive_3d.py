@@ -23,9 +23,11 @@ both are candidates of eq. 10, and the kernels sum ~17000 Gaussians per
 candidate in ``--precision``.  For those main RPs the script evaluates eq. 10
 itself at both points in float64 NumPy, untruncated (every triplet of the
 cluster, no cutoff: :func:`eq10_density`), and prints the largest relative
-difference and how often the row's point scores higher: differences within
-float32's rounding of such sums (about 1e-6 relative) are ties that the
-precision, not the search, decides.
+difference and how often the row's point scores higher.  A difference
+within the rounding of such a sum in the kernels' precision
+(:data:`TIE_REL`: 1e-5 for float32, 1e-12 for float64) is a tie, which the
+rounding decides, not the search; a larger one is a point the search
+missed (or a candidate the truncations of the refinement score differently).
 """
 
 import argparse
@@ -144,9 +146,10 @@ def eq10_density(rps, rp_index, points, sigma_d, sigma_r):
 
 
 #: Two candidates of eq. 10 whose float64 densities differ by less than this
-#: (relative) are a tie: about the rounding of a float32 sum of a body main
-#: RP's ~17000 Gaussians, sqrt(17000) * 2**-24 = 7.8e-6.
-TIE_REL = 1e-5
+#: (relative) are a tie for kernels of that precision: about the rounding of
+#: a sum of a body main RP's ~17000 Gaussians, sqrt(17000) * 2**-24 = 7.8e-6
+#: in float32 and sqrt(17000) * 2**-53 = 1.4e-14 in float64.
+TIE_REL = {"float32": 1e-5, "float64": 1e-12}
 
 
 def exhaustive_ties(res, exh, params):
@@ -159,27 +162,40 @@ def exhaustive_ties(res, exh, params):
     same : ndarray of bool, shape (K,)
         The same point, for the K main RPs imaged by both.
     rel : ndarray, shape (K - same.sum(),)
-        ``(f_exh - f_row) / f_exh`` where the points differ: a tie where
-        ``rel < TIE_REL`` (negative: the row's point is the higher).
+        ``(f_exh - f_row) / f_exh`` where the points differ (negative: the
+        row's point is the higher); NaN where ``f_exh`` is 0.  A tie where
+        ``|rel| < TIE_REL[precision]``.
     """
     common, ia, ib = np.intersect1d(res.image.rp_index, exh.rp_index, return_indices=True)
     differ = np.linalg.norm(res.image.points[ia] - exh.points[ib], axis=1) > 1e-6
     sd, sr = params.rpm.sigma_x, params.rpm.sigma_r
     f_row = eq10_density(res.rps, common[differ], res.image.points[ia[differ]], sd, sr)
     f_exh = eq10_density(res.rps, common[differ], exh.points[ib[differ]], sd, sr)
-    return ~differ, (f_exh - f_row) / np.maximum(f_exh, 1e-300)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(f_exh > 0, (f_exh - f_row) / f_exh, np.nan)
+    return ~differ, rel
 
 
-def tie_line(res, exh, params) -> str:
+def same_or_tied(same, rel, precision) -> float:
+    """Share of the main RPs imaged by both that are the exhaustive point or
+    tie with it (:func:`exhaustive_ties`); NaN when none is imaged by both."""
+    if same.size == 0:
+        return float("nan")
+    return float(same.sum() + np.sum(np.abs(rel) < TIE_REL[precision])) / same.size
+
+
+def tie_line(res, exh, params, precision) -> str:
     """:func:`exhaustive_ties` as a line of text."""
     same, rel = exhaustive_ties(res, exh, params)
+    if same.size == 0:
+        return "no main RP imaged by both"
     if rel.size == 0:
         return "every point the exhaustive one"
     return (f"{rel.size} points not the exhaustive one; eq. 10 in float64 there: "
-            f"|f_exh - f_row| / f_exh at most {np.abs(rel).max():.2g} (median "
-            f"{np.median(np.abs(rel)):.2g}), the row's point higher in {np.mean(rel < 0):.0%}; "
-            f"the same point or a tie (within {TIE_REL:g}): "
-            f"{(same.sum() + np.sum(rel < TIE_REL)) / same.size:.1%}")
+            f"|f_exh - f_row| / f_exh at most {np.nanmax(np.abs(rel)):.2g} (median "
+            f"{np.nanmedian(np.abs(rel)):.2g}), the row's point higher in {np.mean(rel < 0):.0%}; "
+            f"the same point or a tie (within {TIE_REL[precision]:g}): "
+            f"{round(same_or_tied(same, rel, precision) * same.size)} of {same.size}")
 
 
 def main():
@@ -215,7 +231,7 @@ def main():
               f"< 0.1 mm {np.mean(d < 1e-4):.1%}, < 1 mm {np.mean(d < 1e-3):.1%}, "
               f"< 5 mm {np.mean(d < 5e-3):.1%}, median {1e3 * np.median(d):.2f} mm")
         if params.rpm.meanshift_iters > 0:
-            print(f"{'':18s}   {tie_line(res, b, params)}")
+            print(f"{'':18s}   {tie_line(res, b, params, args.precision)}")
 
 
 if __name__ == "__main__":

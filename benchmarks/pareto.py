@@ -27,7 +27,7 @@ import argparse
 import itertools
 
 import numpy as np
-from exhaustive_3d import TIE_REL, exhaustive_image, exhaustive_ties
+from exhaustive_3d import TIE_REL, exhaustive_image, exhaustive_ties, same_or_tied
 
 from rpm_cl.cl import create_env
 from rpm_cl.data import Array
@@ -79,7 +79,8 @@ def main():
                          "the float32 exhaustive eq. 10 image's (within 1 um; float64 "
                          "candidates differ from float32 ones by more than that), and the "
                          "share equal or tied (eq. 10 in float64 within "
-                         "exhaustive_3d.TIE_REL of the exhaustive point's)")
+                         f"{TIE_REL['float32']:g} of the exhaustive point's, "
+                         "exhaustive_3d.TIE_REL)")
     args = ap.parse_args()
     env = create_env()
     engines = {p: DeviceRPM(env, p) for p in ("float32", "float64")}
@@ -107,7 +108,8 @@ def main():
         same = "     -                "
         if exh is not None and w == DEFAULT[3] and prec == "float32":
             eq, rel = exhaustive_ties(res, exh, params)
-            same = f"{eq.mean():6.1%} (or tied {(eq.sum() + np.sum(rel < TIE_REL)) / eq.size:6.1%})"
+            if eq.size:
+                same = f"{eq.mean():6.1%} (or tied {same_or_tied(eq, rel, 'float32'):6.1%})"
         rows.append((k, steps, cut, w, prec, sec, rp10, rpm50, rpm10, same))
         print(f"{k:3d} {steps:2d} {cut:4.1f} {w:6.0f} {prec:8s} {1e3 * sec:8.1f} ms  "
               f"RP<=10 {rp10:6.1%}  RPM<=50 {rpm50:6.1%}  RPM<=10 {rpm10:6.1%}  "

@@ -58,14 +58,18 @@ PROFILE_RUNS = 5
 
 
 def kernel_profile(engine, method, data, params, runs: int = PROFILE_RUNS) -> dict:
-    """``runs`` extra runs with each kernel waited for and timed (device
-    engines); each kernel's time is the median over the runs.
+    """``runs`` (>= 1) extra runs with each kernel waited for and timed
+    (device engines); each kernel's time is the median over the runs.
 
-    Returns ``intersect_ms``, ``score_ms``, ``argmax_ms``, ``meanshift_ms``
-    and ``kernel_evals_per_s`` (Gaussian kernel evaluations the scoring
-    kernel performs in one run, per second of its median time), or ``{}``
-    for the NumPy reference.
+    Returns ``<kernel>_ms`` for each key of the engine's ``kernel_times``
+    (``intersect``, ``score``, ``argmax``, ``meanshift``, ``density``),
+    ``kernel_evals`` and ``kernel_evals_per_s`` (Gaussian kernel evaluations
+    the scoring kernel performs in one run, per second of its median time),
+    or ``{}`` for the NumPy reference.  The engine is left with its timing
+    switch as it was and the last run's ``kernel_times``.
     """
+    if runs < 1:
+        raise ValueError(f"runs must be at least 1, got {runs}")
     if not hasattr(engine, "kernel_times"):
         return {}
     from .imaging import run_method

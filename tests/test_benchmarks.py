@@ -23,12 +23,15 @@ def test_pareto_front_with_a_time_tolerance():
     assert pareto([(100.0, 0.02), (120.0, 0.01)], 0.15) == [0, 1]
 
 
-def test_eq10_density_is_the_untruncated_reference_density():
+def test_eq10_density_is_the_untruncated_reference_density(rng):
     """``exhaustive_3d.eq10_density`` (global points, every triplet of the
     cluster) equals the reference mean-shift density (local frames) where
     the reference's truncations leave nothing out: sigma_D and sigma_r wide
-    against the clusters (antennas within 0.15 m, candidates within 3.2 m of
-    each main RP, cutoffs 4 sigma = 4 m), and it differs once a cutoff bites."""
+    against the clusters (antennas within 0.3 m, points within a few m of
+    the candidates, cutoffs 4 sigma >= 4 m), with sigma_D != sigma_r so that
+    swapping them shows.  Where a cutoff bites (sigma_r = 0.05 m, points 0.3 m
+    off: candidates; sigma_D = 0.05 m: pairs of two sub RPs beyond 0.2 m),
+    it adds what the reference leaves out."""
     import numpy as np
     from exhaustive_3d import eq10_density
     from test_spheres import planar_cluster
@@ -36,43 +39,48 @@ def test_eq10_density_is_the_untruncated_reference_density():
     from rpm_cl.rangepoints import RangePoints
     from rpm_cl.rpm import reference as ref
 
-    rng = np.random.default_rng()
     sizes = [12, 9]
-    x, z, r, amp, ant, st, ct = planar_cluster(rng, sizes, dup=False)
+    x, z, r, amp, ant, st, ct = planar_cluster(rng, sizes, span=0.3, dup=False)
     rps = RangePoints(ant, x, z, r, amp, np.repeat([0, 1], sizes))
     main = rng.permutation(x.size)[:8]
     pts = np.column_stack([x[main], np.zeros(main.size), z[main]]) + rng.normal(0, 0.3, (8, 3))
     pts[:, 1] += r[main]
     local = (pts - np.column_stack([x[main], np.zeros(main.size), z[main]])).T[:, None, :]
-    for sd, sr, same in ((1.0, 1.0, True), (1.0, 0.05, False)):
-        got = eq10_density(rps, main, pts, sd, sr)
-        want = np.array([ref.density_spheres(x, z, r, amp, st, ct, local[:, :, [q]], sd, sr,
+
+    def reference(sd, sr):
+        return np.array([ref.density_spheres(x, z, r, amp, st, ct, local[:, :, [q]], sd, sr,
                                              int(i), 1)[0, 0] for q, i in enumerate(main)])
-        if same:
-            np.testing.assert_allclose(got, want, rtol=1e-12)
-        else:   # points 0.3 m off against 4 sigma_r = 0.2 m: the reference truncates
-            assert np.all(got >= want) and np.any(got > want * (1 + 1e-9))
+
+    np.testing.assert_allclose(eq10_density(rps, main, pts, 1.0, 1.5), reference(1.0, 1.5),
+                               rtol=1e-12)
+    assert not np.allclose(eq10_density(rps, main, pts, 1.5, 1.0), reference(1.0, 1.5),
+                           rtol=1e-6)
+    for sd, sr in ((1.0, 0.05), (0.05, 1.5)):
+        got, want = eq10_density(rps, main, pts, sd, sr), reference(sd, sr)
+        # the same sums in another order: equal to rounding where nothing is cut
+        assert np.all(got >= want * (1 - 1e-12)) and np.any(got > want * (1 + 1e-9)), (sd, sr)
 
 
-def test_exhaustive_ties_tells_a_tie_from_another_point():
+def test_exhaustive_ties_tells_a_tie_from_another_point(rng):
     """``exhaustive_3d.exhaustive_ties``: the exhaustive image against itself
     is the same point everywhere; its point moved along y by 1.1 um is no
-    longer the same point but a tie (eq. 10 changes by about 1.1e-6 |p - mode|
-    / sigma_r^2: measured at most 3.9e-6 at 1.5 um over seeds 0-199, under
-    TIE_REL = 1e-5); moved by 20 mm it is neither (a drop of about
-    (0.02 / 0.05)^2 / 2 = 8 %; measured at least 2.9 %)."""
+    longer the same point but a float32 tie (eq. 10 changes by about
+    1.1e-6 |p - mode| / sigma_r^2: measured at most 3.9e-6 at 1.5 um over
+    seeds 0-199, under TIE_REL = 1e-5), not a float64 one; moved by 20 mm
+    it is neither (a drop of about (0.02 / 0.05)^2 / 2 = 8 %; measured at
+    least 2.2 %).  The row holds a shuffled subset of the main RPs, so the
+    two images are matched by index."""
     from dataclasses import replace
     from types import SimpleNamespace
 
     import numpy as np
-    from exhaustive_3d import TIE_REL, exhaustive_ties
+    from exhaustive_3d import TIE_REL, exhaustive_ties, same_or_tied
     from test_spheres import planar_cluster
 
     from rpm_cl.imaging import RPMParams, rpm_image
     from rpm_cl.rangepoints import RangePoints
     from rpm_cl.rpm import reference as ref
 
-    rng = np.random.default_rng()
     sizes = [15, 12]
     x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=1e-3, dup=False)
     rps = RangePoints(ant, x, z, r, amp, np.repeat([0, 1], sizes))
@@ -80,14 +88,18 @@ def test_exhaustive_ties_tells_a_tie_from_another_point():
                   meanshift_iters=0)
     exh = rpm_image(rps, rpm, ref)
     params = SimpleNamespace(rpm=rpm)
+    keep = rng.permutation(exh.rp_index.size)[:20]   # a shuffled subset of the main RPs
 
     def moved(dy):
-        pts = exh.points + np.array([0.0, dy, 0.0])
-        return SimpleNamespace(rps=rps, image=SimpleNamespace(rp_index=exh.rp_index, points=pts))
+        pts = exh.points[keep] + np.array([0.0, dy, 0.0])
+        return SimpleNamespace(rps=rps, image=SimpleNamespace(rp_index=exh.rp_index[keep],
+                                                              points=pts))
 
-    same, rel = exhaustive_ties(SimpleNamespace(rps=rps, image=exh), exh, params)
-    assert same.all() and rel.size == 0 and same.size == x.size
+    tie = TIE_REL["float32"]
+    same, rel = exhaustive_ties(moved(0.0), exh, params)
+    assert same.all() and rel.size == 0 and same.size == 20
     same, rel = exhaustive_ties(moved(1.1e-6), exh, params)
-    assert not same.any() and np.all(np.abs(rel) < TIE_REL)
+    assert not same.any() and np.all(np.abs(rel) < tie) and same_or_tied(same, rel, "float32") == 1
+    assert same_or_tied(same, rel, "float64") < 1
     same, rel = exhaustive_ties(moved(0.02), exh, params)
-    assert not same.any() and np.all(rel > 100 * TIE_REL)
+    assert not same.any() and np.all(rel > 100 * tie) and same_or_tied(same, rel, "float32") == 0
