@@ -682,13 +682,28 @@ def param_opts(sp) -> None:
     add_flags(sp, ("kspace", "rpm", "imaging"))
 
 
+class _Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that every ``finally`` and the
+    atomic writers' clean-up run as for Ctrl-C (temporary files removed)."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated()
+
+
 def main(argv=None) -> int:
     """Entry point of the ``rpm-cl`` command; returns the exit code."""
+    import signal
+    import threading
+
     from .data import InputError
 
     argv = _bind_negative_values(list(sys.argv[1:] if argv is None else argv))
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("rpm-cl: %(message)s"))
+    old_term = None
+    if threading.current_thread() is threading.main_thread():
+        old_term = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         args = build_parser().parse_args(argv)
         log.addHandler(handler)
@@ -705,7 +720,8 @@ def main(argv=None) -> int:
                 _load_config(args)
             return args.func(args)
     except (CLIError, InputError, NoOpenCLError) as exc:
-        print(f"rpm-cl: error: {exc}", file=sys.stderr)
+        # one line, whatever a library put in the message
+        print(f"rpm-cl: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into e.g. head: not an error
         import os
@@ -725,8 +741,13 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("rpm-cl: interrupted", file=sys.stderr)
         return 130
+    except _Terminated:
+        print("rpm-cl: terminated", file=sys.stderr)
+        return 143
     finally:
         log.removeHandler(handler)
+        if old_term is not None:
+            signal.signal(signal.SIGTERM, old_term)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -32,7 +32,8 @@ import numpy as np
 from .data import C0, InputError, RadarData
 
 __all__ = ["Grid", "parse_grid", "das_numpy", "das_adjoint", "DASPlan", "DeviceDAS",
-           "MEMORY_BUDGET_DEFAULT", "check_disk", "image_points", "write_image"]
+           "MEMORY_BUDGET_DEFAULT", "check_disk", "check_float32_range", "image_points",
+           "write_image"]
 
 #: Default bound on the memory a DAS run may hold (temporaries, tables), bytes.
 MEMORY_BUDGET_DEFAULT = 2_000_000_000
@@ -128,6 +129,25 @@ def _geometry(data: RadarData, grid: Grid):
     if data.array.planar:
         ant[:, 2] = pos[:, 2]
     return ant
+
+
+#: Largest and smallest nonzero signal amplitude a float32 DAS image holds:
+#: the sum over the antennas stays below float32's 3.4e38, and the smallest
+#: samples stay normal (1.2e-38) with room for the interpolation weights.
+F32_MAX_SUM = 1e36
+F32_MIN_PEAK = 1e-30
+
+
+def check_float32_range(data: RadarData) -> None:
+    """InputError when ``data``'s amplitudes leave float32's range in a DAS
+    image (a sum of ``n`` antennas' samples): all-Inf/NaN above, all-zero
+    below.  An all-zero signal is fine (an empty image)."""
+    peak = float(np.max(np.abs(data.signal))) if data.signal.size else 0.0
+    n = data.array.n
+    if peak > 0 and (peak * n > F32_MAX_SUM or peak < F32_MIN_PEAK):
+        raise InputError(f"signal amplitudes up to {peak:.3g} are outside what a float32 DAS "
+                         f"image holds ({F32_MIN_PEAK:g} .. {F32_MAX_SUM / n:.3g} for {n} "
+                         f"antennas); use --precision float64, or scale the signal")
 
 
 def _weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float):
@@ -274,6 +294,7 @@ class DASPlan:
                 or data.dr != self.dr or data.waveform.fc != self.fc
                 or not np.array_equal(data.array.positions(), self.positions)):
             raise InputError("this frame's array, range axis or carrier differs from the plan's")
+        check_float32_range(data)
         s = np.ascontiguousarray(data.signal.reshape(-1), np.complex64)
         out = np.empty(self.grid.size, np.complex64)
         step = max(1, 2_000_000 // self.index.shape[1])
@@ -372,6 +393,8 @@ class DeviceDAS:
         o = np.array([np.mean(ant[:, 0]), 0.0, np.mean(ant[:, 2])])
         if nr < 2:
             raise InputError("DAS needs at least 2 range samples")
+        if self.cplx == np.complex64:
+            check_float32_range(data)
         sig = self._buf(self.phased_pairs(data), self.cplx)
         kc_dr = 2 * np.pi * data.waveform.fc / C0 * data.dr
         kernel = self._kernel(poly=kc_dr <= 1.1)
@@ -432,20 +455,31 @@ def image_points(image: np.ndarray, grid: Grid, threshold_db: float = -10.0,
     return pts
 
 
-def check_disk(path: str, folder: str, grid, dtype) -> None:
+def _size_text(n: float) -> str:
+    """Bytes as a short text: '3.2 GB', '41 MB', '12 kB'."""
+    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{n:.0f} B"
+
+
+def check_disk(path: str, folder: str, grid, dtype, copies: float = 2.0) -> None:
     """Refuse, before any work, an image that cannot be written: it needs
-    twice its size on disk while written (a memory map, then the file).
+    ``copies`` times its size on disk while written (a memory map, then the
+    file: 2 for ``.npz`` and HDF5; 3 for ``.vti``, whose three real arrays
+    ``magnitude``, ``real``, ``imag`` take 1.5 times the complex image, and
+    base64 a third more), with 10 % to spare.
 
     Raises
     ------
     InputError
-        Less than 2.2 times the image's bytes free in ``folder``.
+        Less than ``1.1 * copies`` times the image's bytes free in ``folder``.
     """
-    need = grid.size * np.dtype(dtype).itemsize
+    need = copies * grid.size * np.dtype(dtype).itemsize
     free = _free_bytes(folder)
-    if free is not None and 2.2 * need > free:
-        raise InputError(f"{path}: the image needs {2 * need / 1e9:.1f} GB of disk while written, "
-                         f"{free / 1e9:.1f} GB free")
+    if free is not None and 1.1 * need > free:
+        raise InputError(f"{path}: the image needs {_size_text(need)} of disk while written, "
+                         f"{_size_text(free)} free")
 
 
 def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = None) -> None:

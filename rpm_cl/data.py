@@ -50,9 +50,22 @@ class InputError(ValueError):
     """Malformed input; the message names the field and the problem."""
 
 
+def _real_kind(a) -> bool:
+    """True for real numbers: integer or floating dtypes, not bool, complex,
+    strings, dates or time spans (``np.timedelta64`` counts as an integer
+    to ``np.issubdtype``)."""
+    return np.asarray(a).dtype.kind in "iuf"
+
+
 def _finite_scalar(name: str, value, positive: bool = True) -> float:
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        arr = np.asarray(value)
+    else:
+        arr = np.asarray(value)
+        if not _real_kind(arr):
+            raise InputError(f"{name} must be a real number, got dtype {arr.dtype}")
     try:
-        v = float(np.asarray(value).reshape(()))
+        v = float(arr.reshape(()))
     except (TypeError, ValueError):
         raise InputError(f"{name} must be a real scalar, got {value!r}") from None
     if not np.isfinite(v):
@@ -68,7 +81,7 @@ def _uniform_axis(name: str, values, min_len: int = 1, unit: str = "m") -> np.nd
         raise InputError(f"{name} must be 1-D, got shape {a.shape}")
     if a.size < min_len:
         raise InputError(f"{name} must have at least {min_len} values, got {a.size}")
-    if not np.issubdtype(a.dtype, np.number) or np.iscomplexobj(a):
+    if not _real_kind(a):
         raise InputError(f"{name} must be real numbers, got dtype {a.dtype}")
     # tolerance of the uniformity test: 1e-6 of the step, plus the rounding of
     # the stored values (float32 axes of measured data are common)
@@ -215,10 +228,15 @@ class Truth:
             raise InputError(f"truth_rp_antenna must be an integer array (antenna indices), "
                              f"got dtype {ant.dtype}")
         object.__setattr__(self, "rp_antenna", ant.astype(np.int64).ravel())
+        for name, v in (("truth_rp_range", self.rp_range), ("truth_boundary", self.boundary)):
+            if np.size(v) and not _real_kind(v):
+                raise InputError(f"{name} must be real numbers, got dtype {np.asarray(v).dtype}")
         object.__setattr__(self, "rp_range", np.asarray(self.rp_range, np.float64).ravel())
         b = np.asarray(self.boundary, np.float64)
         if b.ndim != 2 or b.shape[1] not in (2, 3):
             raise InputError(f"truth_boundary must have shape (P, 2|3), got {b.shape}")
+        if not (np.all(np.isfinite(b)) and np.all(np.isfinite(self.rp_range))):
+            raise InputError("truth_boundary or truth_rp_range contains NaN or Inf")
         object.__setattr__(self, "boundary", b)
         if self.rp_antenna.shape != self.rp_range.shape:
             raise InputError("truth_rp_antenna and truth_rp_range differ in length")
@@ -281,7 +299,13 @@ class RadarData:
                                  f"this array, got {t.boundary.shape}")
             if t.rp_antenna.size and (t.rp_antenna.min() < 0 or t.rp_antenna.max() >= self.array.n):
                 raise InputError(f"truth_rp_antenna must index the {self.array.n} antennas")
-        s = s.astype(np.complex128 if s.dtype != np.complex64 else np.complex64, copy=False)
+        keep64 = s.dtype == np.complex64
+        if keep64 and s.size:
+            # complex64 stays complex64 unless |s|^2 would leave float32's
+            # range (1.2e-38 .. 3.4e38) on the way: then complex128, exactly
+            peak = float(np.max(np.abs(s)))
+            keep64 = peak == 0 or 1e-15 <= peak <= 1e15
+        s = s.astype(np.complex64 if keep64 else np.complex128, copy=False)
         object.__setattr__(self, "signal", s)
         object.__setattr__(self, "range", rng)
 

@@ -49,6 +49,8 @@ to a temporary file beside the target and renamed.
 
 from __future__ import annotations
 
+import errno
+import io
 import json
 import os
 import tempfile
@@ -419,7 +421,11 @@ def _window_name(name) -> str:
 def _window(name: str, n: int) -> np.ndarray:
     from scipy.signal import windows
 
-    return np.asarray(windows.get_window(_window_name(name), n, fftbins=False), np.float64)
+    w = np.asarray(windows.get_window(_window_name(name), n, fftbins=False), np.float64)
+    if not np.any(w > 0):   # hann, blackman ... over 1 or 2 samples: zero at both ends
+        raise InputError(f"the {name} range window over {n} frequency samples is all zero; "
+                         f"use range_window='rect' (--range-window rect) or more samples")
+    return w
 
 
 def _frequency_axis(values) -> np.ndarray:
@@ -517,14 +523,58 @@ def _compress_checked(values, freq, fc, bw, window, array):
 # --------------------------------------------------------------------------
 # writing
 def _h5_write_arrays(tmp: str, arrays: dict) -> None:
+    """The arrays as an HDF5 file at ``tmp``, built in memory and written by
+    Python: a full disk then raises OSError (HDF5 writing to a full disk
+    itself crashed the process)."""
     h5py = _h5py()
-    with h5py.File(tmp, "w") as f:
+    bio = io.BytesIO()
+    with h5py.File(bio, "w") as f:
         for k, v in arrays.items():
             v = np.asarray(v)
             if v.dtype.kind == "U":  # JSON strings: UTF-8 string datasets
                 f.create_dataset(k, data=str(v), dtype=h5py.string_dtype("utf-8"))
             else:
                 f.create_dataset(k, data=v)
+    with open(tmp, "wb") as fh:
+        fh.write(bio.getbuffer())
+
+
+def _vtk_write(dataset, tmp: str, in_memory: bool = False) -> None:
+    """A pyvista dataset as binary VTK XML at ``tmp`` (``.vtp`` PolyData,
+    ``.vti`` ImageData).
+
+    VTK only prints a failed write and leaves a truncated file, or crashes
+    (a full disk part-way through a point cloud: a segmentation fault).
+    Here its messages are kept off stderr and its error code raises OSError;
+    with ``in_memory`` VTK writes a string that Python then writes, so a
+    full disk is an OSError and never reaches VTK (point clouds; volumes
+    are written by VTK directly, after :func:`rpm_cl.das.check_disk`)."""
+    from vtkmodules.vtkCommonCore import vtkObject
+    from vtkmodules.vtkCommonMisc import vtkErrorCode
+    from vtkmodules.vtkIOXML import vtkXMLImageDataWriter, vtkXMLPolyDataWriter
+
+    writer = (vtkXMLPolyDataWriter if tmp.endswith(".vtp") else vtkXMLImageDataWriter)()
+    writer.SetInputData(dataset)
+    writer.SetDataModeToBinary()
+    if in_memory:
+        writer.WriteToOutputStringOn()
+    else:
+        writer.SetFileName(tmp)
+    shown = vtkObject.GetGlobalWarningDisplay()
+    vtkObject.GlobalWarningDisplayOff()
+    try:
+        ok = writer.Write()
+    finally:
+        vtkObject.SetGlobalWarningDisplay(shown)
+    code = writer.GetErrorCode()
+    if not ok or code:
+        full = code == vtkErrorCode.OutOfDiskSpaceError
+        raise OSError(errno.ENOSPC if full else errno.EIO,
+                      "No space left on device" if full
+                      else f"VTK: {vtkErrorCode.GetStringFromErrorCode(code) or 'write failed'}")
+    if in_memory:
+        with open(tmp, "wb") as fh:
+            fh.write(writer.GetOutputString().encode("latin-1"))
 
 
 def save_data(path, data: RadarData) -> None:
@@ -608,7 +658,7 @@ def _write_vtp(tmp: str, arrays: dict) -> None:
     cloud.point_data["cluster"] = np.asarray(arrays["cluster"], np.int64)
     cloud.point_data["score"] = np.asarray(arrays["score"], np.float64)
     cloud.field_data["meta"] = [str(arrays["meta"])]
-    cloud.save(tmp, binary=True)
+    _vtk_write(cloud, tmp, in_memory=True)
 
 
 def save_result(path, result, meta: dict | None = None) -> None:
@@ -739,7 +789,7 @@ def _write_volume_vti(path, folder, grid, fill, dtype, meta):
         vol.point_data["imag"] = flat.imag.copy()
         vol.field_data["meta"] = [json.dumps(meta or {}, default=str)]
         del flat, img
-        vol.save(tmp, binary=True)
+        _vtk_write(vol, tmp)
 
     _atomic_volume(path, folder, grid, fill, dtype, write)
 
@@ -778,7 +828,7 @@ def write_volume(path, grid, fill, dtype=np.complex64, meta: dict | None = None)
         write_image(path, grid, fill, dtype, meta)
         return
     path, folder = output_path(path)
-    check_disk(path, folder, grid, dtype)
+    check_disk(path, folder, grid, dtype, 2.0 if ext in _H5_EXT else 3.0)
     if ext in _H5_EXT:
         _write_volume_h5(path, folder, grid, fill, dtype, meta)
     else:

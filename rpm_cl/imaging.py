@@ -176,8 +176,11 @@ class RPMParams:
         if self.meanshift_point not in ("argmax", "sphere", "nearest", "mode"):
             raise InputError("meanshift_point must be 'argmax', 'sphere', 'nearest' or 'mode', got "
                              f"{self.meanshift_point!r}")
-        if self.chunk_slots < 1 or self.max_cluster_rps < self.min_cluster_rps:
-            raise InputError("chunk_slots must be >= 1 and max_cluster_rps >= min_cluster_rps")
+        if self.chunk_slots < 1:
+            raise InputError(f"chunk_slots must be >= 1, got {self.chunk_slots}")
+        if self.max_cluster_rps < self.min_cluster_rps:
+            raise InputError(f"max_cluster_rps ({self.max_cluster_rps}) must be >= "
+                             f"min_cluster_rps ({self.min_cluster_rps})")
 
 
 @dataclass(frozen=True)
@@ -251,8 +254,16 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     unknown = sorted(set(ov) - top - rpm_names - ks_names)
     if unknown:
         raise InputError(f"unknown imaging parameter {unknown[0]!r}")
+    derived = {k for k in ("sigma_x", "sigma_r") if k not in ov}
     rpm_kw.update({k: v for k, v in ov.items() if k in rpm_names})
     top_kw = {k: v for k, v in ov.items() if k in top}
+    if derived:   # a value the array gave, not the user: say so
+        try:
+            RPMParams(**{k: rpm_kw[k] for k in derived})
+        except InputError as exc:
+            raise InputError(f"{exc} (derived from the array: {data.array.n} antennas over "
+                             f"{float(np.ptp(data.array.positions()[:, 0])):g} m in x; check the "
+                             f"units of x / z (m), or set sigma_x / sigma_r)") from None
     ks_kw = {k: v for k, v in ov.items() if k in ks_names}
     if "window_z" in ks_kw and not arr.planar:
         raise InputError("window_z applies to planar arrays only; this array is linear")

@@ -116,6 +116,13 @@ from .nearfield import decompose_near_field, near_field_wanted
 __all__ = ["Cluster", "Decomposition", "KSpaceParams", "decompose", "kspace_spectrum"]
 
 
+#: Largest zero-padding factor of the k-space FFT: beyond it the k samples
+#: are finer than a 64th of the aperture's resolution cell, which locates
+#: no peak better, while memory grows with it (a factor of 1e9 asked for
+#: exabytes).
+PAD_MAX = 64
+
+
 @dataclass(frozen=True)
 class KSpaceParams:
     """Settings of the decomposition.
@@ -127,7 +134,7 @@ class KSpaceParams:
     window_z : float or None
         Same along k_z for planar arrays, rad/m; None = ``window_x``.
     pad : int
-        Zero-padding factor of the FFT along each array axis (>= 1).
+        Zero-padding factor of the FFT along each array axis (1 .. PAD_MAX = 64).
     peak_threshold_db : float
         Cluster centres below this level relative to max |S| are ignored, dB (< 0).
     detect_taper : bool
@@ -192,8 +199,8 @@ class KSpaceParams:
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v > 0):
                 raise InputError(f"{name} must be > 0, got {v}")
-        if int(self.pad) != self.pad or self.pad < 1:
-            raise InputError(f"pad must be an integer >= 1, got {self.pad}")
+        if int(self.pad) != self.pad or not 1 <= self.pad <= PAD_MAX:
+            raise InputError(f"pad must be an integer from 1 to {PAD_MAX}, got {self.pad}")
         if not (np.isfinite(self.peak_threshold_db) and self.peak_threshold_db < 0):
             raise InputError(f"peak_threshold_db must be < 0, got {self.peak_threshold_db}")
         if self.noise_pfa is not None and not (0 < self.noise_pfa < 1):

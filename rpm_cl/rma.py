@@ -41,6 +41,8 @@ gain that falls with range.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from .capon import frequency_samples
@@ -158,6 +160,15 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
     y_hi = float(data.range[-1]) if y_max is None else float(y_max)
     if not (np.isfinite(y_lo) and np.isfinite(y_hi) and y_hi > y_lo):
         raise InputError(f"need y_min < y_max, got {y_lo} and {y_hi}")
+    # |y| <= R for every target: pixels beyond the range axis hold only the
+    # FFT's periodic copies of the scene (every zero_pad_r * nr * dr in y),
+    # which would read as targets
+    r_max = float(data.range[-1]) + data.dr
+    if y_lo < -r_max or y_hi > r_max:
+        raise InputError(f"the y crop {y_lo:g} .. {y_hi:g} m must lie within {-r_max:g} .. "
+                         f"{r_max:g} m (the data's range axis: no target lies farther)")
+    if data.signal.dtype != np.complex128:   # the FFTs and sums in float64 (complex64 overflows)
+        data = replace(data, signal=data.signal.astype(np.complex128))
 
     # frequency samples with the matched-filter weight (a tapered spectrum:
     # low range sidelobes), from the zero-padded FFT of the windowed profiles

@@ -79,12 +79,22 @@ def load_result(path) -> dict:
         if os.path.splitext(path)[1].lower() in (".h5", ".hdf5"):
             out, meta = _read_h5(path)
         else:
+            if os.path.isfile(path) and not zipfile.is_zipfile(path):
+                raise InputError(f"{path}: not an .npz result (not a zip archive)")
             with np.load(path, allow_pickle=False) as npz:
+                missing = [k for k in ("points", "cluster", "rp_x") if k not in npz.files]
+                if missing:
+                    hint = (f"; it holds radar data: image it first (rpm-cl image {path} -o "
+                            f"OUT.npz)" if {"signal", "spectrum"} & set(npz.files) else "")
+                    raise InputError(f"{path}: not an rpm-cl image result (no {missing[0]!r}"
+                                     f"{hint})")
                 out = {k: np.asarray(npz[k]) for k in ("points", "cluster", "rp_x")}
                 out["rp_z"] = np.asarray(npz["rp_z"]) if "rp_z" in npz.files else None
                 meta = json.loads(str(npz["meta"])) if "meta" in npz.files else {}
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
+    except InputError:
+        raise
     except KeyError as exc:
         raise InputError(f"{path}: not an rpm-cl image result (missing {exc})") from None
     except Exception as exc:  # noqa: BLE001 - any unreadable file is one line
@@ -559,9 +569,12 @@ def _block_max(img: DASImage, max_side: int):
 
 
 def _db(mag, top: float) -> np.ndarray:
-    with np.errstate(divide="ignore"):
-        return (20.0 * np.log10(np.maximum(mag, 1e-30 * max(top, 1e-300)) / max(top, 1e-300))
-                ).astype(np.float32)
+    """20 log10(mag / top), floored at -600 dB; an all-zero image (top 0, a
+    target-free input) is the floor everywhere."""
+    if not top > 0:
+        return np.full(np.shape(mag), -600.0, np.float32)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.maximum(20.0 * np.log10(np.asarray(mag) / top), -600.0).astype(np.float32)
 
 
 def _edges(ax: np.ndarray) -> tuple:
