@@ -679,6 +679,12 @@ def _apply_axes(ops, sig):
 
 #: A non-principal alias must give a coherent peak this much larger (module notes, step 4).
 ALIAS_MARGIN = 1.05
+#: Most alias directions the alignment tries per cluster (each is one
+#: shifted copy of the cluster's profiles): a pitch d gives about 4 d /
+#: lambda of them (5 for the paper's 20 mm sparse array, 513 for 0.5 m at
+#: 77 GHz; 4096 is 1.5 m there, 15 m at 20 GHz).  An array of 5 km pitch
+#: (x in mm read as m) had 667 000 and ran for five minutes.
+ALIAS_MAX = 4096
 
 
 def shift_rows(coeffs: np.ndarray, shift: np.ndarray, lo: int, hi: int) -> np.ndarray:
@@ -812,6 +818,12 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
     grids = np.meshgrid(*per_axis, indexing="ij")
     options = np.stack([g.ravel() for g in grids], axis=1)
     options = options[np.sum(options**2, axis=1) < 1.0]
+    if len(options) > ALIAS_MAX:
+        pitch = [float(np.diff(ax[:2])[0]) if ax.size > 1 else 0.0 for ax in axes_x]
+        raise InputError(f"the range-walk alignment would try {len(options)} alias directions "
+                         f"(array pitch {max(pitch):g} m, {max(pitch) / data.waveform.wavelength:.3g}"
+                         f" wavelengths; at most {ALIAS_MAX}): check the units of x / z (m), or "
+                         f"switch the alignment off (--align false)")
     if len(options) == 0:
         options = np.zeros((1, n_k))
     # the principal alias (smallest |u|) first; another must beat it clearly

@@ -204,3 +204,16 @@ def test_sigterm_cleans_up(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 143 and "terminated" in err
     assert not out.exists() and not list(tmp_path.glob(".tmp-*"))
+
+
+def test_absurd_pitch_is_refused_quickly(tmp_path, capsys, p2):
+    """x in mm read as m (5 km pitch) with sigma_x given ran 5 minutes: the
+    range-walk alignment tried 1.3 M alias directions.  Now one line naming
+    the pitch, and ``--align false`` images it."""
+    src = _edited(tmp_path, p2, "xbig.npz", x=np.load(p2)["x"] * 1e6)
+    t0 = time.perf_counter()
+    line = _one_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz"),
+                               "--sigma-x", "0.1"])
+    assert "alias directions" in line and "5000 m" in line and time.perf_counter() - t0 < 30
+    assert main(["image", str(src), "-o", str(tmp_path / "o.npz"), "--sigma-x", "0.1",
+                 "--align", "false", "-q"]) == 0
