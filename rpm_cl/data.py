@@ -46,6 +46,15 @@ __all__ = [
 C0 = 299_792_458.0
 
 
+#: Bounds of the largest signal amplitude accepted: a sum of all the samples
+#: stays within float64 (at most SUM_MAX: the FFTs and the coherent sums add
+#: up to every sample; powers are formed from amplitudes relative to the
+#: largest), and the smallest peak keeps products with weights and windows
+#: of 1e-8 normal numbers (float64's smallest normal is 2.2e-308).
+SUM_MAX = 1e307
+AMPLITUDE_MIN = 1e-300
+
+
 class InputError(ValueError):
     """Malformed input; the message names the field and the problem."""
 
@@ -299,6 +308,12 @@ class RadarData:
                                  f"this array, got {t.boundary.shape}")
             if t.rp_antenna.size and (t.rp_antenna.min() < 0 or t.rp_antenna.max() >= self.array.n):
                 raise InputError(f"truth_rp_antenna must index the {self.array.n} antennas")
+        peak = float(np.max(np.abs(s))) if s.size else 0.0
+        top = SUM_MAX / max(s.size, 1)
+        if peak > 0 and not AMPLITUDE_MIN <= peak <= top:
+            raise InputError(f"signal amplitudes up to {peak:.3g} are outside {AMPLITUDE_MIN:g} .. "
+                             f"{top:.3g} (for {s.size} samples: a sum of them all stays within "
+                             f"float64's range); scale the data")
         keep64 = s.dtype == np.complex64
         if keep64 and s.size:
             # complex64 stays complex64 unless |s|^2 would leave float32's

@@ -277,7 +277,11 @@ def _derived_sigma_r(data: RadarData, range_error: float = 0.01) -> float:
     """sigma_r = range_error * R / L (see :func:`default_params`), m."""
     pos = data.array.positions()
     aperture = float(np.max(np.ptp(pos, axis=0))) if len(pos) > 1 else 0.0
-    power = np.sum(np.abs(data.signal.reshape(-1, data.range.size)) ** 2, axis=0)
+    mag = np.abs(data.signal.reshape(-1, data.range.size))
+    top = float(mag.max()) if mag.size else 0.0
+    # relative powers: the argmax is all that counts, and squares of the
+    # data's own scale would leave float64's range beyond 1e154
+    power = np.sum((mag / top) ** 2, axis=0) if top > 0 else np.zeros(data.range.size)
     if aperture <= 0 or not np.any(power > 0):
         return SIGMA_R_DEFAULT
     r = abs(float(data.range[int(np.argmax(power))]))

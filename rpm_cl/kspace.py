@@ -425,15 +425,18 @@ def noise_floor(data: RadarData, weights: np.ndarray, pfa: float,
         The floor, in the units of |S|; 0 where the noise power is unknown,
         or for noise-free data whose echoes leave most gates empty.
     """
+    scale = 1.0   # |S| units = scale * sqrt(...): squares of the data's own scale overflow
     if noise_power is not None:
         sigma2 = float(noise_power)
     elif data.range[-1] - data.range[0] >= NOISE_ESTIMATE_CELLS * data.waveform.range_resolution:
         axes = tuple(range(data.array.dim - 1))
-        sigma2 = float(np.median(np.mean(np.abs(data.signal) ** 2, axis=axes)))
+        mag = np.abs(data.signal)
+        scale = float(mag.max()) or 1.0
+        sigma2 = float(np.median(np.mean((mag / scale) ** 2, axis=axes)))
     else:
         return 0.0
     cells = data.array.n * data.range.size
-    return float(np.sqrt(np.sum(weights**2) * sigma2 * np.log(cells / pfa)))
+    return scale * float(np.sqrt(np.sum(weights**2) * sigma2 * np.log(cells / pfa)))
 
 
 def _runs(mask: np.ndarray):
