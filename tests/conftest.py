@@ -38,3 +38,14 @@ def rng(request):
     import zlib
 
     return np.random.default_rng(zlib.crc32(request.node.nodeid.encode()))
+
+
+@pytest.fixture(scope="session")
+def p2(tmp_path_factory):
+    """The paper's 2-D scene as an input file (``rpm-cl simulate paper-2d``),
+    shared by the tests that edit a copy of it."""
+    from rpm_cl.cli import main
+
+    path = tmp_path_factory.mktemp("data") / "p2.npz"
+    assert main(["simulate", "paper-2d", "-o", str(path), "-q"]) == 0
+    return path

@@ -18,13 +18,6 @@ def _one_error(capsys, argv):
     return err[0]
 
 
-@pytest.fixture(scope="module")
-def p2(tmp_path_factory):
-    path = tmp_path_factory.mktemp("data") / "p2.npz"
-    assert main(["simulate", "paper-2d", "-o", str(path), "-q"]) == 0
-    return path
-
-
 @pytest.mark.parametrize("text, words", [
     (b"\xff\xfe[rpm]\n", "not UTF-8"),            # was UnicodeDecodeError traceback
     (b"rpm = 3\n", "must be a section [rpm]"),      # was AttributeError traceback

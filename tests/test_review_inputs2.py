@@ -12,23 +12,10 @@ import warnings
 
 import numpy as np
 import pytest
+from test_review_inputs import _one_error
 
 from rpm_cl.cli import main
 from rpm_cl.data import InputError, RadarData
-
-
-def _one_error(capsys, argv):
-    assert main(argv) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("rpm-cl: error: "), err
-    return err[0]
-
-
-@pytest.fixture(scope="module")
-def p2(tmp_path_factory):
-    path = tmp_path_factory.mktemp("data") / "p2.npz"
-    assert main(["simulate", "paper-2d", "-o", str(path), "-q"]) == 0
-    return path
 
 
 def _edited(tmp_path, p2, name, **changes):
