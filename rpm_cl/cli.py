@@ -701,9 +701,12 @@ def main(argv=None) -> int:
     argv = _bind_negative_values(list(sys.argv[1:] if argv is None else argv))
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("rpm-cl: %(message)s"))
-    old_term = None
-    if threading.current_thread() is threading.main_thread():
-        old_term = signal.signal(signal.SIGTERM, _on_sigterm)
+    # only where SIGTERM would kill us anyway (not when a supervisor set it
+    # to be ignored, nor over a handler of the embedding program)
+    term = (threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
+    if term:
+        signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         args = build_parser().parse_args(argv)
         log.addHandler(handler)
@@ -746,8 +749,8 @@ def main(argv=None) -> int:
         return 143
     finally:
         log.removeHandler(handler)
-        if old_term is not None:
-            signal.signal(signal.SIGTERM, old_term)
+        if term:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 if __name__ == "__main__":  # pragma: no cover

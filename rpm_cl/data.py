@@ -22,7 +22,9 @@ Input contract (``.npz``)
 
 from __future__ import annotations
 
+import decimal
 import json
+import numbers
 import os
 import tempfile
 from dataclasses import dataclass, field
@@ -67,8 +69,8 @@ def _real_kind(a) -> bool:
 
 
 def _finite_scalar(name: str, value, positive: bool = True) -> float:
-    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
-        arr = np.asarray(value)
+    if isinstance(value, (numbers.Real, decimal.Decimal)) and not isinstance(value, (bool, np.bool_)):
+        arr = np.asarray(float(value))   # int, float, numpy scalars, Fraction, Decimal
     else:
         arr = np.asarray(value)
         if not _real_kind(arr):

@@ -199,7 +199,11 @@ class KSpaceParams:
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v > 0):
                 raise InputError(f"{name} must be > 0, got {v}")
-        if int(self.pad) != self.pad or not 1 <= self.pad <= PAD_MAX:
+        try:
+            pad_ok = 1 <= float(self.pad) <= PAD_MAX and int(self.pad) == self.pad
+        except (TypeError, ValueError, OverflowError):   # NaN passes the first test
+            pad_ok = False
+        if not pad_ok:
             raise InputError(f"pad must be an integer from 1 to {PAD_MAX}, got {self.pad}")
         if not (np.isfinite(self.peak_threshold_db) and self.peak_threshold_db < 0):
             raise InputError(f"peak_threshold_db must be < 0, got {self.peak_threshold_db}")
@@ -684,10 +688,14 @@ def _apply_axes(ops, sig):
 ALIAS_MARGIN = 1.05
 #: Most alias directions the alignment tries per cluster (each is one
 #: shifted copy of the cluster's profiles): a pitch d gives about 4 d /
-#: lambda of them (5 for the paper's 20 mm sparse array, 513 for 0.5 m at
-#: 77 GHz; 4096 is 1.5 m there, 15 m at 20 GHz).  An array of 5 km pitch
-#: (x in mm read as m) had 667 000 and ran for five minutes.
-ALIAS_MAX = 4096
+#: lambda of them per array axis (5 for the paper's 20 mm sparse array,
+#: 513 for 0.5 m at 77 GHz; ALIAS_MAX_AXIS is 1.5 m there, 15 m at 20
+#: GHz), a planar array the product over its two axes within |u| < 1
+#: (8949 for the human body's array at 0.4 m pitch, 11 s; ALIAS_MAX is a
+#: pitch of about 1.3 m at 20 GHz, a minute a cluster).  An array of 5 km
+#: pitch (x in mm read as m) had 1.3 million and ran for five minutes.
+ALIAS_MAX_AXIS = 4096
+ALIAS_MAX = 100_000
 
 
 def shift_rows(coeffs: np.ndarray, shift: np.ndarray, lo: int, hi: int) -> np.ndarray:
@@ -821,11 +829,12 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
     grids = np.meshgrid(*per_axis, indexing="ij")
     options = np.stack([g.ravel() for g in grids], axis=1)
     options = options[np.sum(options**2, axis=1) < 1.0]
-    if len(options) > ALIAS_MAX:
+    if len(options) > ALIAS_MAX or max(len(c) for c in per_axis) > ALIAS_MAX_AXIS:
         pitch = [float(np.diff(ax[:2])[0]) if ax.size > 1 else 0.0 for ax in axes_x]
         raise InputError(f"the range-walk alignment would try {len(options)} alias directions "
                          f"(array pitch {max(pitch):g} m, {max(pitch) / data.waveform.wavelength:.3g}"
-                         f" wavelengths; at most {ALIAS_MAX}): check the units of x / z (m), or "
+                         f" wavelengths; at most {ALIAS_MAX_AXIS} per axis and {ALIAS_MAX} in "
+                         f"all): check the units of x / z (m), or "
                          f"switch the alignment off (--align false)")
     if len(options) == 0:
         options = np.zeros((1, n_k))

@@ -41,8 +41,6 @@ gain that falls with range.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from .capon import frequency_samples
@@ -167,8 +165,6 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
     if y_lo < -r_max or y_hi > r_max:
         raise InputError(f"the y crop {y_lo:g} .. {y_hi:g} m must lie within {-r_max:g} .. "
                          f"{r_max:g} m (the data's range axis: no target lies farther)")
-    if data.signal.dtype != np.complex128:   # the FFTs and sums in float64 (complex64 overflows)
-        data = replace(data, signal=data.signal.astype(np.complex128))
 
     # frequency samples with the matched-filter weight (a tapered spectrum:
     # low range sidelobes), from the zero-padded FFT of the windowed profiles

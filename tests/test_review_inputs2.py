@@ -15,7 +15,7 @@ import pytest
 from test_review_inputs import _one_error
 
 from rpm_cl.cli import main
-from rpm_cl.data import InputError, RadarData
+from rpm_cl.data import InputError, RadarData, Waveform
 
 
 def _edited(tmp_path, p2, name, **changes):
@@ -76,7 +76,7 @@ def test_complex64_extreme_amplitudes_match_complex128(p2):
 def test_das_float32_range_and_rma_complex64(tmp_path, capsys, p2):
     """A float32 DAS image of amplitudes 1e40 was all NaN (1e-50: all zero),
     exit 0; now refused, pointing to float64.  RMA of complex64 data at 1e37
-    was all non-finite: it now works in complex128."""
+    was all non-finite: such data are now held as complex128 (RadarData)."""
     d = dict(np.load(p2))
     for scale in (1e40, 1e-50):
         src = _edited(tmp_path, p2, "s.npz", signal=d["signal"] * scale)
@@ -175,20 +175,26 @@ def test_sigterm_cleans_up(tmp_path):
     """SIGTERM during a DAS run left a 255 MB .tmp-*.npy and an empty
     .tmp-*.npz behind (SIGINT did not): it now cleans up like Ctrl-C and
     exits 143."""
-    exe = os.path.join(os.path.dirname(sys.executable), "rpm-cl")
     src = tmp_path / "p.npz"
     assert main(["simulate", "paper-2d", "-o", str(src), "-q"]) == 0
     out = tmp_path / "o.npz"
-    proc = subprocess.Popen([exe, "das", str(src), "-o", str(out),
+    proc = subprocess.Popen([sys.executable, "-m", "rpm_cl.cli", "das", str(src), "-o", str(out),
                              "--grid=-2:2:0.001,0.01:4:0.001", "--backend", "numpy"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             env={**os.environ, "POCL_MAX_PTHREAD_COUNT": "1"})
-    deadline = time.time() + 60
-    while time.time() < deadline and not list(tmp_path.glob(".tmp-*")):
-        time.sleep(0.05)
-    assert list(tmp_path.glob(".tmp-*")), "the run never started writing"
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
+    try:
+        deadline = time.time() + 60
+        while (time.time() < deadline and proc.poll() is None
+               and not list(tmp_path.glob(".tmp-*"))):
+            time.sleep(0.05)
+        assert proc.poll() is None and list(tmp_path.glob(".tmp-*")), \
+            f"the run ended or never started writing: {proc.poll()}"
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
     assert proc.returncode == 143 and "terminated" in err
     assert not out.exists() and not list(tmp_path.glob(".tmp-*"))
 
@@ -226,3 +232,17 @@ def test_extreme_amplitudes_image_or_are_refused(tmp_path, capsys, p2):
         src = _edited(tmp_path, p2, "s.npz", signal=d["signal"] * scale)
         line = _one_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz")])
         assert "a sum of them all stays within float64's range" in line
+
+
+def test_numbers_and_pad_edge_values():
+    """A Fraction or Decimal fc (numbers.Real) is a number; pad = inf was an
+    OverflowError from int()."""
+    from decimal import Decimal
+    from fractions import Fraction
+
+    from rpm_cl.kspace import KSpaceParams
+
+    assert Waveform(Fraction(20_000_000_000), Decimal("2e8")).fc == 20e9
+    for pad in (float("inf"), float("nan"), 65, 0, 2.5):
+        with pytest.raises(InputError, match="pad must be an integer from 1 to 64"):
+            KSpaceParams(pad=pad)
