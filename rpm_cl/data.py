@@ -316,12 +316,9 @@ class RadarData:
             raise InputError(f"signal amplitudes up to {peak:.3g} are outside {AMPLITUDE_MIN:g} .. "
                              f"{top:.3g} (for {s.size} samples: a sum of them all stays within "
                              f"float64's range); scale the data")
-        keep64 = s.dtype == np.complex64
-        if keep64 and s.size:
-            # complex64 stays complex64 unless |s|^2 would leave float32's
-            # range (1.2e-38 .. 3.4e38) on the way: then complex128, exactly
-            peak = float(np.max(np.abs(s)))
-            keep64 = peak == 0 or 1e-15 <= peak <= 1e15
+        # complex64 stays complex64 unless |s|^2 would leave float32's range
+        # (1.2e-38 .. 3.4e38) on the way: then complex128, exactly
+        keep64 = s.dtype == np.complex64 and (peak == 0 or 1e-15 <= peak <= 1e15)
         s = s.astype(np.complex64 if keep64 else np.complex128, copy=False)
         object.__setattr__(self, "signal", s)
         object.__setattr__(self, "range", rng)
