@@ -270,11 +270,16 @@ class Decomposition:
         module notes, step 2), that of the dechirped data.
     clusters : tuple of Cluster
         Strongest first.
+    near_field : bool
+        The clusters are the near-field decomposition's
+        (:mod:`rpm_cl.nearfield`): fitted spherical waves, whose phase is the
+        model's rather than measured.
     """
 
     k_axes: tuple
     magnitude: np.ndarray
     clusters: tuple
+    near_field: bool = False
 
 
 def _taper(shape: tuple) -> np.ndarray:

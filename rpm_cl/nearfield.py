@@ -1045,4 +1045,4 @@ def _decompose_near_field(data, params, spectrum, env):
         clusters.append(Cluster(np.array([2 * k0 * u]), float(r), slice(lo, hi), s_m[:, lo:hi],
                                 peaks[m], np.zeros(n), np.zeros(1)))
     order = np.argsort([-c.peak for c in clusters], kind="stable")
-    return Decomposition(k_axes, mag, tuple(clusters[i] for i in order))
+    return Decomposition(k_axes, mag, tuple(clusters[i] for i in order), near_field=True)

@@ -2,7 +2,10 @@
 
 Each RP is a local maximum of the envelope along R at one antenna, refined to
 sub-sample precision by a parabola through the three samples around it; its
-amplitude is the parabola's peak value.  RPs carry the cluster they came from.
+amplitude is the parabola's peak value.  RPs carry the cluster they came from
+and, from a decomposition, the complex sample of their decomposed signal at
+the refined peak: its phase is the echo's carrier phase ``-2 k_c R_t``
+(:mod:`rpm_cl.phase` uses it).
 """
 
 from __future__ import annotations
@@ -35,6 +38,12 @@ class RangePoints:
         |s| at the refined peak.
     cluster : ndarray of int, shape (K,)
         Cluster index, non-decreasing.
+    sample : ndarray, complex, shape (K,), or None
+        The decomposed signal at the refined peak (linear interpolation
+        between its two range gates, any focusing phase of the
+        decomposition put back), so that its phase is the echo's carrier
+        phase ``-2 k_c R_t`` up to the scatterer's own constant; None where
+        the RPs carry no phase (matched filter, Capon).
     """
 
     antenna: np.ndarray
@@ -43,6 +52,7 @@ class RangePoints:
     range: np.ndarray
     amp: np.ndarray
     cluster: np.ndarray
+    sample: np.ndarray | None = None
 
     def __post_init__(self):
         n = np.size(self.range)
@@ -52,6 +62,8 @@ class RangePoints:
                                  f"range has {n}")
         if self.z is not None and np.size(self.z) != n:
             raise InputError("RangePoints.z length differs from range")
+        if self.sample is not None and np.size(self.sample) != n:
+            raise InputError("RangePoints.sample length differs from range")
         if n and np.any(np.diff(self.cluster) < 0):
             raise InputError("RangePoints must be sorted by cluster")
 
@@ -106,16 +118,40 @@ def profile_peaks(env: np.ndarray, rel_threshold: float):
     return row, col + 1 + delta, value
 
 
-def _make(data: RadarData, flat_ant, r, amp, cluster) -> RangePoints:
+def _make(data: RadarData, flat_ant, r, amp, cluster, sample=None) -> RangePoints:
     arr = data.array
     order = np.argsort(cluster, kind="stable")
     flat_ant, r, amp, cluster = flat_ant[order], r[order], amp[order], cluster[order]
+    sample = None if sample is None else sample[order]
     if arr.planar:
         ix, iz = np.unravel_index(flat_ant, arr.shape)
         x, z = arr.x[ix], arr.z[iz]
     else:
         x, z = arr.x[flat_ant], None
-    return RangePoints(flat_ant.astype(np.int64), x, z, r, amp, cluster.astype(np.int64))
+    return RangePoints(flat_ant.astype(np.int64), x, z, r, amp, cluster.astype(np.int64), sample)
+
+
+def _carrier(data: RadarData, c, row, pos) -> np.ndarray:
+    """The decomposed signal of cluster ``c`` at fractional gates ``pos`` of
+    its flattened antennas ``row``, with the focusing phase
+    ``exp(2j k_c q(X))`` of the decomposition (:mod:`rpm_cl.kspace`, step 5)
+    taken off again, so that its phase is the echo's ``-2 k_c R_t``.
+
+    The profiles' phase is constant near a peak (a real envelope around the
+    carrier), so linear interpolation between the two gates keeps it.
+    """
+    sig = c.signal.reshape(-1, c.signal.shape[-1])
+    g0 = np.clip(np.floor(pos).astype(np.int64), 0, max(0, sig.shape[1] - 2))
+    t = np.clip(pos - g0, 0.0, 1.0)
+    g1 = np.minimum(g0 + 1, sig.shape[1] - 1)
+    z = (1.0 - t) * sig[row, g0] + t * sig[row, g1]
+    if c.focus is not None:
+        from .kspace import _array_axes, _centred_grids
+
+        grids = _centred_grids(_array_axes(data.array))
+        q = np.ravel(c.offset - sum(c.direction[a] * grids[a] for a in range(len(grids))))
+        z = z * np.exp(-2j * data.waveform.kc * q[row])
+    return z
 
 
 def rps_from_decomposition(data: RadarData, dec: Decomposition,
@@ -130,7 +166,7 @@ def rps_from_decomposition(data: RadarData, dec: Decomposition,
         Peaks below this level relative to the cluster's maximum are dropped, dB.
     """
     rel = 10.0 ** (rp_threshold_db / 20.0)
-    ants, rs, amps, cl = [], [], [], []
+    ants, rs, amps, cl, zs = [], [], [], [], []
     for m, c in enumerate(dec.clusters):
         env = np.abs(c.signal).reshape(-1, c.signal.shape[-1])
         row, pos, val = profile_peaks(env, rel)
@@ -138,11 +174,12 @@ def rps_from_decomposition(data: RadarData, dec: Decomposition,
         rs.append(data.range[c.r_slice.start] + pos * data.dr + np.ravel(c.offset)[row])
         amps.append(val)
         cl.append(np.full(row.size, m))
+        zs.append(_carrier(data, c, row, pos))
     if not ants:
         z = np.zeros(0)
-        return _make(data, z.astype(int), z, z, z.astype(int))
+        return _make(data, z.astype(int), z, z, z.astype(int), z.astype(complex))
     return _make(data, np.concatenate(ants), np.concatenate(rs), np.concatenate(amps),
-                 np.concatenate(cl))
+                 np.concatenate(cl), np.concatenate(zs))
 
 
 def rps_from_profiles(data: RadarData, rp_threshold_db: float) -> RangePoints:
