@@ -75,8 +75,9 @@ class BatchConfig:
 
     Attributes
     ----------
-    method : str
-        A key of :data:`rpm_cl.imaging.METHODS`.
+    method : str or None
+        A key of :data:`rpm_cl.imaging.METHODS`; None:
+        :data:`rpm_cl.imaging.DEFAULT_METHOD`.
     overrides : tuple of ((section, name), value)
         Imaging parameters given explicitly (``--config`` and flags, as
         :func:`rpm_cl.config.resolve` takes them, e.g.
@@ -99,7 +100,7 @@ class BatchConfig:
         dropped if the kernel wins).
     """
 
-    method: str = "kspace-rpm"
+    method: str | None = None
     overrides: tuple = ()
     device: str | None = None
     precision: str = "float32"
@@ -108,9 +109,11 @@ class BatchConfig:
     das_reuse: str = "auto"
 
     def __post_init__(self):
-        from .imaging import METHODS, ImagingParams, RPMParams
+        from .imaging import DEFAULT_METHOD, METHODS, ImagingParams, RPMParams
         from .kspace import KSpaceParams
 
+        if self.method is None:
+            object.__setattr__(self, "method", DEFAULT_METHOD)
         if self.method not in METHODS:
             raise InputError(f"unknown method {self.method!r}; choose from {', '.join(METHODS)}")
         # the overrides checked once here (as each frame would), not once per frame

@@ -505,7 +505,7 @@ def cmd_batch(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from .bench import SCENES
     from .formats import RANGE_WINDOWS
-    from .imaging import METHODS
+    from .imaging import DEFAULT_METHOD, METHODS
     from .reproduce import CASES
     from .scene import PRESETS
 
@@ -544,7 +544,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "-o .npz, .h5, .ply or .vtp")
     sp.add_argument("input")
     sp.add_argument("-o", "--output", required=True)
-    sp.add_argument("--method", choices=sorted(METHODS), default="kspace-rpm")
+    sp.add_argument("--method", choices=sorted(METHODS), default=DEFAULT_METHOD,
+                    help=f"imaging method (default {DEFAULT_METHOD}; kspace-rpm is the paper's)")
     input_opts(sp)
     device_opts(sp)
     param_opts(sp)
@@ -650,7 +651,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "Dask LocalCluster (default 1)")
     sp.add_argument("--scheduler", help="address of an existing Dask scheduler "
                     "(tcp://host:port) instead of the embedded cluster")
-    sp.add_argument("--method", choices=sorted(METHODS), default="kspace-rpm")
+    sp.add_argument("--method", choices=sorted(METHODS), default=DEFAULT_METHOD,
+                    help=f"imaging method (default {DEFAULT_METHOD}; kspace-rpm is the paper's)")
     sp.add_argument("--das-grid", help="also write a DAS image per frame on this grid "
                     "(as `das --grid`)")
     sp.add_argument("--memory-budget", type=_budget_gb, default=2.0,

@@ -37,6 +37,7 @@ WINDOW_PLANAR_DEFAULT = 60.0
 RP_THRESHOLD_DB_DEFAULT = -10.0
 
 __all__ = [
+    "DEFAULT_METHOD",
     "METHODS",
     "Image",
     "ImageResult",
@@ -579,6 +580,12 @@ def _capon_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
 #: Imaging methods by name.
 METHODS = {"kspace-rpm": _kspace_rpm, "phase-rpm": _phase_rpm, "mf-rpm": _mf_rpm,
            "capon-rpm": _capon_rpm}
+
+
+#: The method ``rpm-cl image`` and ``batch`` run unless told otherwise: the
+#: most accurate on the robustness benchmark (``python
+#: benchmarks/robustness.py``) at about the paper's method's cost.
+DEFAULT_METHOD = "phase-rpm"
 
 
 def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> ImageResult:

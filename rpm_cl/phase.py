@@ -262,7 +262,7 @@ def _absolute(grid, psi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
     range walk, the alias of ``kvec`` that fits the envelope ranges best, and
     the constant from the envelope ranges, m."""
     pos = grid * np.asarray(steps)[None, :]
-    w = amp * amp
+    w = (amp / amp.max()) ** 2   # relative: the data's own scale may square beyond float64
     w = w / w.sum()
     best = None
     span = [np.arange(-1, 2) if np.ptp(grid[:, a]) > 0 else np.zeros(1, int) for a in range(2)]

@@ -12,7 +12,7 @@ import pytest
 
 from rpm_cl.cli import main
 from rpm_cl.data import InputError, load_npz, save_npz
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import DEFAULT_METHOD, default_params, run_method
 from rpm_cl.simulate import simulate_preset
 
 SEEDS = (11, 12, 13)
@@ -74,13 +74,13 @@ def test_cli_batch_equals_single_runs_and_reports_corrupt_frame(frames_dir, tmp_
     assert not (out / "broken.npz").exists()
     for seed in SEEDS:
         data = load_npz(inp / f"scan{seed}.npz")
-        want = run_method("kspace-rpm", data, default_params(data), dev32)
+        want = run_method(DEFAULT_METHOD, data, default_params(data), dev32)
         with np.load(out / f"scan{seed}.npz") as got:
             # same kernels, same device, same inputs: the same image
             np.testing.assert_allclose(got["points"], want.image.points, rtol=0, atol=1e-9)
             np.testing.assert_array_equal(got["rp_range"], want.rps.range)
             meta = json.loads(str(got["meta"]))
-            assert meta["method"] == "kspace-rpm" and meta["input"].endswith(f"scan{seed}.npz")
+            assert meta["method"] == DEFAULT_METHOD and meta["input"].endswith(f"scan{seed}.npz")
             pts = got["points"]
         # and the image is where the targets are: most points within 50 mm of one
         d = np.min(np.linalg.norm(pts[:, None, :] - TARGETS[None], axis=2), axis=1)
@@ -236,7 +236,7 @@ def test_hdf5_stack_frames(tmp_path, dev32):
     s = run_batch(inp, tmp_path / "out")
     assert (s.done, s.failed) == (4, [])
     for i, d in enumerate(frames):
-        want = run_method("kspace-rpm", d, default_params(d), dev32).image.points
+        want = run_method(DEFAULT_METHOD, d, default_params(d), dev32).image.points
         got = np.load(tmp_path / "out" / f"stack_f{i:04d}.npz")["points"]
         np.testing.assert_allclose(got, want, atol=1e-9)
     (inp / "single.npz").write_bytes(b"")  # single.npz and single.h5: one output name

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
+from rpm_cl.imaging import DEFAULT_METHOD
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +36,7 @@ def test_simulate_then_image_round_trip(sim_file, tmp_path, capsys):
             assert key in f.files
         assert f["cluster"].shape == (len(pts),)
         meta = json.loads(str(f["meta"]))
-        assert meta["method"] == "kspace-rpm" and "total" in meta["timings"]
+        assert meta["method"] == DEFAULT_METHOD and "total" in meta["timings"]
         assert np.all(pts[:, 1] > 0)
     assert main(["image", str(sim_file), "-o", str(out), "--method", "mf-rpm"]) == 0
 

@@ -22,7 +22,7 @@ from rpm_cl.formats import (
     save_result,
     write_volume,
 )
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import DEFAULT_METHOD, default_params, run_method
 from rpm_cl.rangepoints import RangePoints, profile_peaks
 from rpm_cl.rpm import reference
 from rpm_cl.scene import get_preset
@@ -293,7 +293,7 @@ def test_image_of_frequency_domain_paper_2d(tmp_path, capsys):
     with h5py.File(tmp_path / "img.h5") as g:
         pts = g["points"][()]
         meta = json.loads(g["meta"][()])
-    assert meta["range_window"] == "hann" and meta["method"] == "kspace-rpm"
+    assert meta["range_window"] == "hann" and meta["method"] == DEFAULT_METHOD
     targets = np.array([t.position for t in preset.scene.targets])
     d = np.linalg.norm(pts[:, None, :] - targets[None], axis=2)
     assert len(pts) >= 40
