@@ -71,6 +71,9 @@ class EngineParams:
 _EXTRA_DOCS = {
     "rp_threshold_db": "RPs below this level relative to their cluster's maximum are "
                        "dropped, dB (< 0).",
+    "multipath": "phase-rpm: points of clusters that a double bounce between two other "
+                 "objects explains (rpm_cl.multipath) are dropped ('drop'), or kept with a "
+                 "'multipath' column in the result ('flag').",
 }
 
 

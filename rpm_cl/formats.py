@@ -612,6 +612,8 @@ def result_arrays(result, meta: dict | None = None) -> dict:
            "rp_cluster": rps.cluster, "rp_antenna": rps.antenna}
     if rps.z is not None:
         out["rp_z"] = rps.z
+    if img.multipath is not None:
+        out["multipath"] = img.multipath
     info = {"method": result.method, "timings": result.timings, **(meta or {})}
     out["meta"] = np.array(json.dumps(info, default=str))
     return out

@@ -193,10 +193,13 @@ class ImagingParams:
     kspace: KSpaceParams = field(default_factory=KSpaceParams)
     rpm: RPMParams = field(default_factory=RPMParams)
     rp_threshold_db: float = RP_THRESHOLD_DB_DEFAULT
+    multipath: Literal["drop", "flag"] = "drop"
 
     def __post_init__(self):
         if not (np.isfinite(self.rp_threshold_db) and self.rp_threshold_db < 0):
             raise InputError(f"rp_threshold_db must be < 0, got {self.rp_threshold_db}")
+        if self.multipath not in ("drop", "flag"):
+            raise InputError(f"multipath must be 'drop' or 'flag', got {self.multipath!r}")
 
 
 def default_params(data: RadarData, **overrides) -> ImagingParams:
@@ -304,12 +307,18 @@ class Image:
         The maximised kernel-density value (eq. 6).
     rp_index : ndarray of int, shape (M,)
         Index of the main RP in the RangePoints.
+    multipath : ndarray of bool, shape (M,), or None
+        Points of clusters that a double bounce between two other objects
+        explains (:mod:`rpm_cl.multipath`), kept because
+        ``ImagingParams.multipath`` is "flag"; None where not assessed or
+        such points were dropped.
     """
 
     points: np.ndarray
     cluster: np.ndarray
     score: np.ndarray
     rp_index: np.ndarray
+    multipath: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -550,9 +559,26 @@ def _phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     t2 = time.perf_counter()
     image = rpm_image(rps, params.rpm, engine)
     t3 = time.perf_counter()
+    image = _multipath(data, rps, image, params.multipath)
+    t4 = time.perf_counter()
     return ImageResult("phase-rpm", rps, image,
                        {"decompose": t1 - t0, "range_points": t2 - t1, "rpm": t3 - t2,
-                        "total": t3 - t0})
+                        "multipath": t4 - t3, "total": t4 - t0})
+
+
+def _multipath(data: RadarData, rps: RangePoints, image: Image, mode: str) -> Image:
+    """The image without (``"drop"``) or with flags on (``"flag"``) the
+    points of double-bounce clusters (:mod:`rpm_cl.multipath`)."""
+    from dataclasses import replace
+
+    from .multipath import flag_multipath
+
+    flags = flag_multipath(data.array.positions(), rps, image)
+    if mode == "flag":
+        return replace(image, multipath=flags)
+    keep = ~flags
+    return Image(image.points[keep], image.cluster[keep], image.score[keep],
+                 image.rp_index[keep])
 
 
 def _mf_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:

@@ -1,0 +1,114 @@
+"""Double-bounce echoes (rpm_cl.multipath): predicted ranges and ghost points
+against their formulas, and phase-rpm on data with a double bounce
+synthesised here (rpm_cl.simulate makes none)."""
+
+import numpy as np
+import pytest
+
+from rpm_cl import imaging
+from rpm_cl.data import C0, Array, RadarData, Waveform
+from rpm_cl.formats import range_compress
+from rpm_cl.multipath import double_bounce, ghost_points
+
+
+def test_double_bounce_is_the_shortest_path():
+    rng = np.random.default_rng(11)
+    ant = np.column_stack([rng.uniform(-0.1, 0.1, 7), np.zeros(7), rng.uniform(-0.1, 0.1, 7)])
+    a = rng.normal([0.1, 0.5, 0.0], 0.02, (5, 3))
+    b = rng.normal([-0.1, 0.6, 0.05], 0.02, (4, 3))
+    want = np.array([min(np.linalg.norm(x - p) + np.linalg.norm(p - q) + np.linalg.norm(q - x)
+                         for p in a for q in b) / 2 for x in ant])
+    np.testing.assert_allclose(double_bounce(ant, a, b), want, rtol=0, atol=1e-12)
+
+
+def test_ghost_points_of_two_points_are_their_envelope():
+    """For point legs A, B the ghost range is R(X) = (|X-A| + |AB| + |X-B|)/2
+    with dR/dX the mean of the two direction cosines; the ghost point is
+    X + R (-dR/dX, sqrt(1 - (dR/dX)^2))."""
+    x = np.linspace(-0.06, 0.06, 13)
+    ant = np.column_stack([x, 0 * x, 0 * x])
+    a, b = np.array([[-0.1, 0.4, 0.0]]), np.array([[0.12, 0.38, 0.0]])
+    ra, rb = np.hypot(x - a[0, 0], a[0, 1]), np.hypot(x - b[0, 0], b[0, 1])
+    r = 0.5 * (ra + rb + np.linalg.norm(a - b))
+    slope = 0.5 * ((x - a[0, 0]) / ra + (x - b[0, 0]) / rb)
+    want = np.column_stack([x - r * slope, r * np.sqrt(1 - slope**2), 0 * x])
+    np.testing.assert_allclose(ghost_points(ant, a, b), want, atol=1e-7)
+
+
+def _two_targets_and_ghost(seed, snr_db, ghost=0.3):
+    """Two point targets and their double bounce (both paths, each ``ghost``
+    of a target's amplitude), 0.25 GHz at 22 GHz, 31 antennas at 4 mm, noise in
+    the frequency samples (S/N as the peak compressed power over the mean
+    compressed noise power)."""
+    r = np.random.default_rng(seed)
+    x = (np.arange(31) - 15) * 4e-3
+    a = np.array([r.uniform(-0.15, -0.05), r.uniform(0.35, 0.45)])
+    b = np.array([r.uniform(0.05, 0.15), r.uniform(0.35, 0.45)])
+    fc, band, nf = 22e9, 0.25e9, 64
+    f = fc - band / 2 + np.arange(nf) * band / (nf - 1)
+    ra, rb = np.hypot(x - a[0], a[1]), np.hypot(x - b[0], b[1])
+    rab = 0.5 * (ra + rb + np.linalg.norm(a - b))
+    y = sum(g * np.exp(-4j * np.pi * f * rr[:, None] / C0) / rr[:, None]
+            for g, rr in ((1.0, ra), (1.0, rb), (2 * ghost, rab)))
+    if snr_db is not None:
+        peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
+        s2 = peak / 10 ** (snr_db / 10) * nf
+        g = np.random.default_rng(seed + 99)
+        y = y + np.sqrt(s2 / 2) * (g.standard_normal(y.shape) + 1j * g.standard_normal(y.shape))
+    s, rng_axis = range_compress(y, f, fc, "hann")
+    keep = rng_axis < 2.0
+    ghost_at = ghost_points(np.column_stack([x, 0 * x, 0 * x]), np.array([[*a, 0.0]]),
+                            np.array([[*b, 0.0]]))[:, :2]
+    return RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(fc, band / 2)), a, b, ghost_at
+
+
+@pytest.mark.parametrize("seed,snr", [(2, None), (3, None), (4, 30.0), (2, 20.0), (3, 20.0)])
+def test_double_bounce_is_dropped_by_default_and_flagged_on_request(dev32, seed, snr):
+    data, a, b, ghost_at = _two_targets_and_ghost(seed, snr)
+    flagged = imaging.run_method("phase-rpm", data, imaging.default_params(data, multipath="flag"),
+                                 dev32).image
+    near_t = np.minimum(np.linalg.norm(flagged.points - a, axis=1),
+                        np.linalg.norm(flagged.points - b, axis=1)) < 0.05
+    near_g = np.min(np.linalg.norm(flagged.points[:, None] - ghost_at[None], axis=2), axis=1) < 0.1
+    # the ghost is imaged (that is what the test is about) and every point of
+    # it, and none of the targets', is flagged
+    assert np.count_nonzero(near_g & ~near_t) >= 10
+    assert np.all(flagged.multipath[near_g & ~near_t])
+    assert not np.any(flagged.multipath[near_t])
+    dropped = imaging.run_method("phase-rpm", data, imaging.default_params(data), dev32).image
+    assert dropped.multipath is None
+    assert len(dropped.points) == np.count_nonzero(~flagged.multipath)
+    d = np.minimum(np.linalg.norm(dropped.points - a, axis=1),
+                   np.linalg.norm(dropped.points - b, axis=1))
+    assert np.all(d < 0.05)
+
+
+def test_real_targets_are_not_flagged(dev32):
+    """Three or four point targets spread over +-35 degrees (the narrow-band
+    scenes of tests/test_phase.py): no echo is a double bounce, none is
+    flagged."""
+    from test_phase import _independent_scene
+
+    for seed in range(4):
+        data, _ = _independent_scene(seed, 30.0)
+        img = imaging.run_method("phase-rpm", data,
+                                 imaging.default_params(data, multipath="flag"), dev32).image
+        assert not img.multipath.any()
+
+
+def test_cli_writes_the_flag_column(tmp_path):
+    from rpm_cl.cli import main
+    from rpm_cl.formats import save_data
+
+    data, *_ = _two_targets_and_ghost(3, None)
+    src = tmp_path / "in.npz"
+    save_data(src, data)
+    out = tmp_path / "out.npz"
+    assert main(["image", str(src), "-o", str(out), "-q", "--multipath", "flag"]) == 0
+    with np.load(out) as f:
+        assert f["multipath"].shape == f["cluster"].shape and f["multipath"].any()
+        n_flag = len(f["points"])
+        n_ghost = int(f["multipath"].sum())
+    assert main(["image", str(src), "-o", str(out), "-q"]) == 0
+    with np.load(out) as f:
+        assert "multipath" not in f.files and len(f["points"]) == n_flag - n_ghost
