@@ -461,6 +461,12 @@ def cmd_bench(args) -> int:
         from .das import DeviceDAS
 
         das = DeviceDAS(env, args.precision)
+    if args.robustness:
+        from .robustness import GEOMETRIES_2D, GEOMETRY_3D, SNRS, run, table
+
+        geos = GEOMETRIES_2D if args.robustness == "quick" else (*GEOMETRIES_2D, GEOMETRY_3D)
+        print(table(run(engine, das, geos, SNRS, (0,))))
+        return 0
     print(run_bench(engine, env, repeats=args.repeats, scenes=args.scene, das=das,
                     volume=args.das_volume, bar=None))
     return 0
@@ -640,6 +646,10 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--no-das", action="store_true", help="leave out the DAS rows")
     sp.add_argument("--das-volume", action="store_true",
                     help="add the human body's full 2 m x 2 m x 2 m DAS volume at 3 mm (minutes)")
+    sp.add_argument("--robustness", nargs="?", const="full", choices=("full", "quick"),
+                    help="instead: accuracy of every method against in-band S/N on "
+                    "independently synthesised scenes (rpm_cl.robustness; 'quick': the 2-D "
+                    "scenes only; benchmarks/robustness.py pools several noise seeds)")
     device_opts(sp)
     sp.set_defaults(func=cmd_bench)
 
