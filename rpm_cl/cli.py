@@ -282,7 +282,7 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from .imaging import timed_run
+    from .imaging import DEFAULT_METHOD, timed_run
     from .metrics import summary
     from .simulate import simulate_preset
 
@@ -292,18 +292,19 @@ def cmd_demo(args) -> int:
     params = _params(args, data, preset.defaults)
     print("\npaper-2d: 3 point targets within 80 mm of range (0.1 of the 750 mm range "
           "resolution), 21 antennas at 5 mm, noise-free")
-    for method in ("kspace-rpm", "mf-rpm"):
+    for method in dict.fromkeys((DEFAULT_METHOD, "kspace-rpm", "mf-rpm")):
         r, sec, _ = timed_run(method, data, params, engine)
         print(f"  {method:10s}: {len(r.rps):3d} RPs -> {len(r.image.points):3d} points in "
               f"{1e3 * sec:6.2f} ms | {_accuracy_line(summary(r.rps, r.image, data.truth))}")
 
     data, preset = simulate_preset("human-body", args.snr, seed=args.seed, progress=None)
     params = _params(args, data, preset.defaults)
-    res, sec, stages = timed_run("kspace-rpm", data, params, engine)
+    res, sec, stages = timed_run(DEFAULT_METHOD, data, params, engine)
     label = "noise-free" if args.snr is None else f"S/N {args.snr:g} dB"
     print(f"\nhuman-body: 11 ellipsoids about 1 m away, 20 GHz / 3 GHz, 11 x 17 antennas "
           f"at 7.5 mm, {label}")
-    print(f"  kspace-rpm: {len(res.rps)} RPs in {len(set(res.rps.cluster.tolist()))} clusters "
+    n_clusters = len(set(res.rps.cluster.tolist()))
+    print(f"  {DEFAULT_METHOD}: {len(res.rps)} RPs in {n_clusters} clusters "
           f"-> {len(res.image.points)} points in {1e3 * sec:.0f} ms ("
           + ", ".join(f"{k} {1e3 * v:.0f}" for k, v in stages.items() if k != "total") + " ms)")
     print(f"  {_accuracy_line(summary(res.rps, res.image, data.truth))}")

@@ -34,8 +34,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["GHOST_AMP", "GHOST_TOL", "GRADIENT_STEP", "MAX_OBJECT_POINTS", "RADIAL_WEIGHT", "double_bounce", "flag_multipath",
-           "ghost_points"]
+__all__ = ["GHOST_AMP", "GHOST_TOL", "GRADIENT_STEP", "MAX_OBJECT_POINTS", "RADIAL_WEIGHT",
+           "double_bounce", "flag_multipath", "ghost_points"]
 
 #: A cluster is a double bounce when its points lie closer to the predicted
 #: ghost than this fraction of the ghost's distance to its nearer leg.

@@ -59,7 +59,7 @@ import numpy as np
 from .data import RadarData
 from .rangepoints import RangePoints
 
-__all__ = ["PhaseParams", "TRACK_GAP", "MIN_TRACK", "phase_ranges", "tracks"]
+__all__ = ["MIN_TRACK", "TRACK_GAP", "PhaseParams", "phase_ranges", "tracks"]
 
 #: Two RPs at neighbouring antennas belong to one track when their envelope
 #: ranges differ from the cluster direction's prediction by less than this

@@ -162,9 +162,11 @@ def test_short_tracks_and_phaseless_rps_are_left_alone():
 
 
 def test_phase_params_validation():
-    with pytest.raises(Exception):
+    from rpm_cl.data import InputError
+
+    with pytest.raises(InputError, match="track_gap"):
         PhaseParams(track_gap=0.0)
-    with pytest.raises(Exception):
+    with pytest.raises(InputError, match="min_track"):
         PhaseParams(min_track=1)
 
 

@@ -12,7 +12,7 @@ def test_in_band_noise_has_the_stated_snr():
     the mean compressed noise power is sigma^2 / nf within 3 % (the standard
     error of 200 x 64 exponential samples is 0.6 %)."""
     g = GEOMETRIES_2D[0]
-    clean, f, _ = synthesize(g, None)
+    clean, _, _ = synthesize(g, None)
     n = 16 * g.nf
     peak = np.max(np.abs(np.fft.ifft(clean, n, axis=-1) * n / g.nf)) ** 2
     powers = []
@@ -50,7 +50,7 @@ def test_crb_scales_with_noise_and_bandwidth():
 
     pos = _positions(g)
     centre = int(np.argmin(np.linalg.norm(pos - pos.mean(axis=0), axis=1)))
-    rr, aa = _echoes(g, pos[centre:centre + 1])
+    _, aa = _echoes(g, pos[centre:centre + 1])
     f = g.fc - g.band / 2 + np.arange(g.nf) * g.band / (g.nf - 1)
     b_rms = np.std(f)
     want = [299792458.0 / (4 * np.pi * b_rms * np.sqrt(2 * g.nf * a**2 / 1e-6)) for a in aa[0]]
