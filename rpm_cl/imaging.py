@@ -573,7 +573,7 @@ def _multipath(data: RadarData, rps: RangePoints, image: Image, mode: str) -> Im
 
     from .multipath import flag_multipath
 
-    flags = flag_multipath(data.array.positions(), rps, image)
+    flags = flag_multipath(data.array.positions(), rps, image, data.waveform.range_resolution)
     if mode == "flag":
         return replace(image, multipath=flags)
     keep = ~flags

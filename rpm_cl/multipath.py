@@ -19,7 +19,8 @@ points (its part along the line of sight weighted by :data:`RADIAL_WEIGHT`)
 must be below :data:`GHOST_TOL` times the distance from the
 predicted points' median to the nearer leg's (coordinate-wise medians: a few
 stray points of a leg must not pull it onto the ghost), and its echo must be
-weaker than both legs' by :data:`GHOST_AMP`.  (A test on the range walk
+weaker than both legs' by :data:`GHOST_AMP` and its range within
+:data:`LEVEL_TOL` range resolutions of the predicted one.  (A test on the range walk
 alone fails where the ghost's cluster also holds the ends of its legs'
 stronger echoes, whose wavenumbers reach into its window; RPM's density
 leaves those out of the points.)
@@ -34,8 +35,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["GHOST_AMP", "GHOST_TOL", "GRADIENT_STEP", "MAX_OBJECT_POINTS", "RADIAL_WEIGHT",
-           "double_bounce", "flag_multipath", "ghost_points"]
+__all__ = ["GHOST_AMP", "GHOST_TOL", "GRADIENT_STEP", "LEVEL_TOL", "MAX_OBJECT_POINTS",
+           "RADIAL_WEIGHT", "double_bounce", "flag_multipath", "ghost_points"]
 
 #: A cluster is a double bounce when its points lie closer to the predicted
 #: ghost than this fraction of the ghost's distance to its nearer leg.
@@ -49,6 +50,10 @@ GHOST_TOL = 0.35
 #: targets at 0.35-0.5 m spread over +-35 degrees: 3 in 8 scenes within 0.35
 #: of the ghost distance) are usually as strong as the others.
 GHOST_AMP = 0.7
+#: A double bounce's range is the predicted one within this many range
+#: resolutions (the envelope's constant is no better than a fraction of
+#: one); checked at one antenna first, it spares the full test of most pairs.
+LEVEL_TOL = 0.5
 #: Weight of the gap along the line of sight: a cluster's direction is the
 #: phase's (a few mm across), its range the envelope's (narrow band, 20 dB:
 #: 20-75 mm off), so a miss in range counts a quarter of one across.
@@ -97,7 +102,7 @@ def _xyz(p: np.ndarray) -> np.ndarray:
     return np.column_stack([p, np.zeros(len(p))])
 
 
-def flag_multipath(positions: np.ndarray, rps, image) -> np.ndarray:
+def flag_multipath(positions: np.ndarray, rps, image, resolution: float) -> np.ndarray:
     """Which image points come from double-bounce clusters (module notes).
 
     Parameters
@@ -108,6 +113,8 @@ def flag_multipath(positions: np.ndarray, rps, image) -> np.ndarray:
         The RPs the image was made from (phase-refined where available).
     image : Image
         Points (M, 2|3), their clusters and main RPs.
+    resolution : float
+        Range resolution c / 2B, m (:data:`LEVEL_TOL`).
 
     Returns
     -------
@@ -130,10 +137,17 @@ def flag_multipath(positions: np.ndarray, rps, image) -> np.ndarray:
                       MAX_OBJECT_POINTS)
         mine = pts3[cl_img == c]
         amp = float(np.median(np.asarray(rps.amp)[cl_rp == c]))
+        # one RP of the cluster (its median range) for the level pre-test
+        rr = np.asarray(rps.range, float)[cl_rp == c]
+        k = int(np.argsort(rr)[len(rr) // 2])
+        one = positions[np.asarray(rps.antenna)[cl_rp == c][k]][None]
         ghost = False
         for i in range(len(accepted)):
             for j in range(i + 1, len(accepted)):
                 if amp > GHOST_AMP * min(strength[i], strength[j]):
+                    continue
+                if abs(rr[k] - double_bounce(one, accepted[i], accepted[j])[0]) > \
+                        LEVEL_TOL * resolution:
                     continue
                 g = ghost_points(ant, accepted[i], accepted[j])
                 if len(g) == 0:
