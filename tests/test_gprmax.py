@@ -65,9 +65,10 @@ def _copy_h5(src, dst, skip=(), edit=None):
     return dst
 
 
-def _split(merged, folder, order=None, stem="trace", waveform=("ricker", 3e9, 1.0)):
+def _split(merged, folder, order=None, stem="trace", waveform=("ricker", 3e9, 1.0), tx_dx=0.0):
     """Write a merged gprMax 4 B-scan as one file per trace (the layout gprMax
-    writes for each model of ``-n``), in ``order``; returns the paths."""
+    writes for each model of ``-n``), in ``order``, the source moved by
+    ``tx_dx`` (m) in x; returns the paths."""
     folder.mkdir(exist_ok=True)
     with h5py.File(merged, "r") as f:
         ez = f["rxs/rx1/Ez"][()]
@@ -89,7 +90,7 @@ def _split(merged, folder, order=None, stem="trace", waveform=("ricker", 3e9, 1.
                 d.attrs[k] = v
             src = g.create_group("srcs/src1")
             src.attrs["Type"] = "HertzianDipole"
-            src.attrs["Position"] = ptx[i]
+            src.attrs["Position"] = ptx[i] + [tx_dx, 0, 0]
             if waveform is not None:
                 ex = src.create_group("excitation")
                 ex.attrs["WaveformType"] = waveform[0]
@@ -123,6 +124,11 @@ def test_per_trace_files_give_the_merged_result(tmp_path, wide):
     np.testing.assert_allclose(got["x"], wide["x"], atol=1e-12)
     np.testing.assert_allclose(got["spectrum"], wide["spectrum"], rtol=1e-12, atol=0)
     assert "truth_boundary" not in got                    # no sidecar: no truth
+
+
+def test_x_is_the_transmitter_receiver_midpoint(tmp_path, scans):
+    tr = _split(TARGETS, tmp_path / "t", tx_dx=0.002)          # one cell apart
+    np.testing.assert_allclose(G.read_bscan(tr).x, scans[0].x + 0.001, atol=1e-12)
 
 
 def test_per_trace_waveform_must_agree(tmp_path):
