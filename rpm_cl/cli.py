@@ -1,4 +1,5 @@
-"""Command line: ``rpm-cl {info,simulate,image,params,das,rma,view,figure,reproduce,demo,bench,batch}``.
+"""Command line: ``rpm-cl {info,simulate,convert,image,params,das,rma,view,figure,reproduce,
+demo,bench,batch}``.
 
 Every error the user can cause (bad input file, bad option, no OpenCL) is
 reported as one line ``rpm-cl: error: ...`` on stderr with exit code 2.
@@ -159,6 +160,38 @@ def cmd_simulate(args) -> int:
     save_data(args.output, data)
     print(f"wrote {args.output}: {args.scene}, signal {data.signal.shape}, "
           f"S/N {'inf' if args.snr is None else f'{args.snr:g} dB'}")
+    return 0
+
+
+def _band(text):
+    """argparse type: 'F0:F1' in Hz, 0 < F0 < F1."""
+    try:
+        f0, f1 = (float(v) for v in text.split(":"))
+    except ValueError:
+        f0 = f1 = float("nan")
+    if not (np.isfinite(f0) and np.isfinite(f1) and 0 < f0 < f1):
+        raise argparse.ArgumentTypeError(f"band must be F0:F1 in Hz with 0 < F0 < F1 "
+                                         f"(e.g. 2e9:4e9), got {text!r}")
+    return f0, f1
+
+
+def cmd_convert(args) -> int:
+    from .formats import DATA_EXTENSIONS, check_output
+    from .gprmax import SourceWaveform, convert, refuse_overwrite, save_spectrum
+
+    inputs = list(args.inputs) + list(args.background or []) + (
+        [args.sidecar] if args.sidecar else [])
+    check_output(args.output, DATA_EXTENSIONS, "data output")
+    refuse_overwrite(args.output, inputs)
+    waveform = SourceWaveform.parse(args.waveform) if args.waveform else None
+    arrays = convert(args.inputs, args.background, args.band, waveform, args.sidecar, args.df,
+                     args.rx)
+    save_spectrum(args.output, arrays, inputs)
+    f, x = arrays["frequency"], arrays["x"]
+    print(f"wrote {args.output}: spectrum {arrays['spectrum'].shape} (antennas x frequencies), "
+          f"{f[0] / 1e9:g}-{f[-1] / 1e9:g} GHz at {(f[1] - f[0]) / 1e6:.4g} MHz, x {x[0]:.4g}.."
+          f"{x[-1]:.4g} m{', with the sidecar truth' if 'truth_boundary' in arrays else ''}"
+          f"{'' if args.background else '; no background subtracted'}")
     return 0
 
 
@@ -546,6 +579,26 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--snr", type=_snr, default=None, help="S/N in dB (default: noise-free)")
     sp.add_argument("--seed", type=_seed, default=0)
     sp.set_defaults(func=cmd_simulate)
+
+    sp = sub.add_parser("convert", help="gprMax 2-D TM output (.out/.h5: one merged B-scan "
+                        "or one file per trace) -> the frequency-domain input schema")
+    sp.add_argument("inputs", nargs="+", metavar="IN", help="a merged B-scan, or the per-trace "
+                    "files of one scan")
+    sp.add_argument("-o", "--output", required=True, help="OUT.npz or OUT.h5")
+    sp.add_argument("--background", nargs="+", metavar="BG", help="the same scan without "
+                    "targets (merged, or per-trace files), subtracted trace by trace")
+    sp.add_argument("--band", type=_band, required=True, metavar="F0:F1",
+                    help="frequency band kept, Hz (e.g. 2e9:4e9)")
+    sp.add_argument("--waveform", metavar="KIND:FREQ[:AMP]", help="gprMax's source waveform, "
+                    "e.g. ricker:3e9 (else from --sidecar or the trace files)")
+    sp.add_argument("--sidecar", metavar="F.json", help="JSON with the waveform, scan positions "
+                    "and geometry (tests/data/gprmax/scene.json is one); the geometry becomes "
+                    "the truth_* arrays")
+    sp.add_argument("--df", type=_bounded_float(1.0, 1e12, "df must be a frequency step in "
+                    "Hz, 1 .. 1e12"), help="frequency step, Hz (default: the band in at least "
+                    "64 steps, and at most 1/(2T) for a record of T)")
+    sp.add_argument("--rx", type=_positive_int, default=1, help="receiver number (default 1)")
+    sp.set_defaults(func=cmd_convert)
 
     sp = sub.add_parser("image", help="image an .npz or .h5 (input schema in the README); "
                         "-o .npz, .h5, .ply or .vtp")
