@@ -31,8 +31,16 @@ from .rpm.reference import MS_DENSITY_T
 SIGMA_R_DEFAULT = 0.05
 #: k-space window period for planar arrays, rad/m: the measured best on the
 #: paper's 3-D scene (0.8-1.2 k-space resolution cells of its 11 x 17 array;
-#: see rpm_cl.scene._human_body).  Linear arrays default to the paper's 417.
+#: see rpm_cl.scene._human_body).  Linear arrays: WINDOW_LINEAR_PER_KC.
 WINDOW_PLANAR_DEFAULT = 60.0
+#: k-space window period of linear arrays as a multiple of the carrier
+#: wavenumber k_c (rad/m per rad/m): the paper's 417 rad/m is k_c at its 20
+#: GHz (419 rad/m), a quarter of the visible wavenumbers |k| < 2 k_c.  A fixed
+#: 417 rad/m held every echo of a 4 GHz scan (2 k_c = 168 rad/m) in one
+#: cluster (gprMax fixture, 3.875-4.125 GHz: 9 % of the points within 50 mm;
+#: at k_c, 70-94 % over windows of 60-84 rad/m; `python
+#: benchmarks/gprmax_image.py`).
+WINDOW_LINEAR_PER_KC = 1.0
 #: RPs below this level relative to their cluster's maximum are dropped, dB.
 RP_THRESHOLD_DB_DEFAULT = -10.0
 
@@ -225,7 +233,8 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
       to 95.6 % (noise-free) and 94.2 % to 95.2 % (20 dB); the Capon and
       matched-filter comparators on the sparse scene lose 2-3 of about 20
       points within 50 mm.
-    - window_x: 417 rad/m for linear arrays (the paper's 2-D value),
+    - window_x: linear arrays :data:`WINDOW_LINEAR_PER_KC` times the carrier
+      wavenumber (417 rad/m, the paper's 2-D value, at its 20 GHz),
       :data:`WINDOW_PLANAR_DEFAULT` for planar ones; window_z = window_x.
     - everything else: the dataclass defaults.
 
@@ -276,6 +285,8 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     if arr.planar:
         ks_kw.setdefault("window_x", WINDOW_PLANAR_DEFAULT)
         ks_kw.setdefault("window_z", ks_kw["window_x"])
+    else:
+        ks_kw.setdefault("window_x", WINDOW_LINEAR_PER_KC * data.waveform.kc)
     return ImagingParams(KSpaceParams(**ks_kw), RPMParams(**rpm_kw), **top_kw)
 
 
