@@ -14,7 +14,8 @@ from rpm_cl.cli import main
 @pytest.fixture(scope="module")
 def sim_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("sim") / "paper.npz"
-    assert main(["simulate", "paper-2d", "-o", str(path), "--snr", "20", "--seed", "1"]) == 0
+    assert main(["simulate", "paper-2d", "-o", str(path), "--snr", "20", "--seed", "1",
+                 "--noise", "receiver"]) == 0
     return path
 
 
@@ -147,6 +148,28 @@ def test_installed_entry_point_runs(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
     assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0
+
+
+def test_simulate_noise_model_flag(tmp_path, capsys):
+    """--noise picks the model of --snr; in-band by default, receiver as the
+    paper's tables are reproduced (rpm_cl.simulate)."""
+    from rpm_cl.simulate import simulate_preset
+
+    sig = {}
+    for name, tail in (("default", []), ("in-band", ["--noise", "in-band"]),
+                       ("receiver", ["--noise", "receiver"])):
+        out = tmp_path / f"{name}.npz"
+        assert main(["simulate", "paper-2d", "-o", str(out), "--snr", "10", "--seed", "2",
+                     *tail]) == 0
+        sig[name] = np.load(out)["signal"]
+    assert "(receiver noise)" in capsys.readouterr().out
+    np.testing.assert_array_equal(sig["default"], sig["in-band"])
+    np.testing.assert_array_equal(sig["receiver"],
+                                  simulate_preset("paper-2d", 10.0, 2, noise="receiver")[0].signal)
+    np.testing.assert_array_equal(sig["in-band"], simulate_preset("paper-2d", 10.0, 2)[0].signal)
+    code, err = run_err(capsys, ["simulate", "paper-2d", "-o", str(tmp_path / "x.npz"),
+                                 "--noise", "thermal"])
+    assert code == 2 and "--noise" in err and err.count("\n") == 0
 
 
 @pytest.mark.parametrize("argv_tail, words", [

@@ -23,7 +23,8 @@ except ModuleNotFoundError:  # Python 3.10
 def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("cfg")
     lin, pla = d / "p2.npz", d / "hb.npz"
-    assert main(["simulate", "paper-2d", "-o", str(lin), "--snr", "20", "-q"]) == 0
+    assert main(["simulate", "paper-2d", "-o", str(lin), "--snr", "20", "--noise", "receiver",
+                 "-q"]) == 0
     assert main(["simulate", "human-body", "-o", str(pla), "-q"]) == 0
     return lin, pla
 

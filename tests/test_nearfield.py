@@ -38,7 +38,7 @@ def test_sparse_paper_2d_at_20_db():
     """One noisy realisation (measured over seeds 0-4: RP <= 10 mm 56-63 of
     63, RPM <= 50 mm 62-63 of 63; seed 0: 62 and 63); floors of 85 % leave
     room for the noise draw."""
-    data, pre = simulate_preset("paper-2d-sparse", 20.0, seed=0)
+    data, pre = simulate_preset("paper-2d-sparse", 20.0, seed=0, noise="receiver")
     res = run_method("kspace-rpm", data, default_params(data, **pre.defaults), reference)
     s = summary(res.rps, res.image, data.truth)
     assert s["rp_total"] == 63

@@ -54,7 +54,7 @@ def test_kspace_rpm_images_paper_targets(engine_name, dev32, dev64):
 
 
 def test_kspace_beats_matched_filter_rpm():
-    data, pre = simulate_preset("paper-2d", 20.0, seed=4)
+    data, pre = simulate_preset("paper-2d", 20.0, seed=4, noise="receiver")
     p = default_params(data, **pre.defaults)
     k = summary(*_res(run_method("kspace-rpm", data, p, reference)), data.truth)
     m = summary(*_res(run_method("mf-rpm", data, p, reference)), data.truth)
@@ -69,7 +69,7 @@ def _res(r):
 
 
 def test_device_and_reference_images_agree(dev32):
-    data, pre = simulate_preset("paper-2d", 10.0, seed=2)
+    data, pre = simulate_preset("paper-2d", 10.0, seed=2, noise="receiver")
     p = default_params(data, **pre.defaults)
     a = run_method("kspace-rpm", data, p, reference)
     b = run_method("kspace-rpm", data, p, dev32)
@@ -136,7 +136,7 @@ def test_chunked_rpm_equals_whole_and_scale_invariant(dev32):
     from rpm_cl.kspace import decompose as dec_
     from rpm_cl.rangepoints import rps_from_decomposition as rps_
 
-    data, pre = simulate_preset("paper-2d", 20.0, seed=3)
+    data, pre = simulate_preset("paper-2d", 20.0, seed=3, noise="receiver")
     p = default_params(data, **pre.defaults)
     rps = rps_(data, dec_(data, p.kspace), p.rp_threshold_db)
     whole = rpm_image(rps, p.rpm, dev32)
