@@ -252,7 +252,9 @@ def cmd_params(args) -> int:
 def _accuracy_line(s: dict) -> str:
     from .reproduce import pct
 
-    return (f"Err_range<=10mm {pct(s['rp_within_10mm'], s['rp_total'])}, "
+    rp = ("unavailable (no truth_rp_*)" if s["rp_within_10mm"] is None
+          else pct(s["rp_within_10mm"], s["rp_total"]))
+    return (f"Err_range<=10mm {rp}, "
             f"Err_RPM<=50mm {pct(s['rpm_within_50mm'], s['rpm_total'])}, "
             f"<=100mm {pct(s['rpm_within_100mm'], s['rpm_total'])}")
 

@@ -17,7 +17,9 @@ Input contract (``.npz``)
 ``fc``, ``bandwidth``
     scalars, Hz.
 ``truth_*`` (optional)
-    the true geometry, see :class:`Truth`.
+    the true geometry, see :class:`Truth`: ``truth_boundary`` (with it, the
+    optional ``truth_rp_antenna`` and ``truth_rp_range``, both or neither,
+    and ``truth_scene``).
 """
 
 from __future__ import annotations
@@ -214,11 +216,13 @@ class Truth:
 
     Attributes
     ----------
-    rp_antenna : ndarray of int, shape (K,)
+    rp_antenna : ndarray of int, shape (K,), or None
         Flat antenna index (C order of the array) of each true RP; an
         integer dtype (floats, even integral ones, raise :class:`InputError`).
-    rp_range : ndarray, shape (K,)
-        True range of each specular echo, m.
+        None (with ``rp_range``) where the true RPs are unknown, e.g. measured
+        data with a surveyed boundary only: Err_range is then unavailable.
+    rp_range : ndarray, shape (K,), or None
+        True range of each specular echo, m; None with ``rp_antenna``.
     boundary : ndarray, shape (P, dim)
         Dense samples of the true target boundary (the points themselves for
         point targets), m.
@@ -226,30 +230,36 @@ class Truth:
         JSON description of the scene.
     """
 
-    rp_antenna: np.ndarray
-    rp_range: np.ndarray
+    rp_antenna: np.ndarray | None
+    rp_range: np.ndarray | None
     boundary: np.ndarray
     scene: str = "{}"
 
     def __post_init__(self):
-        ant = np.asarray(self.rp_antenna)
-        # indices are integers by type, as frame= and a result's cluster are:
-        # a float (even 3.0) is refused rather than cast (3.5 became 3)
-        if ant.size and not np.issubdtype(ant.dtype, np.integer):
-            raise InputError(f"truth_rp_antenna must be an integer array (antenna indices), "
-                             f"got dtype {ant.dtype}")
-        object.__setattr__(self, "rp_antenna", ant.astype(np.int64).ravel())
+        if (self.rp_antenna is None) != (self.rp_range is None):
+            raise InputError("truth_rp_antenna and truth_rp_range go together: give both or "
+                             "neither")
+        if self.rp_antenna is not None:
+            ant = np.asarray(self.rp_antenna)
+            # indices are integers by type, as frame= and a result's cluster are:
+            # a float (even 3.0) is refused rather than cast (3.5 became 3)
+            if ant.size and not np.issubdtype(ant.dtype, np.integer):
+                raise InputError(f"truth_rp_antenna must be an integer array (antenna indices), "
+                                 f"got dtype {ant.dtype}")
+            object.__setattr__(self, "rp_antenna", ant.astype(np.int64).ravel())
         for name, v in (("truth_rp_range", self.rp_range), ("truth_boundary", self.boundary)):
-            if np.size(v) and not _real_kind(v):
+            if v is not None and np.size(v) and not _real_kind(v):
                 raise InputError(f"{name} must be real numbers, got dtype {np.asarray(v).dtype}")
-        object.__setattr__(self, "rp_range", np.asarray(self.rp_range, np.float64).ravel())
+        if self.rp_range is not None:
+            object.__setattr__(self, "rp_range", np.asarray(self.rp_range, np.float64).ravel())
         b = np.asarray(self.boundary, np.float64)
         if b.ndim != 2 or b.shape[1] not in (2, 3):
             raise InputError(f"truth_boundary must have shape (P, 2|3), got {b.shape}")
-        if not (np.all(np.isfinite(b)) and np.all(np.isfinite(self.rp_range))):
+        if not (np.all(np.isfinite(b))
+                and (self.rp_range is None or np.all(np.isfinite(self.rp_range)))):
             raise InputError("truth_boundary or truth_rp_range contains NaN or Inf")
         object.__setattr__(self, "boundary", b)
-        if self.rp_antenna.shape != self.rp_range.shape:
+        if self.has_rps and self.rp_antenna.shape != self.rp_range.shape:
             raise InputError("truth_rp_antenna and truth_rp_range differ in length")
         try:
             scene = json.loads(str(self.scene) or "{}")
@@ -257,6 +267,11 @@ class Truth:
             raise InputError("truth_scene must be a JSON object (the scene description)") from None
         if not isinstance(scene, dict):
             raise InputError("truth_scene must be a JSON object (the scene description)")
+
+    @property
+    def has_rps(self) -> bool:
+        """True where the true RPs are known (Err_range can be computed)."""
+        return self.rp_range is not None
 
 
 @dataclass(frozen=True)
@@ -308,7 +323,8 @@ class RadarData:
             if t.boundary.shape[1] != self.array.dim or len(t.boundary) == 0:
                 raise InputError(f"truth_boundary must have shape (P>0, {self.array.dim}) for "
                                  f"this array, got {t.boundary.shape}")
-            if t.rp_antenna.size and (t.rp_antenna.min() < 0 or t.rp_antenna.max() >= self.array.n):
+            if t.has_rps and t.rp_antenna.size and (t.rp_antenna.min() < 0
+                                                     or t.rp_antenna.max() >= self.array.n):
                 raise InputError(f"truth_rp_antenna must index the {self.array.n} antennas")
         peak = float(np.max(np.abs(s))) if s.size else 0.0
         top = SUM_MAX / max(s.size, 1)
@@ -358,8 +374,9 @@ def load_npz(path) -> RadarData:
             truth = None
             if "truth_boundary" in npz.files:
                 scene = str(npz["truth_scene"]) if "truth_scene" in npz.files else "{}"
-                truth = Truth(_read(npz, "truth_rp_antenna", path),
-                              _read(npz, "truth_rp_range", path), npz["truth_boundary"], scene)
+                truth = Truth(npz["truth_rp_antenna"] if "truth_rp_antenna" in npz.files else None,
+                              npz["truth_rp_range"] if "truth_rp_range" in npz.files else None,
+                              npz["truth_boundary"], scene)
             return RadarData(_read(npz, "signal", path), array, _read(npz, "range", path),
                              waveform, truth)
         except InputError as exc:
@@ -466,12 +483,10 @@ def data_arrays(data: RadarData) -> dict:
     if data.array.z is not None:
         out["z"] = data.array.z
     if data.truth is not None:
-        out.update(
-            truth_rp_antenna=data.truth.rp_antenna,
-            truth_rp_range=data.truth.rp_range,
-            truth_boundary=data.truth.boundary,
-            truth_scene=np.array(data.truth.scene),
-        )
+        if data.truth.has_rps:
+            out.update(truth_rp_antenna=data.truth.rp_antenna,
+                       truth_rp_range=data.truth.rp_range)
+        out.update(truth_boundary=data.truth.boundary, truth_scene=np.array(data.truth.scene))
     return out
 
 

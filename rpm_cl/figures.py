@@ -179,7 +179,7 @@ def rp_sets(data: RadarData, params=None) -> RPSets:
         row_z = float(arr.z[iz])
         keep = np.unravel_index(rps.antenna, arr.shape)[1] == iz
     tx = tr = within = None
-    if data.truth is not None:
+    if data.truth is not None and data.truth.has_rps:
         t = data.truth
         within = int(np.sum(err_range(rps.antenna[keep], rps.range[keep], t) <= 0.010))
         ix = t.rp_antenna

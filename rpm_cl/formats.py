@@ -347,8 +347,9 @@ def _truth(src):
     if "truth_boundary" not in src:
         return None
     scene = src.text("truth_scene") if "truth_scene" in src else "{}"
-    return Truth(_need(src, "truth_rp_antenna"), _need(src, "truth_rp_range"),
-                 src.read("truth_boundary"), scene)
+    # the true RPs are optional (a surveyed boundary alone scores Err_RPM)
+    rp = [src.read(k) if k in src else None for k in ("truth_rp_antenna", "truth_rp_range")]
+    return Truth(rp[0], rp[1], src.read("truth_boundary"), scene)
 
 
 def _build(src, frame, range_window: str) -> RadarData:
