@@ -60,7 +60,8 @@ def _scenes():
     body, _ = simulate_preset("human-body", 20.0, 0, noise="receiver")
     clean, _ = simulate_preset("human-body", None, 0)
     one = simulate(Scene((Ellipsoid((0.0, 1.1, 1.0), (0.08, 0.05, 0.1)),), "one"), preset.array,
-                   preset.waveform, preset.range_axis, 20.0, 0, boundary_spacing=3e-3)
+                   preset.waveform, preset.range_axis, 20.0, 0, boundary_spacing=3e-3,
+                   noise="receiver")
     noise = dataclasses.replace(body, signal=body.signal - clean.signal, truth=None)
     zero = RadarData(np.zeros_like(body.signal), preset.array, preset.range_axis, preset.waveform)
     return preset, [("human body, 20 dB", body), ("one ellipsoid, 20 dB", one),

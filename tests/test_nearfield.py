@@ -112,7 +112,8 @@ def test_wideband_half_wavelength_array_images_a_steep_target(dev32, deg):
     arr = Array((np.arange(32) - 15.5) * 7.5e-3)
     th = np.radians(deg)
     data = simulate(Scene((PointTarget((0.8 * np.sin(th), 0.8 * np.cos(th))),)), arr,
-                    Waveform(20e9, 3e9), np.arange(0.5, 1.1, 2.5e-3), 20.0, 0)
+                    Waveform(20e9, 3e9), np.arange(0.5, 1.1, 2.5e-3), 20.0, 0,
+                    noise="receiver")
     res = run_method("kspace-rpm", data, default_params(data), dev32)
     s = summary(res.rps, res.image, data.truth)
     assert s["rp_total"] == 32 and s["rp_within_10mm"] == 32
