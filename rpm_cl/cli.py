@@ -16,6 +16,7 @@ import io
 import json
 import logging
 import sys
+import warnings
 from dataclasses import asdict
 
 import numpy as np
@@ -203,7 +204,8 @@ def cmd_image(args) -> int:
     from .metrics import summary
 
     check_output(args.output, RESULT_EXTENSIONS, "result")
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
+                     conjugate=args.conjugate)
     params = _params(args, data)
     engine, env = _engine(args)
     verbose = log.isEnabledFor(logging.INFO) and hasattr(engine, "kernel_times")
@@ -212,6 +214,7 @@ def cmd_image(args) -> int:
     result = run_method(args.method, data, params, engine)
     meta = {"version": __version__, "device": env.name, "precision": args.precision,
             "input": args.input, "frame": args.frame, "range_window": args.range_window,
+            "conjugate": args.conjugate,
             "params": asdict(params)}
     if data.truth is not None and data.truth.scene not in ("", "{}"):
         meta["scene"] = json.loads(data.truth.scene)  # for `rpm-cl view`
@@ -235,7 +238,8 @@ def cmd_params(args) -> int:
     from .data import atomic_write_text
     from .formats import load_data
 
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
+                     conjugate=args.conjugate)
     params = _params(args, data)
     text = dump_toml(params, args.engine_params,
                      header=f"rpm-cl {__version__}: parameters resolved for {args.input}\n"
@@ -373,6 +377,7 @@ def cmd_figure(args) -> int:
             das = DeviceDAS(env, args.precision)
     figure(args.name, args.input, args.png, size=args.size, dynamic_range=args.dynamic_range,
            grid=grid, engine=engine, das=das, frame=args.frame, range_window=args.range_window,
+           conjugate=args.conjugate,
            params=lambda data: _params(args, data))  # --config and flags, as `image`
     if args.png:
         print(f"wrote {args.png}")
@@ -387,7 +392,8 @@ def cmd_das(args) -> int:
     from .progress import callback
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
+                     conjugate=args.conjugate)
     grid = parse_grid(args.grid)
     if grid.dim != data.array.dim:
         raise CLIError(f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
@@ -422,6 +428,7 @@ def cmd_das(args) -> int:
     meta = {"version": __version__, "method": "das", "backend": args.backend, "device": device,
             "precision": args.precision if args.backend == "opencl" else "float64",
             "input": args.input, "frame": args.frame, "range_window": args.range_window,
+            "conjugate": args.conjugate,
             "grid": args.grid, "timing": timing}
     write_volume(args.output, grid, fill, dtype, meta)
     sec = timing.get("seconds", float("nan"))
@@ -438,7 +445,8 @@ def cmd_rma(args) -> int:
     from .rma import rma_image
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
+                     conjugate=args.conjugate)
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
     t0 = time.perf_counter()
@@ -533,6 +541,10 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("--range-window", choices=sorted(RANGE_WINDOWS), default="hann",
                         help="window of the range compression of frequency-domain input "
                         "(spectrum + frequency; default hann)")
+        sp.add_argument("--conjugate", action="store_true",
+                        help="conjugate a spectrum before compressing it (samples recorded as "
+                        "exp(+j 4 pi f R / c), whose echoes land at the unambiguous range "
+                        "minus their range)")
 
     sp = sub.add_parser("info", help="list OpenCL platforms/devices and the one chosen")
     sp.add_argument("--device")
@@ -701,6 +713,20 @@ def _on_sigterm(signum, frame):
     raise _Terminated()
 
 
+def _show_warning(shown):
+    """A ``warnings.showwarning`` that prints a :class:`rpm_cl.data.DataWarning`
+    as one line ``rpm-cl: warning: ...`` through the ``rpm_cl`` logger (so
+    ``-q`` silences it) and hands every other warning to ``shown``."""
+    from .data import DataWarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, DataWarning):
+            log.warning("warning: %s", " ".join(str(message).split()))
+        else:
+            shown(message, category, filename, lineno, file, line)
+    return show
+
+
 def main(argv=None) -> int:
     """Entry point of the ``rpm-cl`` command; returns the exit code."""
     import signal
@@ -729,6 +755,8 @@ def main(argv=None) -> int:
 
                 stack.enter_context(bars_off())
                 stack.enter_context(contextlib.redirect_stdout(io.StringIO()))
+            stack.enter_context(warnings.catch_warnings())
+            warnings.showwarning = _show_warning(warnings.showwarning)
             if hasattr(args, "config"):
                 _load_config(args)
             return args.func(args)

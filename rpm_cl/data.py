@@ -35,15 +35,19 @@ import numpy as np
 
 __all__ = [
     "C0",
+    "FC_MIN",
     "Array",
+    "DataWarning",
     "InputError",
     "RadarData",
     "Truth",
     "Waveform",
     "atomic_savez",
     "atomic_write_text",
+    "check_plausible",
     "load_npz",
     "save_npz",
+    "unit_hint",
 ]
 
 #: Speed of light in vacuum, m/s (the propagation speed in air used throughout).
@@ -61,6 +65,24 @@ AMPLITUDE_MIN = 1e-300
 
 class InputError(ValueError):
     """Malformed input; the message names the field and the problem."""
+
+
+class DataWarning(UserWarning):
+    """Input that loads but looks wrong (a unit, a sign convention or a
+    setting); the message says what to change.  The command line prints it
+    as one line ``rpm-cl: warning: ...`` on stderr."""
+
+
+#: Lowest centre frequency accepted, Hz.  Below it the numbers are taken for
+#: GHz or MHz values given without their factor and refused (every radar the
+#: engine models, HF included, lies above).
+FC_MIN = 1e6
+
+
+def unit_hint(value_hz: float) -> str:
+    """For a frequency below :data:`FC_MIN`: the unit its number looks like
+    (``"GHz numbers (x 1e9)"`` below 1e3, else ``"MHz numbers (x 1e6)"``)."""
+    return "GHz numbers (x 1e9)" if abs(value_hz) < 1e3 else "MHz numbers (x 1e6)"
 
 
 def _real_kind(a) -> bool:
@@ -132,6 +154,9 @@ class Waveform:
     def __post_init__(self):
         fc = _finite_scalar("fc", self.fc)
         bw = _finite_scalar("bandwidth", self.bandwidth)
+        if fc < FC_MIN:
+            raise InputError(f"fc = {fc:g} Hz is below {FC_MIN:g} Hz: it looks like "
+                             f"{unit_hint(fc)}; give fc and bandwidth in Hz")
         if bw >= 2 * fc:
             raise InputError(f"bandwidth ({bw:g} Hz) must be below 2*fc ({2 * fc:g} Hz)")
         object.__setattr__(self, "fc", fc)
@@ -288,6 +313,12 @@ class RadarData:
         Uniform range axis, m.
     waveform : Waveform
     truth : Truth, optional
+    range_sidelobe_db : float, optional
+        The strongest range sidelobe of the range compression that a k-space
+        peak search can take for an echo (one beyond half a range
+        resolution from its main lobe), dB relative to the main lobe, < 0;
+        known for a spectrum compressed by :func:`rpm_cl.formats.range_compress`,
+        None otherwise.  Imaging warns when a peak threshold lies below it.
     """
 
     signal: np.ndarray
@@ -295,6 +326,7 @@ class RadarData:
     range: np.ndarray
     waveform: Waveform
     truth: Truth | None = field(default=None)
+    range_sidelobe_db: float | None = field(default=None)
 
     def __post_init__(self):
         s = np.asarray(self.signal)
@@ -314,7 +346,8 @@ class RadarData:
         dr = float(rng[1] - rng[0])
         if dr > res:
             raise InputError(f"range spacing {dr:g} m is coarser than the range resolution "
-                             f"c/2B = {res:g} m: range peaks cannot be located")
+                             f"c/2B = {res:g} m: range peaks cannot be located (range is "
+                             f"in m: millimetre numbers are 1000 times too large)")
         if dr < 1e-9 * res:
             raise InputError(f"range spacing {dr:g} m is below 1e-9 of the range resolution "
                              f"{res:g} m")
@@ -338,11 +371,52 @@ class RadarData:
         s = s.astype(np.complex64 if keep64 else np.complex128, copy=False)
         object.__setattr__(self, "signal", s)
         object.__setattr__(self, "range", rng)
+        sl = self.range_sidelobe_db
+        if sl is not None:
+            sl = _finite_scalar("range_sidelobe_db", sl, positive=False)
+            if sl >= 0:
+                raise InputError(f"range_sidelobe_db must be < 0 dB, got {sl:g}")
+            object.__setattr__(self, "range_sidelobe_db", sl)
 
     @property
     def dr(self) -> float:
         """Range sample spacing, m."""
         return float(self.range[1] - self.range[0])
+
+
+#: The array pitch is taken for a unit mistake beyond these multiples of the
+#: wavelength: above PITCH_MAX_WAVELENGTHS, x (z) in mm read as m (a 5 mm
+#: pitch is 333 wavelengths at 20 GHz; the paper's sparse array has 1.3, and
+#: a 21-antenna array of 1 m pitch, 67, is imaged in the tests);
+#: below 1 / PITCH_MIN_PER_WAVELENGTH, frequencies in kHz numbers (a 20 GHz
+#: radar read as 20 MHz has a 15 m wavelength, 3000 of its 5 mm pitches).
+PITCH_MAX_WAVELENGTHS = 200.0
+PITCH_MIN_PER_WAVELENGTH = 300.0
+
+
+def check_plausible(data: RadarData) -> None:
+    """Warn (:class:`DataWarning`) where the data's units look wrong.
+
+    The array pitch against the wavelength ``c / fc``: more than
+    :data:`PITCH_MAX_WAVELENGTHS` wavelengths suggests x (z) in mm read as m;
+    less than 1 / :data:`PITCH_MIN_PER_WAVELENGTH` of one suggests
+    frequencies in kHz numbers.  (GHz and MHz numbers are refused by
+    :class:`Waveform`; a range axis in mm by :class:`RadarData`.)
+    """
+    import warnings
+
+    arr = data.array
+    pitch = max(abs(arr.dx), abs(arr.dz or 0.0))
+    lam = data.waveform.wavelength
+    where = "x / z" if arr.planar else "x"
+    if pitch > PITCH_MAX_WAVELENGTHS * lam:
+        warnings.warn(f"the antenna pitch {pitch:g} m is {pitch / lam:.0f} wavelengths "
+                      f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): is {where} in mm? "
+                      f"give {where} in m", DataWarning, stacklevel=3)
+    elif pitch < lam / PITCH_MIN_PER_WAVELENGTH:
+        warnings.warn(f"the antenna pitch {pitch:g} m is 1/{lam / pitch:.0f} of the wavelength "
+                      f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): are the frequencies in "
+                      f"kHz numbers? give them in Hz (x 1e3)", DataWarning, stacklevel=3)
 
 
 def _read(npz, key, name):
@@ -377,8 +451,10 @@ def load_npz(path) -> RadarData:
                 truth = Truth(npz["truth_rp_antenna"] if "truth_rp_antenna" in npz.files else None,
                               npz["truth_rp_range"] if "truth_rp_range" in npz.files else None,
                               npz["truth_boundary"], scene)
-            return RadarData(_read(npz, "signal", path), array, _read(npz, "range", path),
+            data = RadarData(_read(npz, "signal", path), array, _read(npz, "range", path),
                              waveform, truth)
+            check_plausible(data)
+            return data
         except InputError as exc:
             msg = str(exc)
             raise InputError(msg if msg.startswith(path) else f"{path}: {msg}") from None

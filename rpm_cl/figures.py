@@ -352,7 +352,7 @@ FIGURES = ("kspace", "rps", "compare")
 
 def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float = 40.0,
            grid=None, engine=None, das=None, frame: int | None = None,
-           range_window: str = "hann", params=None) -> object:
+           range_window: str = "hann", params=None, conjugate: bool = False) -> object:
     """Compute and draw one paper-style figure of a data file.
 
     Parameters
@@ -382,6 +382,8 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         applies ``--config`` and the flags over the defaults derived from the
         data, as ``rpm-cl image`` does).  Default
         :func:`rpm_cl.imaging.default_params` of the data.
+    conjugate : bool
+        Conjugate a frequency-domain input first (as :func:`rpm_cl.load_data`).
 
     Returns
     -------
@@ -407,7 +409,7 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         if not os.fspath(png).lower().endswith(".png"):
             raise InputError(f"{os.fspath(png)}: the picture must be a .png file")
         output_path(png)
-    data = load_data(path, frame=frame, range_window=range_window)
+    data = load_data(path, frame=frame, range_window=range_window, conjugate=conjugate)
     if callable(params):
         params = params(data)
     if name == "kspace":
