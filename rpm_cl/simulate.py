@@ -45,10 +45,13 @@ noise power"; two models (``noise=``) differ in where that ratio is taken.
   simulator on that grid would have; never below ``2 B``), over a window
   long enough for the range axis plus 8 resolution cells.  The noise is
   white over that band, so the matched filter (band ``2 B``) keeps a
-  fraction ``2 B / fs`` of it: the S/N *after* matched filtering is higher
-  by ``10 log10(fs / 2B)`` dB (21.8 dB for the paper's 2-D case, 0.2 GHz and
-  2.5 mm gates).  Pass ``receiver_fs = 2 B`` for a receiver whose noise
-  bandwidth equals the signal's.  The signal power is the peak over all
+  fraction ``2 B / fs`` of it, and it gathers the pulse's spectrum into its
+  peak, a further ``sum|P|^2 N / (sum P)^2 = 1.5`` for the cos^2 spectrum
+  over N bins: the S/N *after* matched filtering, the in-band model's, is
+  higher by ``10 log10(1.5 fs / 2B)`` dB (23.5 dB for the paper's 2-D case,
+  0.2 GHz and 2.5 mm gates; 11.8 dB for the human body's 3 GHz).  Pass
+  ``receiver_fs = 2 B`` for a receiver whose noise bandwidth equals the
+  signal's.  The signal power is the peak over all
   antennas and all times of ``|r(t)|^2``, evaluated on a 16-times
   oversampled time grid; complex white Gaussian noise of variance
   ``sigma^2 = peak / 10^(SNR/10)`` per receiver sample is added to every
