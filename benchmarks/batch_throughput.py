@@ -93,7 +93,7 @@ def main():
             os.mkdir(inp)
             for seed in range(args.frames):
                 save_npz(os.path.join(inp, f"{scene}_{seed:04d}.npz"),
-                         simulate_preset(scene, 20.0, seed)[0])
+                         simulate_preset(scene, 20.0, seed, noise="receiver")[0])
             single = single_run(os.path.join(inp, f"{scene}_0000.npz"),
                                 os.path.join(tmp, "single.npz"), args.repeats)
             config = BatchConfig(das_grid=DAS_GRIDS[scene] if args.das else None)

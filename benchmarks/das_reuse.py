@@ -30,7 +30,7 @@ def main():
     ap.add_argument("--budget-gb", type=float, default=2.0)
     args = ap.parse_args()
     budget = args.budget_gb * 1e9
-    frames = [simulate_preset("human-body", 20.0, seed)[0] for seed in range(3)]
+    frames = [simulate_preset("human-body", 20.0, seed, noise="receiver")[0] for seed in range(3)]
     grid = parse_grid(SECTION)
     bp = grid.size * frames[0].array.n
     env = create_env()

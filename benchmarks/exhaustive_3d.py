@@ -208,7 +208,7 @@ def main():
                     help="kernel precision of every row and of the exhaustive image")
     args = ap.parse_args()
     engine = DeviceRPM(create_env(), args.precision)
-    data, pre = simulate_preset("human-body", args.snr, 0)
+    data, pre = simulate_preset("human-body", args.snr, 0, noise="receiver")
     out = {}
     default_steps = default_params(data, **pre.defaults).rpm.meanshift_iters
     rows = tuple((f"{k} steps" + (" (default)" if k == default_steps else ""),

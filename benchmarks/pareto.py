@@ -84,7 +84,7 @@ def main():
     args = ap.parse_args()
     env = create_env()
     engines = {p: DeviceRPM(env, p) for p in ("float32", "float64")}
-    data, pre = simulate_preset("human-body", 20.0, 0)
+    data, pre = simulate_preset("human-body", 20.0, 0, noise="receiver")
     d = default_params(data, **pre.defaults)
     assert (d.rpm.meanshift_neighbours, d.rpm.meanshift_iters, d.rpm.pair_cutoff,
             d.kspace.window_x) == DEFAULT[:4], "DEFAULT no longer names the defaults"
@@ -165,7 +165,7 @@ def body_on_array(nx, nz, snr=20.0, seed=0):
     arr = Array((np.arange(nx) - (nx - 1) / 2) * 7.5e-3,
                 HUMAN_BODY_ARRAY_Z + (np.arange(nz) - (nz - 1) / 2) * 7.5e-3)
     d = simulate(preset.scene, arr, preset.waveform, preset.range_axis, snr, seed,
-                 boundary_spacing=preset.boundary_spacing)
+                 boundary_spacing=preset.boundary_spacing, noise="receiver")
     extra = {"pad": 2} if nx * nz > 1024 else {}
     return d, default_params(d, **{**preset.defaults, **extra})
 

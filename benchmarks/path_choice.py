@@ -58,7 +58,8 @@ def main():
             th = np.radians(deg)
             pos = (0.8 * np.sin(th), 0.8 * np.cos(th))
             for kind, tgt in (("point", PointTarget(pos)), ("circle", Ellipsoid(pos, (0.05, 0.05)))):
-                data = simulate(Scene((tgt,)), arr, wf, np.arange(0.3, 1.3, 2.5e-3), 20.0, 0)
+                data = simulate(Scene((tgt,)), arr, wf, np.arange(0.3, 1.3, 2.5e-3), 20.0, 0,
+                                noise="receiver")
                 cols = []
                 for nf in (True, False):
                     k, rp, rpm = figures(data, nf, engine)

@@ -34,7 +34,7 @@ def main():
             n = same = 0
             worst = 0.0
             for seed in range(args.seeds if snr is not None else 1):
-                data, pre = simulate_preset(preset, snr, seed)
+                data, pre = simulate_preset(preset, snr, seed, noise="receiver")
                 params = default_params(data, **pre.defaults)
                 a = run_method("kspace-rpm", data, params, d32).image
                 b = run_method("kspace-rpm", data, params, d64).image

@@ -57,10 +57,11 @@ def _figures(rps, image, truth):
 
 def _scenes():
     preset = get_preset("human-body")
-    body, _ = simulate_preset("human-body", 20.0, 0)
+    body, _ = simulate_preset("human-body", 20.0, 0, noise="receiver")
     clean, _ = simulate_preset("human-body", None, 0)
     one = simulate(Scene((Ellipsoid((0.0, 1.1, 1.0), (0.08, 0.05, 0.1)),), "one"), preset.array,
-                   preset.waveform, preset.range_axis, 20.0, 0, boundary_spacing=3e-3)
+                   preset.waveform, preset.range_axis, 20.0, 0, boundary_spacing=3e-3,
+                   noise="receiver")
     noise = dataclasses.replace(body, signal=body.signal - clean.signal, truth=None)
     zero = RadarData(np.zeros_like(body.signal), preset.array, preset.range_axis, preset.waveform)
     return preset, [("human body, 20 dB", body), ("one ellipsoid, 20 dB", one),
@@ -88,7 +89,8 @@ def gate_skips(engine, repeats):
 def pair_cutoff_2d(engine, repeats):
     arr = Array((np.arange(201) - 100) * 5e-3)
     scene = Scene((PointTarget((-0.1, 0.45)), PointTarget((0.15, 0.5))), "long")
-    data = simulate(scene, arr, Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3), 30.0, 0)
+    data = simulate(scene, arr, Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3), 30.0, 0,
+                    noise="receiver")
     params = default_params(data, sigma_x=0.05, sigma_r=0.05)
     rps = run_method("kspace-rpm", data, params, engine).rps
     print("## 2-D pairing cutoff: 201 antennas at 5 mm, sigma_x = 50 mm, 2 points, 30 dB\n")
@@ -105,7 +107,7 @@ def pair_cutoff_2d(engine, repeats):
 
 
 def score_cutoff(engine):
-    data, preset = simulate_preset("human-body", 20.0, 0)
+    data, preset = simulate_preset("human-body", 20.0, 0, noise="receiver")
     params = default_params(data, **preset.defaults)
     rps = run_method("kspace-rpm", data, params, engine).rps
     p = params.rpm

@@ -58,7 +58,8 @@ def layout(i):
 def image(pre, points, snr, seed, engine):
     """(figures, seconds) of one k-space RPM image."""
     scene = Scene(tuple(PointTarget(tuple(p)) for p in points), "layout")
-    data = simulate(scene, pre.array, pre.waveform, pre.range_axis, snr, seed)
+    data = simulate(scene, pre.array, pre.waveform, pre.range_axis, snr, seed,
+                    noise="receiver")
     params = default_params(data, **pre.defaults)
     t0 = time.perf_counter()
     res = run_method("kspace-rpm", data, params, engine)

@@ -33,7 +33,7 @@ def main():
     print(f"device: {env.name} | precision: {args.precision}")
     print(f"{'window':>7s} {'nbrs':>5s} {'S/N':>4s} {'RPs':>5s} {'RP<=10':>7s} {'RPM<=50':>8s} "
           f"{'RPM<=10':>8s} {'ms':>7s}")
-    data = {snr: simulate_preset("human-body", snr, 0) for snr in (None, 20.0)}
+    data = {snr: simulate_preset("human-body", snr, 0, noise="receiver") for snr in (None, 20.0)}
     for w in args.windows:
         for k in args.neighbours:
             for snr, (d, pre) in data.items():

@@ -24,7 +24,7 @@ def main(quick=False, snr_db=20.0, seed=0, png=None):
     parts = [0, 1, 2] if quick else list(range(len(names)))  # head, upper and lower torso
     scene = Scene(tuple(preset.scene.targets[i] for i in parts), "human-body")
     data = simulate(scene, preset.array, preset.waveform, preset.range_axis, snr_db, seed,
-                    boundary_spacing=preset.boundary_spacing)
+                    boundary_spacing=preset.boundary_spacing, noise="receiver")  # the paper's S/N
     result = run_method("kspace-rpm", data, default_params(data, **preset.defaults),
                         DeviceRPM(create_env(), "float32"))
     points = result.image.points

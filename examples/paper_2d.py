@@ -15,7 +15,8 @@ from rpm_cl.simulate import simulate_preset
 def main(snr_db=20.0, seed=0):
     env = create_env()  # first CPU device, or PYOPENCL_CTX
     engine = DeviceRPM(env, "float32")
-    data, preset = simulate_preset("paper-2d", snr_db, seed)
+    # the paper's S/N definition: noise at the receiver's sample rate (rpm_cl.simulate)
+    data, preset = simulate_preset("paper-2d", snr_db, seed, noise="receiver")
     params = default_params(data, **preset.defaults)
     result = run_method("kspace-rpm", data, params, engine)
     print(f"{len(result.rps)} RPs in {len(np.unique(result.rps.cluster))} clusters, "

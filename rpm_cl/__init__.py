@@ -7,7 +7,7 @@ Data flow: scene -> simulate -> RadarData -> decompose -> RangePoints -> RPM
 __version__ = "0.1.0"
 
 from .cl import CLEnv, NoOpenCLError, create_env, list_devices
-from .data import Array, InputError, RadarData, Truth, Waveform, load_npz, save_npz
+from .data import Array, DataWarning, InputError, RadarData, Truth, Waveform, load_npz, save_npz
 from .formats import frame_count, load_data, range_compress, save_data, save_result
 from .imaging import METHODS, ImagingParams, RPMParams, default_params, run_method
 from .kspace import KSpaceParams, decompose
@@ -20,6 +20,7 @@ __all__ = [
     "METHODS",
     "Array",
     "CLEnv",
+    "DataWarning",
     "DeviceRPM",
     "Ellipsoid",
     "ImagingParams",

@@ -36,7 +36,7 @@ def bench_case(engine, preset: str, snr, method: str, repeats: int = 20, seed: i
         pairs intersected per second in the RPM step), ``kernel_evals_per_s``
         (Gaussian kernel evaluations per second in the RPM step).
     """
-    data, pre = simulate_preset(preset, snr, seed)
+    data, pre = simulate_preset(preset, snr, seed, noise="receiver")
     params = default_params(data, **pre.defaults)
     res, _, stages = timed_run(method, data, params, engine, repeats)
     s = summary(res.rps, res.image, data.truth)
@@ -105,7 +105,7 @@ def bench_das(das, preset: str, snr, repeats: int = 3, seed: int = 0, volume: bo
     from .metrics import cumulative, err_rpm
     from .reproduce import DAS_GRIDS, das_points
 
-    data, _ = simulate_preset(preset, snr, seed)
+    data, _ = simulate_preset(preset, snr, seed, noise="receiver")
     out = []
     for label, text, kind in DAS_GRIDS.get(preset, []):
         if kind == "volume" and not volume:
@@ -133,7 +133,7 @@ def bench_rma(preset: str, snr, repeats: int = 3, seed: int = 0):
     if preset not in RMA_IMAGES:
         return None
     label, y0, y1 = RMA_IMAGES[preset]
-    data, _ = simulate_preset(preset, snr, seed)
+    data, _ = simulate_preset(preset, snr, seed, noise="receiver")
     times = []
     for _ in range(repeats):
         pts, sec, shape = rma_points(data, y0, y1)

@@ -17,6 +17,7 @@ import io
 import json
 import logging
 import sys
+import warnings
 from dataclasses import asdict
 
 import numpy as np
@@ -156,10 +157,10 @@ def cmd_simulate(args) -> int:
     from .simulate import simulate_preset
 
     check_output(args.output, DATA_EXTENSIONS, "data output")
-    data, _ = simulate_preset(args.scene, args.snr, args.seed)
+    data, _ = simulate_preset(args.scene, args.snr, args.seed, noise=args.noise)
     save_data(args.output, data)
     print(f"wrote {args.output}: {args.scene}, signal {data.signal.shape}, "
-          f"S/N {'inf' if args.snr is None else f'{args.snr:g} dB'}")
+          f"S/N {'inf' if args.snr is None else f'{args.snr:g} dB ({args.noise} noise)'}")
     return 0
 
 
@@ -236,7 +237,8 @@ def cmd_image(args) -> int:
     from .metrics import summary
 
     check_output(args.output, RESULT_EXTENSIONS, "result")
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
+                     conjugate=args.conjugate)
     params = _params(args, data)
     engine, env = _engine(args)
     verbose = log.isEnabledFor(logging.INFO) and hasattr(engine, "kernel_times")
@@ -245,6 +247,7 @@ def cmd_image(args) -> int:
     result = run_method(args.method, data, params, engine)
     meta = {"version": __version__, "device": env.name, "precision": args.precision,
             "input": args.input, "frame": args.frame, "range_window": args.range_window,
+            "conjugate": args.conjugate,
             "params": asdict(params)}
     if data.truth is not None and data.truth.scene not in ("", "{}"):
         meta["scene"] = json.loads(data.truth.scene)  # for `rpm-cl view`
@@ -268,7 +271,8 @@ def cmd_params(args) -> int:
     from .data import atomic_write_text
     from .formats import load_data
 
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
+                     conjugate=args.conjugate)
     params = _params(args, data)
     text = dump_toml(params, args.engine_params,
                      header=f"rpm-cl {__version__}: parameters resolved for {args.input}\n"
@@ -285,7 +289,9 @@ def cmd_params(args) -> int:
 def _accuracy_line(s: dict) -> str:
     from .reproduce import pct
 
-    return (f"Err_range<=10mm {pct(s['rp_within_10mm'], s['rp_total'])}, "
+    rp = ("unavailable (no truth_rp_*)" if s["rp_within_10mm"] is None
+          else pct(s["rp_within_10mm"], s["rp_total"]))
+    return (f"Err_range<=10mm {rp}, "
             f"Err_RPM<=50mm {pct(s['rpm_within_50mm'], s['rpm_total'])}, "
             f"<=100mm {pct(s['rpm_within_100mm'], s['rpm_total'])}")
 
@@ -321,7 +327,8 @@ def cmd_demo(args) -> int:
 
     engine, env = _engine(args)
     print(f"rpm-cl {__version__} demo on {env.name}")
-    data, preset = simulate_preset("paper-2d", None, seed=args.seed)
+    # the paper's scenes with the paper's S/N definition (rpm_cl.simulate)
+    data, preset = simulate_preset("paper-2d", None, seed=args.seed, noise="receiver")
     params = _params(args, data, preset.defaults)
     print("\npaper-2d: 3 point targets within 80 mm of range (0.1 of the 750 mm range "
           "resolution), 21 antennas at 5 mm, noise-free")
@@ -330,7 +337,8 @@ def cmd_demo(args) -> int:
         print(f"  {method:10s}: {len(r.rps):3d} RPs -> {len(r.image.points):3d} points in "
               f"{1e3 * sec:6.2f} ms | {_accuracy_line(summary(r.rps, r.image, data.truth))}")
 
-    data, preset = simulate_preset("human-body", args.snr, seed=args.seed, progress=None)
+    data, preset = simulate_preset("human-body", args.snr, seed=args.seed, progress=None,
+                                   noise="receiver")
     params = _params(args, data, preset.defaults)
     res, sec, stages = timed_run(DEFAULT_METHOD, data, params, engine)
     label = "noise-free" if args.snr is None else f"S/N {args.snr:g} dB"
@@ -403,6 +411,7 @@ def cmd_figure(args) -> int:
             das = DeviceDAS(env, args.precision)
     figure(args.name, args.input, args.png, size=args.size, dynamic_range=args.dynamic_range,
            grid=grid, engine=engine, das=das, frame=args.frame, range_window=args.range_window,
+           conjugate=args.conjugate,
            params=lambda data: _params(args, data))  # --config and flags, as `image`
     if args.png:
         print(f"wrote {args.png}")
@@ -417,7 +426,8 @@ def cmd_das(args) -> int:
     from .progress import callback
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
+                     conjugate=args.conjugate)
     grid = parse_grid(args.grid)
     if grid.dim != data.array.dim:
         raise CLIError(f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
@@ -452,6 +462,7 @@ def cmd_das(args) -> int:
     meta = {"version": __version__, "method": "das", "backend": args.backend, "device": device,
             "precision": args.precision if args.backend == "opencl" else "float64",
             "input": args.input, "frame": args.frame, "range_window": args.range_window,
+            "conjugate": args.conjugate,
             "grid": args.grid, "timing": timing}
     write_volume(args.output, grid, fill, dtype, meta)
     sec = timing.get("seconds", float("nan"))
@@ -468,7 +479,8 @@ def cmd_rma(args) -> int:
     from .rma import rma_image
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window)
+    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
+                     conjugate=args.conjugate)
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
     t0 = time.perf_counter()
@@ -548,6 +560,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .imaging import DEFAULT_METHOD, METHODS
     from .reproduce import CASES
     from .scene import PRESETS
+    from .simulate import NOISE_MODELS
 
     p = _Parser(prog="rpm-cl", description="OpenCL k-space range points migration imaging")
     p.add_argument("--version", action="version", version=f"rpm-cl {__version__}")
@@ -568,6 +581,10 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("--range-window", choices=sorted(RANGE_WINDOWS), default="hann",
                         help="window of the range compression of frequency-domain input "
                         "(spectrum + frequency; default hann)")
+        sp.add_argument("--conjugate", action="store_true",
+                        help="conjugate a spectrum before compressing it (samples recorded as "
+                        "exp(+j 4 pi f R / c), whose echoes land at the unambiguous range "
+                        "minus their range)")
 
     sp = sub.add_parser("info", help="list OpenCL platforms/devices and the one chosen")
     sp.add_argument("--device")
@@ -577,6 +594,11 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("scene", choices=sorted(PRESETS))
     sp.add_argument("-o", "--output", required=True)
     sp.add_argument("--snr", type=_snr, default=None, help="S/N in dB (default: noise-free)")
+    sp.add_argument("--noise", choices=NOISE_MODELS, default="in-band",
+                    help="noise model of --snr: in-band (default; white noise on the band's "
+                         "frequency samples, S/N = peak / mean noise power of the range "
+                         "profiles) or receiver (the paper's tables: white noise at the range "
+                         "axis's sample rate, S/N before the matched filter)")
     sp.add_argument("--seed", type=_seed, default=0)
     sp.set_defaults(func=cmd_simulate)
 
@@ -634,8 +656,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     sp = sub.add_parser("demo", help="simulate, image and score the paper's scenes end to end")
     sp.add_argument("--seed", type=_seed, default=0)
-    sp.add_argument("--snr", type=_snr, default=None, help="S/N of the human body in dB "
-                    "(default: noise-free)")
+    sp.add_argument("--snr", type=_snr, default=None, help="S/N of the human body in dB, "
+                    "receiver noise model as in the paper's tables (default: noise-free)")
     sp.add_argument("--png", help="also draw the human-body image here (needs pyvista)")
     device_opts(sp)
     param_opts(sp)
@@ -757,6 +779,20 @@ def _on_sigterm(signum, frame):
     raise _Terminated()
 
 
+def _show_warning(shown):
+    """A ``warnings.showwarning`` that prints a :class:`rpm_cl.data.DataWarning`
+    as one line ``rpm-cl: warning: ...`` through the ``rpm_cl`` logger (so
+    ``-q`` silences it) and hands every other warning to ``shown``."""
+    from .data import DataWarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, DataWarning):
+            log.warning("warning: %s", " ".join(str(message).split()))
+        else:
+            shown(message, category, filename, lineno, file, line)
+    return show
+
+
 def main(argv=None) -> int:
     """Entry point of the ``rpm-cl`` command; returns the exit code."""
     import signal
@@ -785,6 +821,8 @@ def main(argv=None) -> int:
 
                 stack.enter_context(bars_off())
                 stack.enter_context(contextlib.redirect_stdout(io.StringIO()))
+            stack.enter_context(warnings.catch_warnings())
+            warnings.showwarning = _show_warning(warnings.showwarning)
             if hasattr(args, "config"):
                 _load_config(args)
             return args.func(args)

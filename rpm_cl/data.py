@@ -17,7 +17,9 @@ Input contract (``.npz``)
 ``fc``, ``bandwidth``
     scalars, Hz.
 ``truth_*`` (optional)
-    the true geometry, see :class:`Truth`.
+    the true geometry, see :class:`Truth`: ``truth_boundary`` (with it, the
+    optional ``truth_rp_antenna`` and ``truth_rp_range``, both or neither,
+    and ``truth_scene``).
 """
 
 from __future__ import annotations
@@ -33,15 +35,19 @@ import numpy as np
 
 __all__ = [
     "C0",
+    "FC_MIN",
     "Array",
+    "DataWarning",
     "InputError",
     "RadarData",
     "Truth",
     "Waveform",
     "atomic_savez",
     "atomic_write_text",
+    "check_plausible",
     "load_npz",
     "save_npz",
+    "unit_hint",
 ]
 
 #: Speed of light in vacuum, m/s (the propagation speed in air used throughout).
@@ -59,6 +65,24 @@ AMPLITUDE_MIN = 1e-300
 
 class InputError(ValueError):
     """Malformed input; the message names the field and the problem."""
+
+
+class DataWarning(UserWarning):
+    """Input that loads but looks wrong (a unit, a sign convention or a
+    setting); the message says what to change.  The command line prints it
+    as one line ``rpm-cl: warning: ...`` on stderr."""
+
+
+#: Lowest centre frequency accepted, Hz.  Below it the numbers are taken for
+#: GHz or MHz values given without their factor and refused (every radar the
+#: engine models, HF included, lies above).
+FC_MIN = 1e6
+
+
+def unit_hint(value_hz: float) -> str:
+    """For a frequency below :data:`FC_MIN`: the unit its number looks like
+    (``"GHz numbers (x 1e9)"`` below 1e3, else ``"MHz numbers (x 1e6)"``)."""
+    return "GHz numbers (x 1e9)" if abs(value_hz) < 1e3 else "MHz numbers (x 1e6)"
 
 
 def _real_kind(a) -> bool:
@@ -130,6 +154,9 @@ class Waveform:
     def __post_init__(self):
         fc = _finite_scalar("fc", self.fc)
         bw = _finite_scalar("bandwidth", self.bandwidth)
+        if fc < FC_MIN:
+            raise InputError(f"fc = {fc:g} Hz is below {FC_MIN:g} Hz: it looks like "
+                             f"{unit_hint(fc)}; give fc and bandwidth in Hz")
         if bw >= 2 * fc:
             raise InputError(f"bandwidth ({bw:g} Hz) must be below 2*fc ({2 * fc:g} Hz)")
         object.__setattr__(self, "fc", fc)
@@ -214,11 +241,13 @@ class Truth:
 
     Attributes
     ----------
-    rp_antenna : ndarray of int, shape (K,)
+    rp_antenna : ndarray of int, shape (K,), or None
         Flat antenna index (C order of the array) of each true RP; an
         integer dtype (floats, even integral ones, raise :class:`InputError`).
-    rp_range : ndarray, shape (K,)
-        True range of each specular echo, m.
+        None (with ``rp_range``) where the true RPs are unknown, e.g. measured
+        data with a surveyed boundary only: Err_range is then unavailable.
+    rp_range : ndarray, shape (K,), or None
+        True range of each specular echo, m; None with ``rp_antenna``.
     boundary : ndarray, shape (P, dim)
         Dense samples of the true target boundary (the points themselves for
         point targets), m.
@@ -226,30 +255,36 @@ class Truth:
         JSON description of the scene.
     """
 
-    rp_antenna: np.ndarray
-    rp_range: np.ndarray
+    rp_antenna: np.ndarray | None
+    rp_range: np.ndarray | None
     boundary: np.ndarray
     scene: str = "{}"
 
     def __post_init__(self):
-        ant = np.asarray(self.rp_antenna)
-        # indices are integers by type, as frame= and a result's cluster are:
-        # a float (even 3.0) is refused rather than cast (3.5 became 3)
-        if ant.size and not np.issubdtype(ant.dtype, np.integer):
-            raise InputError(f"truth_rp_antenna must be an integer array (antenna indices), "
-                             f"got dtype {ant.dtype}")
-        object.__setattr__(self, "rp_antenna", ant.astype(np.int64).ravel())
+        if (self.rp_antenna is None) != (self.rp_range is None):
+            raise InputError("truth_rp_antenna and truth_rp_range go together: give both or "
+                             "neither")
+        if self.rp_antenna is not None:
+            ant = np.asarray(self.rp_antenna)
+            # indices are integers by type, as frame= and a result's cluster are:
+            # a float (even 3.0) is refused rather than cast (3.5 became 3)
+            if ant.size and not np.issubdtype(ant.dtype, np.integer):
+                raise InputError(f"truth_rp_antenna must be an integer array (antenna indices), "
+                                 f"got dtype {ant.dtype}")
+            object.__setattr__(self, "rp_antenna", ant.astype(np.int64).ravel())
         for name, v in (("truth_rp_range", self.rp_range), ("truth_boundary", self.boundary)):
-            if np.size(v) and not _real_kind(v):
+            if v is not None and np.size(v) and not _real_kind(v):
                 raise InputError(f"{name} must be real numbers, got dtype {np.asarray(v).dtype}")
-        object.__setattr__(self, "rp_range", np.asarray(self.rp_range, np.float64).ravel())
+        if self.rp_range is not None:
+            object.__setattr__(self, "rp_range", np.asarray(self.rp_range, np.float64).ravel())
         b = np.asarray(self.boundary, np.float64)
         if b.ndim != 2 or b.shape[1] not in (2, 3):
             raise InputError(f"truth_boundary must have shape (P, 2|3), got {b.shape}")
-        if not (np.all(np.isfinite(b)) and np.all(np.isfinite(self.rp_range))):
+        if not (np.all(np.isfinite(b))
+                and (self.rp_range is None or np.all(np.isfinite(self.rp_range)))):
             raise InputError("truth_boundary or truth_rp_range contains NaN or Inf")
         object.__setattr__(self, "boundary", b)
-        if self.rp_antenna.shape != self.rp_range.shape:
+        if self.has_rps and self.rp_antenna.shape != self.rp_range.shape:
             raise InputError("truth_rp_antenna and truth_rp_range differ in length")
         try:
             scene = json.loads(str(self.scene) or "{}")
@@ -257,6 +292,11 @@ class Truth:
             raise InputError("truth_scene must be a JSON object (the scene description)") from None
         if not isinstance(scene, dict):
             raise InputError("truth_scene must be a JSON object (the scene description)")
+
+    @property
+    def has_rps(self) -> bool:
+        """True where the true RPs are known (Err_range can be computed)."""
+        return self.rp_range is not None
 
 
 @dataclass(frozen=True)
@@ -273,6 +313,12 @@ class RadarData:
         Uniform range axis, m.
     waveform : Waveform
     truth : Truth, optional
+    range_sidelobe_db : float, optional
+        The strongest range sidelobe of the range compression that a k-space
+        peak search can take for an echo (one beyond half a range
+        resolution from its main lobe), dB relative to the main lobe, < 0;
+        known for a spectrum compressed by :func:`rpm_cl.formats.range_compress`,
+        None otherwise.  Imaging warns when a peak threshold lies below it.
     """
 
     signal: np.ndarray
@@ -280,6 +326,7 @@ class RadarData:
     range: np.ndarray
     waveform: Waveform
     truth: Truth | None = field(default=None)
+    range_sidelobe_db: float | None = field(default=None)
 
     def __post_init__(self):
         s = np.asarray(self.signal)
@@ -299,7 +346,8 @@ class RadarData:
         dr = float(rng[1] - rng[0])
         if dr > res:
             raise InputError(f"range spacing {dr:g} m is coarser than the range resolution "
-                             f"c/2B = {res:g} m: range peaks cannot be located")
+                             f"c/2B = {res:g} m: range peaks cannot be located (range is "
+                             f"in m: millimetre numbers are 1000 times too large)")
         if dr < 1e-9 * res:
             raise InputError(f"range spacing {dr:g} m is below 1e-9 of the range resolution "
                              f"{res:g} m")
@@ -308,7 +356,8 @@ class RadarData:
             if t.boundary.shape[1] != self.array.dim or len(t.boundary) == 0:
                 raise InputError(f"truth_boundary must have shape (P>0, {self.array.dim}) for "
                                  f"this array, got {t.boundary.shape}")
-            if t.rp_antenna.size and (t.rp_antenna.min() < 0 or t.rp_antenna.max() >= self.array.n):
+            if t.has_rps and t.rp_antenna.size and (t.rp_antenna.min() < 0
+                                                     or t.rp_antenna.max() >= self.array.n):
                 raise InputError(f"truth_rp_antenna must index the {self.array.n} antennas")
         peak = float(np.max(np.abs(s))) if s.size else 0.0
         top = SUM_MAX / max(s.size, 1)
@@ -322,11 +371,52 @@ class RadarData:
         s = s.astype(np.complex64 if keep64 else np.complex128, copy=False)
         object.__setattr__(self, "signal", s)
         object.__setattr__(self, "range", rng)
+        sl = self.range_sidelobe_db
+        if sl is not None:
+            sl = _finite_scalar("range_sidelobe_db", sl, positive=False)
+            if sl >= 0:
+                raise InputError(f"range_sidelobe_db must be < 0 dB, got {sl:g}")
+            object.__setattr__(self, "range_sidelobe_db", sl)
 
     @property
     def dr(self) -> float:
         """Range sample spacing, m."""
         return float(self.range[1] - self.range[0])
+
+
+#: The array pitch is taken for a unit mistake beyond these multiples of the
+#: wavelength: above PITCH_MAX_WAVELENGTHS, x (z) in mm read as m (a 5 mm
+#: pitch is 333 wavelengths at 20 GHz; the paper's sparse array has 1.3, and
+#: a 21-antenna array of 1 m pitch, 67, is imaged in the tests);
+#: below 1 / PITCH_MIN_PER_WAVELENGTH, frequencies in kHz numbers (a 20 GHz
+#: radar read as 20 MHz has a 15 m wavelength, 3000 of its 5 mm pitches).
+PITCH_MAX_WAVELENGTHS = 200.0
+PITCH_MIN_PER_WAVELENGTH = 300.0
+
+
+def check_plausible(data: RadarData) -> None:
+    """Warn (:class:`DataWarning`) where the data's units look wrong.
+
+    The array pitch against the wavelength ``c / fc``: more than
+    :data:`PITCH_MAX_WAVELENGTHS` wavelengths suggests x (z) in mm read as m;
+    less than 1 / :data:`PITCH_MIN_PER_WAVELENGTH` of one suggests
+    frequencies in kHz numbers.  (GHz and MHz numbers are refused by
+    :class:`Waveform`; a range axis in mm by :class:`RadarData`.)
+    """
+    import warnings
+
+    arr = data.array
+    pitch = max(abs(arr.dx), abs(arr.dz or 0.0))
+    lam = data.waveform.wavelength
+    where = "x / z" if arr.planar else "x"
+    if pitch > PITCH_MAX_WAVELENGTHS * lam:
+        warnings.warn(f"the antenna pitch {pitch:g} m is {pitch / lam:.0f} wavelengths "
+                      f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): is {where} in mm? "
+                      f"give {where} in m", DataWarning, stacklevel=3)
+    elif pitch < lam / PITCH_MIN_PER_WAVELENGTH:
+        warnings.warn(f"the antenna pitch {pitch:g} m is 1/{lam / pitch:.0f} of the wavelength "
+                      f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): are the frequencies in "
+                      f"kHz numbers? give them in Hz (x 1e3)", DataWarning, stacklevel=3)
 
 
 def _read(npz, key, name):
@@ -358,10 +448,13 @@ def load_npz(path) -> RadarData:
             truth = None
             if "truth_boundary" in npz.files:
                 scene = str(npz["truth_scene"]) if "truth_scene" in npz.files else "{}"
-                truth = Truth(_read(npz, "truth_rp_antenna", path),
-                              _read(npz, "truth_rp_range", path), npz["truth_boundary"], scene)
-            return RadarData(_read(npz, "signal", path), array, _read(npz, "range", path),
+                truth = Truth(npz["truth_rp_antenna"] if "truth_rp_antenna" in npz.files else None,
+                              npz["truth_rp_range"] if "truth_rp_range" in npz.files else None,
+                              npz["truth_boundary"], scene)
+            data = RadarData(_read(npz, "signal", path), array, _read(npz, "range", path),
                              waveform, truth)
+            check_plausible(data)
+            return data
         except InputError as exc:
             msg = str(exc)
             raise InputError(msg if msg.startswith(path) else f"{path}: {msg}") from None
@@ -466,12 +559,10 @@ def data_arrays(data: RadarData) -> dict:
     if data.array.z is not None:
         out["z"] = data.array.z
     if data.truth is not None:
-        out.update(
-            truth_rp_antenna=data.truth.rp_antenna,
-            truth_rp_range=data.truth.rp_range,
-            truth_boundary=data.truth.boundary,
-            truth_scene=np.array(data.truth.scene),
-        )
+        if data.truth.has_rps:
+            out.update(truth_rp_antenna=data.truth.rp_antenna,
+                       truth_rp_range=data.truth.rp_range)
+        out.update(truth_boundary=data.truth.boundary, truth_scene=np.array(data.truth.scene))
     return out
 
 

@@ -179,7 +179,7 @@ def rp_sets(data: RadarData, params=None) -> RPSets:
         row_z = float(arr.z[iz])
         keep = np.unravel_index(rps.antenna, arr.shape)[1] == iz
     tx = tr = within = None
-    if data.truth is not None:
+    if data.truth is not None and data.truth.has_rps:
         t = data.truth
         within = int(np.sum(err_range(rps.antenna[keep], rps.range[keep], t) <= 0.010))
         ix = t.rp_antenna
@@ -352,7 +352,7 @@ FIGURES = ("kspace", "rps", "compare")
 
 def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float = 40.0,
            grid=None, engine=None, das=None, frame: int | None = None,
-           range_window: str = "hann", params=None) -> object:
+           range_window: str = "hann", params=None, conjugate: bool = False) -> object:
     """Compute and draw one paper-style figure of a data file.
 
     Parameters
@@ -382,6 +382,8 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         applies ``--config`` and the flags over the defaults derived from the
         data, as ``rpm-cl image`` does).  Default
         :func:`rpm_cl.imaging.default_params` of the data.
+    conjugate : bool
+        Conjugate a frequency-domain input first (as :func:`rpm_cl.load_data`).
 
     Returns
     -------
@@ -407,7 +409,7 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
         if not os.fspath(png).lower().endswith(".png"):
             raise InputError(f"{os.fspath(png)}: the picture must be a .png file")
         output_path(png)
-    data = load_data(path, frame=frame, range_window=range_window)
+    data = load_data(path, frame=frame, range_window=range_window, conjugate=conjugate)
     if callable(params):
         params = params(data)
     if name == "kspace":

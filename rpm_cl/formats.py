@@ -60,7 +60,9 @@ import numpy as np
 
 from .data import (
     C0,
+    FC_MIN,
     Array,
+    DataWarning,
     InputError,
     RadarData,
     Truth,
@@ -68,8 +70,10 @@ from .data import (
     _atomic_file,
     _uniform_axis,
     atomic_savez,
+    check_plausible,
     data_arrays,
     output_path,
+    unit_hint,
 )
 
 __all__ = [
@@ -82,6 +86,7 @@ __all__ = [
     "frame_count",
     "load_data",
     "range_compress",
+    "range_sidelobe_db",
     "result_arrays",
     "save_data",
     "save_result",
@@ -264,7 +269,7 @@ def _guarded(path: str, fn):
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith(path) else f"{path}: {msg}") from None
-    except MemoryError:
+    except (MemoryError, Warning):   # a warning turned into an error stays itself
         raise
     except Exception as exc:  # noqa: BLE001 - truncated member or dataset, bad header ...
         raise InputError(f"{path}: cannot read ({_oneline(exc)})") from None
@@ -347,11 +352,12 @@ def _truth(src):
     if "truth_boundary" not in src:
         return None
     scene = src.text("truth_scene") if "truth_scene" in src else "{}"
-    return Truth(_need(src, "truth_rp_antenna"), _need(src, "truth_rp_range"),
-                 src.read("truth_boundary"), scene)
+    # the true RPs are optional (a surveyed boundary alone scores Err_RPM)
+    rp = [src.read(k) if k in src else None for k in ("truth_rp_antenna", "truth_rp_range")]
+    return Truth(rp[0], rp[1], src.read("truth_boundary"), scene)
 
 
-def _build(src, frame, range_window: str) -> RadarData:
+def _build(src, frame, range_window: str, conjugate: bool) -> RadarData:
     key = _data_key(src)
     z = src.read("z") if "z" in src else None
     array = Array(_need(src, "x"), z)
@@ -360,19 +366,32 @@ def _build(src, frame, range_window: str) -> RadarData:
     if key == "signal":
         if "frequency" in src:
             raise InputError("'frequency' goes with 'spectrum', not with 'signal'")
+        if conjugate:
+            raise InputError("conjugate applies to a spectrum (frequency-domain input), not to "
+                             "'signal'")
         waveform = Waveform(_need(src, "fc"), _need(src, "bandwidth"))
-        return RadarData(values, array, _need(src, "range"), waveform, truth)
+        data = RadarData(values, array, _need(src, "range"), waveform, truth)
+        check_plausible(data)
+        return data
     if "range" in src:
         raise InputError("'range' goes with 'signal'; a spectrum's range axis comes from "
                          "'frequency'")
     freq = _frequency_axis(_need(src, "frequency"))
     fc = src.read("fc") if "fc" in src else None
     bw = src.read("bandwidth") if "bandwidth" in src else None
+    if conjugate:
+        values = np.conj(values)
     signal, rng, waveform = _compress_checked(values, freq, fc, bw, range_window, array)
-    return RadarData(signal, array, rng, waveform, truth)
+    if not conjugate:
+        _check_conjugated(signal, rng)
+    data = RadarData(signal, array, rng, waveform, truth,
+                     range_sidelobe_db(freq, range_window, waveform.bandwidth))
+    check_plausible(data)
+    return data
 
 
-def load_data(path, *, frame: int | None = None, range_window: str = "hann") -> RadarData:
+def load_data(path, *, frame: int | None = None, range_window: str = "hann",
+              conjugate: bool = False) -> RadarData:
     """Read and validate radar data from an ``.npz`` or HDF5 file.
 
     Parameters
@@ -387,6 +406,17 @@ def load_data(path, *, frame: int | None = None, range_window: str = "hann") -> 
     range_window : str
         Window of the range compression of a ``spectrum``, one of
         :data:`RANGE_WINDOWS` (ignored for time-domain data).
+    conjugate : bool
+        Conjugate a ``spectrum`` before compressing it: for samples recorded
+        as ``a exp(+j 4 pi f R / c)`` (whose echoes otherwise land at the
+        unambiguous range minus their range; a warning says when the data
+        look so).  Refused for time-domain data.
+
+    Warns
+    -----
+    DataWarning
+        One line with its fix: a spectrum that looks conjugated, units that
+        look wrong (:func:`rpm_cl.data.check_plausible`).
 
     Returns
     -------
@@ -405,7 +435,7 @@ def load_data(path, *, frame: int | None = None, range_window: str = "hann") -> 
     _window_name(range_window)
     path, src = _open(path)
     try:
-        return _guarded(path, lambda: _build(src, frame, range_window))
+        return _guarded(path, lambda: _build(src, frame, range_window, bool(conjugate)))
     finally:
         src.close()
 
@@ -432,7 +462,40 @@ def _frequency_axis(values) -> np.ndarray:
     f = _uniform_axis("frequency", values, min_len=2, unit="Hz")
     if f[0] <= 0:
         raise InputError(f"frequency must be > 0 Hz, starts at {f[0]:g} Hz")
+    if f[-1] < FC_MIN:   # as Waveform refuses such an fc: the same words either way
+        raise InputError(f"frequency reaches only {f[-1]:g} Hz, below {FC_MIN:g} Hz: it looks "
+                         f"like {unit_hint(f[-1])}; give it in Hz")
     return f
+
+
+#: A spectrum is taken for a conjugated one when at least this share of its
+#: compressed power lies in the last quarter of the unambiguous range (and
+#: so, mirrored, in the first quarter of the conjugate's): noise alone puts a
+#: quarter there, a scene in the near part of the range almost none.
+CONJUGATE_FAR_SHARE = 0.5
+
+
+def _check_conjugated(signal, rng) -> None:
+    """Warn when the compressed power sits in the far quarter of the
+    unambiguous range ``[0, c / 2 df)``: a spectrum recorded as ``exp(+j 4 pi
+    f R / c)`` puts each echo at ``R_u - R`` (its compression is the mirror
+    image of the conjugate's, which then holds that power in the first
+    quarter)."""
+    import warnings
+
+    mag = np.abs(np.asarray(signal)).reshape(-1, rng.size)
+    top = float(mag.max()) if mag.size else 0.0
+    if not top > 0:
+        return
+    power = np.sum((mag / top) ** 2, axis=0)
+    r_u = float(rng[-1] + (rng[1] - rng[0]))
+    share = float(power[rng >= 0.75 * r_u].sum() / power.sum())
+    if share >= CONJUGATE_FAR_SHARE:
+        warnings.warn(f"the spectrum looks conjugated: {share:.0%} of the compressed power "
+                      f"lies beyond {0.75 * r_u:.3g} m, in the last quarter of the unambiguous "
+                      f"range {r_u:.3g} m (an echo recorded as exp(+j 4 pi f R / c) lands at "
+                      f"{r_u:.3g} m - R); if so, load it with conjugate=True (--conjugate)",
+                      DataWarning, stacklevel=2)
 
 
 def window_bandwidth(frequency, window: str = "hann") -> float:
@@ -454,6 +517,50 @@ def window_bandwidth(frequency, window: str = "hann") -> float:
     span = f.size * float(f[1] - f[0])
     w = _window(window, 4001)
     return span * float(np.mean(w >= 0.5 * w.max()))
+
+
+def range_sidelobe_db(frequency, window: str, bandwidth: float) -> float | None:
+    """The strongest range sidelobe of :func:`range_compress` that a peak
+    search can take for an echo, dB relative to the main lobe.
+
+    The compressed response of a lone echo, ``|sum_n w_n exp(j 4 pi n df R /
+    c)| / sum_n w_n``, on the gates of :func:`range_compress`; its local
+    maxima farther than half a range resolution ``c / (4 bandwidth)`` from
+    the main lobe's peak (the k-space search's neighbourhood along R, so a
+    sidelobe within it is never a centre) and the largest of them.  rect:
+    -13.3 dB, hann -31.5, hamming -42.6 (of scipy's windows over 81 samples
+    with the default bandwidth).
+
+    Parameters
+    ----------
+    frequency : ndarray, shape (nf,)
+        Uniform frequency axis, Hz.
+    window : str
+        A key of :data:`RANGE_WINDOWS`.
+    bandwidth : float
+        The engine's bandwidth B, Hz (its range resolution ``c / 2B``).
+
+    Returns
+    -------
+    float or None
+        dB (< 0); None where no sidelobe lies beyond that distance.
+    """
+    from scipy import fft
+
+    f = np.asarray(frequency, np.float64)
+    nf = f.size
+    df = float(f[1] - f[0])
+    n = fft.next_fast_len(RANGE_OVERSAMPLE * nf)
+    w = _window(window, nf)
+    resp = np.abs(fft.ifft(w, n=n)) * n / w.sum()
+    dr = C0 / (2.0 * df * n)
+    half = int(np.ceil(0.5 * C0 / (2.0 * bandwidth) / dr))
+    lag = np.minimum(np.arange(n), n - np.arange(n))   # circular distance to the peak, gates
+    peak = (resp >= np.roll(resp, 1)) & (resp >= np.roll(resp, -1)) & (lag > half)
+    if not np.any(peak):
+        return None
+    top = float(resp[peak].max())
+    return float(20.0 * np.log10(top)) if top > 0 else None
 
 
 def range_compress(spectrum, frequency, fc: float, window: str = "hann"):

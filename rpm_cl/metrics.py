@@ -2,7 +2,8 @@
 
 - Err_range: per RP, the distance between its range and the nearest true
   range at the same antenna (the paper's "minimum distance between the true and
-  estimated ranges for each RP").
+  estimated ranges for each RP"); unavailable where the truth holds the
+  boundary only (``Truth.has_rps`` False).
 - Err_RPM: per image point, the distance to the nearest sample of the densely
   sampled true boundary.
 - Cumulative fractions: the share of RPs / points with error <= a threshold.
@@ -15,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .data import Truth
+from .data import InputError, Truth
 
 __all__ = ["cumulative", "echoes_found", "err_range", "err_rpm", "summary"]
 
@@ -30,7 +31,14 @@ def err_range(antenna, rng, truth: Truth) -> np.ndarray:
     rng : ndarray, shape (K,)
         RP ranges, m.
     truth : Truth
+        With its true RPs (``truth.has_rps``).
+
+    Raises
+    ------
+    InputError
+        The truth has no true RPs.
     """
+    _need_rps(truth)
     antenna = np.asarray(antenna)
     rng = np.asarray(rng, np.float64)
     out = np.full(rng.shape, np.inf)
@@ -60,6 +68,7 @@ def echoes_found(antenna, rng, truth: Truth, tol: float = 0.010) -> int:
     tol : float
         Largest range difference, m.
     """
+    _need_rps(truth)
     rps = Truth(np.asarray(antenna, np.int64), rng, truth.boundary)
     return cumulative(err_range(truth.rp_antenna, truth.rp_range, rps), tol)[0]
 
@@ -85,6 +94,12 @@ def cumulative(errors, threshold: float) -> tuple[int, int]:
     return int(np.sum(errors <= threshold)), int(errors.size)
 
 
+def _need_rps(truth: Truth) -> None:
+    if not truth.has_rps:
+        raise InputError("the truth has no true RPs (truth_rp_antenna, truth_rp_range): "
+                         "Err_range is unavailable")
+
+
 def summary(rps, image, truth: Truth) -> dict:
     """The paper's figures for one result.
 
@@ -92,11 +107,14 @@ def summary(rps, image, truth: Truth) -> dict:
     -------
     dict
         ``rp_total``, ``rp_within_10mm``, ``rpm_total``, ``rpm_within_10mm``,
-        ``rpm_within_50mm``, ``rpm_within_100mm``.
+        ``rpm_within_50mm``, ``rpm_within_100mm``.  ``rp_within_10mm`` is None
+        where the truth has no true RPs (a boundary only: Err_range is
+        unavailable, Err_RPM is computed).
     """
-    e_r = err_range(rps.antenna, rps.range, truth)
     e_p = err_rpm(image.points, truth)
-    out = {"rp_total": int(e_r.size), "rp_within_10mm": cumulative(e_r, 0.010)[0],
+    within = (cumulative(err_range(rps.antenna, rps.range, truth), 0.010)[0]
+              if truth.has_rps else None)
+    out = {"rp_total": int(len(rps.range)), "rp_within_10mm": within,
            "rpm_total": int(e_p.size)}
     for mm in (10, 50, 100):
         out[f"rpm_within_{mm}mm"] = cumulative(e_p, mm / 1000.0)[0]

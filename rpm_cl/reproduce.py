@@ -5,6 +5,8 @@ over ``trials`` noise realisations (seeds ``seed``, ``seed+1``, ...): counts are
 summed, so ``rp_total`` is the number of RPs over all trials.  ``seconds`` is
 the median imaging time per trial from s(X, R) to points; programs are built
 and every kernel has run once before the clock starts (compile excluded).
+The scenes are simulated with the ``"receiver"`` noise model
+(:mod:`rpm_cl.simulate`), the one the tables' S/N figures are reproduced with.
 """
 
 from __future__ import annotations
@@ -268,7 +270,7 @@ def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
             n_trials = 1 if snr is None else trials
             datasets = []
             for t in range(n_trials):
-                datasets.append(simulate_preset(preset_name, snr, seed + t))
+                datasets.append(simulate_preset(preset_name, snr, seed + t, noise="receiver"))
                 pbar.update()
             for method in methods:
                 if progress:

@@ -26,7 +26,7 @@ def frames_dir(tmp_path_factory):
     """Three noisy paper-2d frames (different noise seeds)."""
     d = tmp_path_factory.mktemp("frames")
     for seed in SEEDS:
-        save_npz(d / f"scan{seed}.npz", simulate_preset("paper-2d", 20.0, seed)[0])
+        save_npz(d / f"scan{seed}.npz", simulate_preset("paper-2d", 20.0, seed, noise="receiver")[0])
     return d
 
 
@@ -221,7 +221,7 @@ def test_hdf5_stack_frames(tmp_path, dev32):
     from rpm_cl.batch import frame_sources, run_batch
     from rpm_cl.formats import save_data
 
-    frames = [simulate_preset("paper-2d", 20.0, seed)[0] for seed in SEEDS]
+    frames = [simulate_preset("paper-2d", 20.0, seed, noise="receiver")[0] for seed in SEEDS]
     inp = tmp_path / "in"
     inp.mkdir()
     save_data(inp / "single.h5", frames[0])

@@ -170,7 +170,7 @@ def test_paper_2d_capon_beats_matched_filter_noise_free_and_degrades_with_noise(
     assert cap_k / cap_n >= mf_k / mf_n + 0.15, (cap_k, cap_n, mf_k, mf_n)
     k = n = 0
     for seed in range(3):
-        noisy, _ = simulate_preset("paper-2d", 20.0, seed)
+        noisy, _ = simulate_preset("paper-2d", 20.0, seed, noise="receiver")
         a, b = _fraction(rps_from_capon(noisy), noisy.truth)
         k, n = k + a, n + b
     assert n > 0 and k / n <= cap_k / cap_n - 0.10, (k, n, cap_k, cap_n)
@@ -186,6 +186,6 @@ def test_human_body_capon_accurate_noise_free_degrades_at_20_db():
     data, _ = simulate_preset("human-body")
     k, n = _fraction(rps_from_capon(data), data.truth)
     assert n >= 250 and k / n >= 0.97, (k, n)
-    noisy, _ = simulate_preset("human-body", 20.0, 0)
+    noisy, _ = simulate_preset("human-body", 20.0, 0, noise="receiver")
     k2, n2 = _fraction(rps_from_capon(noisy), noisy.truth)
     assert n2 > 0 and k2 / n2 < 0.80, (k2, n2)

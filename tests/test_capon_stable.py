@@ -29,7 +29,7 @@ from rpm_cl.capon import rps_from_capon
 from rpm_cl.simulate import simulate_preset
 out = []
 for snr, seed in ((None, 0), (20.0, 3)):
-    rps = rps_from_capon(simulate_preset("paper-2d", snr, seed)[0])
+    rps = rps_from_capon(simulate_preset("paper-2d", snr, seed, noise="receiver")[0])
     out.append({"antenna": rps.antenna.tolist(), "range": [float(r).hex() for r in rps.range],
                 "amp": [float(a).hex() for a in rps.amp]})
 print(json.dumps(out))

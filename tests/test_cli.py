@@ -15,7 +15,8 @@ from rpm_cl.imaging import DEFAULT_METHOD
 @pytest.fixture(scope="module")
 def sim_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("sim") / "paper.npz"
-    assert main(["simulate", "paper-2d", "-o", str(path), "--snr", "20", "--seed", "1"]) == 0
+    assert main(["simulate", "paper-2d", "-o", str(path), "--snr", "20", "--seed", "1",
+                 "--noise", "receiver"]) == 0
     return path
 
 
@@ -148,6 +149,28 @@ def test_installed_entry_point_runs(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
     assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0
+
+
+def test_simulate_noise_model_flag(tmp_path, capsys):
+    """--noise picks the model of --snr; in-band by default, receiver as the
+    paper's tables are reproduced (rpm_cl.simulate)."""
+    from rpm_cl.simulate import simulate_preset
+
+    sig = {}
+    for name, tail in (("default", []), ("in-band", ["--noise", "in-band"]),
+                       ("receiver", ["--noise", "receiver"])):
+        out = tmp_path / f"{name}.npz"
+        assert main(["simulate", "paper-2d", "-o", str(out), "--snr", "10", "--seed", "2",
+                     *tail]) == 0
+        sig[name] = np.load(out)["signal"]
+    assert "(receiver noise)" in capsys.readouterr().out
+    np.testing.assert_array_equal(sig["default"], sig["in-band"])
+    np.testing.assert_array_equal(sig["receiver"],
+                                  simulate_preset("paper-2d", 10.0, 2, noise="receiver")[0].signal)
+    np.testing.assert_array_equal(sig["in-band"], simulate_preset("paper-2d", 10.0, 2)[0].signal)
+    code, err = run_err(capsys, ["simulate", "paper-2d", "-o", str(tmp_path / "x.npz"),
+                                 "--noise", "thermal"])
+    assert code == 2 and "--noise" in err and err.count("\n") == 0
 
 
 @pytest.mark.parametrize("argv_tail, words", [
@@ -294,3 +317,58 @@ def test_bench_table_and_kernel_profile(capsys, dev32):
     data, pre = simulate_preset("paper-2d", None, 0)
     p = kernel_profile(dev32, "kspace-rpm", data, default_params(data, **pre.defaults), runs=3)
     assert p["kernel_evals"] == b["kernel_evals"] and not dev32.timing
+
+
+def test_image_scores_a_truth_with_the_boundary_only(tmp_path, capsys, sim_file):
+    """A file with truth_boundary and no truth_rp_* (a surveyed boundary of
+    measured data) loads and is scored: Err_RPM as with the full truth,
+    Err_range unavailable.  One of the two RP keys alone is refused."""
+    from rpm_cl.formats import load_data
+
+    full = dict(np.load(sim_file))
+    part = {k: v for k, v in full.items() if k not in ("truth_rp_antenna", "truth_rp_range")}
+    src = tmp_path / "boundary_only.npz"
+    np.savez(src, **part)
+    data = load_data(src)
+    assert data.truth is not None and not data.truth.has_rps
+    np.testing.assert_array_equal(data.truth.boundary, full["truth_boundary"])
+    assert main(["image", str(src), "-o", str(tmp_path / "b.npz")]) == 0
+    line_b = capsys.readouterr().out.strip().splitlines()[-1]
+    assert main(["image", str(sim_file), "-o", str(tmp_path / "f.npz")]) == 0
+    line_f = capsys.readouterr().out.strip().splitlines()[-1]
+    assert line_b.startswith("Err_range<=10mm unavailable (no truth_rp_*)")
+    # the Err_RPM part of the line is the full truth's
+    assert line_b.split(", Err_RPM")[1] == line_f.split(", Err_RPM")[1]
+    assert "Err_range<=10mm unavailable" not in line_f
+    one = dict(part, truth_rp_range=full["truth_rp_range"])
+    np.savez(tmp_path / "one.npz", **one)
+    code, err = run_err(capsys, ["image", str(tmp_path / "one.npz"), "-o", str(tmp_path / "o.npz")])
+    assert code == 2 and "give both or neither" in err
+
+
+def test_boundary_only_truth_round_trips_and_summary(tmp_path):
+    from rpm_cl.data import InputError, Truth, load_npz
+    from rpm_cl.formats import load_data, save_data
+    from rpm_cl.imaging import Image
+    from rpm_cl.metrics import echoes_found, summary
+    from rpm_cl.rangepoints import RangePoints
+    from rpm_cl.simulate import simulate_preset
+
+    data = simulate_preset("paper-2d")[0]
+    bare = type(data)(data.signal, data.array, data.range, data.waveform,
+                      Truth(None, None, data.truth.boundary, data.truth.scene))
+    for path in (tmp_path / "t.npz", tmp_path / "t.h5"):
+        save_data(path, bare)
+        for back in (load_data(path),) + ((load_npz(path),) if path.suffix == ".npz" else ()):
+            assert not back.truth.has_rps and back.truth.rp_antenna is None
+            np.testing.assert_array_equal(back.truth.boundary, data.truth.boundary)
+    pts = data.truth.boundary[:2] + [[0.0, 0.03], [0.0, 0.2]]
+    rps = RangePoints(np.array([10, 12]), data.array.x[[10, 12]], None, np.array([0.4, 0.5]),
+                      np.ones(2), np.zeros(2, int))
+    img = Image(pts, np.zeros(2, int), np.ones(2), np.arange(2))
+    s = summary(rps, img, bare.truth)
+    assert s["rp_within_10mm"] is None and s["rp_total"] == 2
+    assert s["rpm_total"] == 2 and s["rpm_within_50mm"] == 1 and s["rpm_within_100mm"] == 1
+    assert summary(rps, img, data.truth)["rp_within_10mm"] is not None
+    with pytest.raises(InputError, match="no true RPs"):
+        echoes_found(rps.antenna, rps.range, bare.truth)

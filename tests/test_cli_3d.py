@@ -14,7 +14,8 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 def body_result(tmp_path_factory):
     d = tmp_path_factory.mktemp("body")
     sim, out = d / "hb.npz", d / "out.npz"
-    assert main(["simulate", "human-body", "-o", str(sim), "--snr", "20", "--seed", "3"]) == 0
+    assert main(["simulate", "human-body", "-o", str(sim), "--snr", "20", "--seed", "3",
+                 "--noise", "receiver"]) == 0
     assert main(["image", str(sim), "-o", str(out)]) == 0
     return sim, out
 

@@ -23,7 +23,8 @@ except ModuleNotFoundError:  # Python 3.10
 def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("cfg")
     lin, pla = d / "p2.npz", d / "hb.npz"
-    assert main(["simulate", "paper-2d", "-o", str(lin), "--snr", "20", "-q"]) == 0
+    assert main(["simulate", "paper-2d", "-o", str(lin), "--snr", "20", "--noise", "receiver",
+                 "-q"]) == 0
     assert main(["simulate", "human-body", "-o", str(pla), "-q"]) == 0
     return lin, pla
 
@@ -277,3 +278,28 @@ def test_example_config_is_valid(files):
     path = Path(__file__).parent.parent / "examples" / "config.toml"
     values = load_config(path)
     assert values and resolve(load_npz(files[1]), values)
+
+
+@pytest.mark.parametrize("coupling", [0.0, 1.0, 10.0])
+def test_derived_sigma_r_ignores_an_echo_at_zero_range(coupling):
+    """An antenna-coupling echo at 1 mm (as strong as the target's, or ten
+    times) set sigma_r to the gate spacing (2.5 mm); it must come from the
+    target: 10 mm x R / L for the target's range R = |(0.02, 0.51)| at the
+    centre antenna and the 0.1 m aperture, 51.0 mm.  Tolerance 0.3 mm: the
+    strongest gate lies within 1.25 mm (half a gate) of the echo's range, and
+    the echo ranges across the array differ by 1.5 mm; 10 mm x 2.75 mm / 0.1 m
+    = 0.28 mm."""
+    from rpm_cl.data import Array, Waveform
+    from rpm_cl.imaging import default_params
+    from rpm_cl.scene import PointTarget, Scene
+    from rpm_cl.simulate import simulate, synthesize
+
+    arr = Array((np.arange(21) - 10) * 5e-3)
+    axis = np.arange(0.0, 1.0, 2.5e-3)
+    data = simulate(Scene((PointTarget((0.02, 0.51)),)), arr, Waveform(20e9, 3e9), axis)
+    peak = np.abs(data.signal).max()
+    leak = synthesize(np.arange(21), np.full(21, 1e-3), np.full(21, coupling * peak), 21,
+                      data.waveform, axis)
+    data = dataclasses.replace(data, signal=data.signal + leak)
+    assert default_params(data).rpm.sigma_r == pytest.approx(0.01 * np.hypot(0.02, 0.51) / 0.1,
+                                                             abs=3e-4)

@@ -82,7 +82,7 @@ def test_paper_2d_example_meets_the_paper_at_20db():
     from rpm_cl.simulate import simulate_preset
 
     result = _main("paper_2d.py")(snr_db=20.0, seed=0)
-    data, _ = simulate_preset("paper-2d", 20.0, 0)  # the same noise realisation
+    data, _ = simulate_preset("paper-2d", 20.0, 0, noise="receiver")  # the same noise realisation
     s = summary(result.rps, result.image, data.truth)
     # the paper's Table II at 20 dB: 95 % of the RPs within 10 mm, 97 % of the
     # points within 100 mm; one noise realisation, so a few points of slack

@@ -72,7 +72,7 @@ def _same_data(a, b) -> None:
 
 @pytest.fixture(scope="module")
 def paper():
-    data, preset = simulate_preset("paper-2d", 20.0, seed=3)
+    data, preset = simulate_preset("paper-2d", 20.0, seed=3, noise="receiver")
     return data, preset
 
 
@@ -128,7 +128,7 @@ def test_planar_complex64_float32_axes(tmp_path, rng):
 # stacks
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory):
-    frames = [simulate_preset("paper-2d", 10.0, seed=s)[0] for s in (11, 12, 13)]
+    frames = [simulate_preset("paper-2d", 10.0, seed=s, noise="receiver")[0] for s in (11, 12, 13)]
     arrays = _contract(frames[0])
     arrays["signal"] = np.stack([f.signal for f in frames])
     folder = tmp_path_factory.mktemp("stack")

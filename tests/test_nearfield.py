@@ -38,7 +38,7 @@ def test_sparse_paper_2d_at_20_db():
     """One noisy realisation (measured over seeds 0-4: RP <= 10 mm 56-63 of
     63, RPM <= 50 mm 62-63 of 63; seed 0: 62 and 63); floors of 85 % leave
     room for the noise draw."""
-    data, pre = simulate_preset("paper-2d-sparse", 20.0, seed=0)
+    data, pre = simulate_preset("paper-2d-sparse", 20.0, seed=0, noise="receiver")
     res = run_method("kspace-rpm", data, default_params(data, **pre.defaults), reference)
     s = summary(res.rps, res.image, data.truth)
     assert s["rp_total"] == 63
@@ -112,7 +112,8 @@ def test_wideband_half_wavelength_array_images_a_steep_target(dev32, deg):
     arr = Array((np.arange(32) - 15.5) * 7.5e-3)
     th = np.radians(deg)
     data = simulate(Scene((PointTarget((0.8 * np.sin(th), 0.8 * np.cos(th))),)), arr,
-                    Waveform(20e9, 3e9), np.arange(0.5, 1.1, 2.5e-3), 20.0, 0)
+                    Waveform(20e9, 3e9), np.arange(0.5, 1.1, 2.5e-3), 20.0, 0,
+                    noise="receiver")
     res = run_method("kspace-rpm", data, default_params(data), dev32)
     s = summary(res.rps, res.image, data.truth)
     assert s["rp_total"] == 32 and s["rp_within_10mm"] == 32

@@ -228,7 +228,7 @@ def test_phase_rpm_on_the_paper_scene(dev32):
     from rpm_cl.simulate import simulate_preset
 
     for seed in range(3):
-        data, preset = simulate_preset("paper-2d", 20.0, seed=seed)
+        data, preset = simulate_preset("paper-2d", 20.0, seed=seed, noise="receiver")
         res = imaging.run_method("phase-rpm", data, imaging.default_params(data, **preset.defaults),
                                  dev32)
         s = summary(res.rps, res.image, data.truth)

@@ -18,6 +18,16 @@ from rpm_cl.cli import main
 from rpm_cl.data import InputError, RadarData, Waveform
 
 
+def _warned_error(capsys, argv):
+    """The error line of a run on x in mm read as m (a 5 km pitch), after
+    the one warning line that says so (rpm_cl.data.check_plausible)."""
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and err[0].startswith("rpm-cl: warning: the antenna pitch 5000 m"), err
+    assert "is x in mm? give x in m" in err[0] and err[1].startswith("rpm-cl: error: "), err
+    return err[1]
+
+
 def _edited(tmp_path, p2, name, **changes):
     d = dict(np.load(p2))
     d.update(changes)
@@ -125,7 +135,7 @@ def test_messages_name_the_problem(tmp_path, capsys, p2):
                                "--chunk-slots", "0"])
     assert "chunk_slots must be >= 1, got 0" in line and "max_cluster_rps" not in line
     src = _edited(tmp_path, p2, "xbig.npz", x=np.load(p2)["x"] * 1e6)
-    line = _one_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz")])
+    line = _warned_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz")])
     assert "derived from the array" in line and "units of x" in line
 
 
@@ -205,8 +215,8 @@ def test_absurd_pitch_is_refused_quickly(tmp_path, capsys, p2):
     the pitch, and ``--align false`` images it."""
     src = _edited(tmp_path, p2, "xbig.npz", x=np.load(p2)["x"] * 1e6)
     t0 = time.perf_counter()
-    line = _one_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz"),
-                               "--sigma-x", "0.1"])
+    line = _warned_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz"),
+                                  "--sigma-x", "0.1"])
     assert "alias directions" in line and "5000 m" in line and time.perf_counter() - t0 < 30
     assert main(["image", str(src), "-o", str(tmp_path / "o.npz"), "--sigma-x", "0.1",
                  "--align", "false", "-q"]) == 0

@@ -35,7 +35,7 @@ def _same_clusters(a, b):
 @pytest.mark.parametrize("name,snr", [("paper-2d", None), ("paper-2d", 10.0),
                                       ("human-body", None), ("human-body", 20.0)])
 def test_gate_skip_is_exact(name, snr):
-    data, preset = simulate_preset(name, snr, 3)
+    data, preset = simulate_preset(name, snr, 3, noise="receiver")
     ks = default_params(data, **preset.defaults).kspace
     _same_clusters(decompose(data, ks), decompose(data, dataclasses.replace(ks, skip_gates=False)))
 
@@ -59,7 +59,7 @@ def _body_like(targets, snr=None, seed=0):
     preset = get_preset("human-body")
     scene = Scene(tuple(targets), "test")
     return simulate(scene, preset.array, preset.waveform, preset.range_axis, snr, seed,
-                    boundary_spacing=5e-3), preset
+                    boundary_spacing=5e-3, noise="receiver"), preset
 
 
 def test_work_follows_the_scene(monkeypatch):
@@ -94,7 +94,7 @@ def test_noise_only_is_empty(seed):
     """Pure noise at the human body's 20 dB noise level: no cluster (the floor
     is set for a false-cluster probability of 1e-3 per input); without the
     floor, the -20 dB relative threshold alone finds noise clusters."""
-    data, preset = simulate_preset("human-body", 20.0, seed)
+    data, preset = simulate_preset("human-body", 20.0, seed, noise="receiver")
     clean, _ = simulate_preset("human-body", None, seed)
     noise = dataclasses.replace(data, signal=data.signal - clean.signal, truth=None)
     params = default_params(noise, **preset.defaults)
@@ -112,7 +112,7 @@ def test_noise_floor_from_known_power():
     its clusters under either floor."""
     from rpm_cl.kspace import _kspace_noise, _taper
 
-    data, preset = simulate_preset("paper-2d", 10.0, 1)
+    data, preset = simulate_preset("paper-2d", 10.0, 1, noise="receiver")
     clean, _ = simulate_preset("paper-2d", None, 1)
     n = data.signal - clean.signal
     power = float(np.mean(np.abs(n) ** 2))
@@ -129,7 +129,7 @@ def test_noise_floor_from_known_power():
 
 
 def test_floor_leaves_the_body_alone():
-    data, preset = simulate_preset("human-body", 20.0, 2)
+    data, preset = simulate_preset("human-body", 20.0, 2, noise="receiver")
     ks = default_params(data, **preset.defaults).kspace
     _same_clusters(decompose(data, ks), decompose(data, dataclasses.replace(ks, noise_pfa=None)))
 
@@ -176,7 +176,8 @@ def test_pair_cutoff_2d_long_array(dev32):
     # one point: two in one range cell (0.75 m at 0.2 GHz) are one cluster
     # focused on neither, which the exact focus (kspace step 5) keeps small
     scene = Scene((PointTarget((-0.1, 0.45)),), "long")
-    data = simulate(scene, arr, Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3), 30.0, 0)
+    data = simulate(scene, arr, Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3), 30.0, 0,
+                    noise="receiver")
     params = default_params(data, sigma_x=0.05, sigma_r=0.05)
     rps = run_method("kspace-rpm", data, params, dev32).rps
     idx, _, _, s, c = _prepare(rps, params.rpm)

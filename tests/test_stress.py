@@ -51,7 +51,7 @@ def test_extreme_geometry_runs_clean(case, dev32):
 
 
 def test_very_low_snr_runs_clean(dev32):
-    data, pre = simulate_preset("paper-2d", -10.0, seed=3)
+    data, pre = simulate_preset("paper-2d", -10.0, seed=3, noise="receiver")
     for method in ("kspace-rpm", "mf-rpm", "capon-rpm"):
         _finite(run_method(method, data, default_params(data, **pre.defaults), dev32))
 
@@ -81,7 +81,7 @@ def test_amplitude_scale_does_not_change_the_image(scale, preset, dev32):
 
 
 def test_complex64_input_matches_complex128(dev32):
-    data, pre = simulate_preset("human-body", 20.0, seed=1)
+    data, pre = simulate_preset("human-body", 20.0, seed=1, noise="receiver")
     params = default_params(data, **pre.defaults)
     single = RadarData(data.signal.astype(np.complex64), data.array, data.range, data.waveform,
                        data.truth)
