@@ -296,13 +296,16 @@ def _derived_sigma_r(data: RadarData, range_error: float = 0.01) -> float:
 
     R is the range of the strongest echo: the largest local maximum of the
     profile power summed over the antennas, among those at least half a
-    range resolution from zero.  Closer maxima are left out: an echo there
-    overlaps R = 0 within its main lobe, where antenna coupling and
-    feed-through leakage sit (an echo at 1 mm set sigma_r to the gate
-    spacing), and a scatterer that close cannot be told from them.  Half a
-    resolution, not one, keeps the paper's 2-D scene (targets at 0.37-0.46 m,
-    resolution 0.75 m).  Where no maximum lies beyond, the strongest gate
-    beyond is taken.
+    range resolution or the aperture L from zero, whichever is less.  Closer
+    maxima are left out: an echo there overlaps R = 0 within its main lobe,
+    where antenna coupling and feed-through leakage sit (an echo at 1 mm set
+    sigma_r to the gate spacing), and a scatterer that close cannot be told
+    from them.  Half a resolution, not one, keeps the paper's 2-D scene
+    (targets at 0.37-0.46 m, resolution 0.75 m); the aperture bounds it for
+    narrow bands, whose half resolution can exceed the whole scene (a 0.25
+    GHz sweep at 4 GHz: 0.59 m, with objects at 0.29-0.6 m), and where the
+    estimate, delta R / L, would fall below the range error delta itself.
+    Where no maximum lies beyond, the strongest gate beyond is taken.
     """
     pos = data.array.positions()
     aperture = float(np.max(np.ptp(pos, axis=0))) if len(pos) > 1 else 0.0
@@ -311,7 +314,7 @@ def _derived_sigma_r(data: RadarData, range_error: float = 0.01) -> float:
     # relative powers: the argmax is all that counts, and squares of the
     # data's own scale would leave float64's range beyond 1e154
     power = np.sum((mag / top) ** 2, axis=0) if top > 0 else np.zeros(data.range.size)
-    far = np.abs(data.range) >= 0.5 * data.waveform.range_resolution
+    far = np.abs(data.range) >= min(0.5 * data.waveform.range_resolution, aperture)
     if aperture <= 0 or not np.any(power[far] > 0):
         return SIGMA_R_DEFAULT
     padded = np.concatenate([[-np.inf], power, [-np.inf]])

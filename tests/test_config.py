@@ -303,3 +303,23 @@ def test_derived_sigma_r_ignores_an_echo_at_zero_range(coupling):
     data = dataclasses.replace(data, signal=data.signal + leak)
     assert default_params(data).rpm.sigma_r == pytest.approx(0.01 * np.hypot(0.02, 0.51) / 0.1,
                                                              abs=3e-4)
+
+
+def test_derived_sigma_r_of_a_narrow_band_scene_inside_half_a_resolution():
+    """A 0.25 GHz sweep at 4 GHz (Hann: a resolution of 1.2 m) and a target at
+    0.45 m, closer than half a resolution: sigma_r still comes from the
+    target, 10 mm x R / L = 14 mm for the 0.32 m aperture, raised to the gate
+    spacing (c / (2 x 0.25 GHz x 16) = 37.5 mm, the floor default_params
+    documents), not from whatever lies beyond 0.6 m (it was the 1 m clip)."""
+    from rpm_cl.data import C0, Array, RadarData, Waveform
+    from rpm_cl.formats import range_compress
+    from rpm_cl.imaging import default_params
+
+    x = 0.29 + np.arange(41) * 8e-3
+    f = np.linspace(3.875e9, 4.125e9, 64)
+    r = np.hypot(x - 0.45, 0.45)
+    s, rng_axis = range_compress(np.exp(-4j * np.pi * f[None] * r[:, None] / C0), f, 4e9)
+    data = RadarData(s, Array(x), rng_axis, Waveform(4e9, 0.125e9))
+    want = max(0.01 * 0.45 / 0.32, data.dr)
+    assert data.dr == pytest.approx(C0 / (2 * (f[1] - f[0]) * rng_axis.size))
+    assert default_params(data).rpm.sigma_r == pytest.approx(want, abs=3e-4)
