@@ -454,21 +454,68 @@ def test_cli_convert_errors_are_one_line(tmp_path, capsys):
 
 
 # ---------------------------------------------------------------- imaging
-@pytest.mark.parametrize("band", [(3.875e9, 4.125e9), (2e9, 4e9)], ids=["narrow-4GHz", "2-4GHz"])
-def test_imaging_the_fixture_is_measured(band, dev32, tmp_path):
-    """Reports, does not assert: how the default method images full-wave data
-    (the share of image points within 50 mm of the objects' boundaries and
-    their median distance)."""
+def _objects(data):
+    """Boundary samples of each object (c1-c4 the cylinders, p1 the plate) in
+    the engine's frame."""
+    side = G.read_sidecar(SCENE)
+    out = {}
+    for i, c in enumerate(side.cylinders):
+        out[f"c{i + 1}"] = G.truth_arrays(G.Sidecar(cylinders=(c,)), data.array.x,
+                                          side.scan_y)["truth_boundary"]
+    for i, poly in enumerate(side.polygons):
+        out[f"p{i + 1}"] = G.truth_arrays(G.Sidecar(polygons=(poly,)), data.array.x,
+                                          side.scan_y)["truth_boundary"]
+    return out
+
+
+def _score(points, objects):
+    d = np.stack([np.min(np.linalg.norm(points[:, None] - b[None], axis=2), axis=1)
+                  for b in objects.values()], axis=1)
+    hit = {name for name, near in zip(objects, d.min(axis=0) <= 0.05) if near}
+    return float(np.mean(d.min(axis=1) <= 0.05)), float(np.median(d.min(axis=1))), hit
+
+
+def _image(band, dev32, tmp_path, method="phase-rpm"):
     from rpm_cl.imaging import default_params, run_method
-    from rpm_cl.metrics import err_rpm
 
     path = tmp_path / "scan.npz"
     G.save_spectrum(path, G.convert(TARGETS, BACKGROUND, band, sidecar=SCENE))
     data = load_data(path)
-    res = run_method("kspace-rpm", data, default_params(data), dev32)
-    d = err_rpm(res.image.points, data.truth)
-    within = float(np.mean(d <= 0.05)) if d.size else 0.0
-    med = float(np.median(d)) if d.size else float("nan")
-    print(f"\nkspace-rpm on the gprMax fixture, {band[0] / 1e9:g}-{band[1] / 1e9:g} GHz: "
-          f"{d.size} points, {100 * within:.0f} % within 50 mm of the boundaries, median "
-          f"{1e3 * med:.1f} mm")
+    return data, run_method(method, data, default_params(data), dev32).image.points
+
+
+@pytest.mark.parametrize("band", [(2e9, 4e9), (1.5e9, 5e9)], ids=["2-4GHz", "1.5-5GHz"])
+def test_phase_rpm_images_the_full_wave_fixture(band, dev32, tmp_path):
+    """Wide bands: >= 95 % of the points within 50 mm of the objects, median
+    <= 5 mm (the issue's bars for full-wave data).  Four of the five objects
+    are hit: the smallest, farthest cylinder (c4, 8 mm at 0.58 m) forms no
+    k-space maximum of its own; it lies 33 mm in range and 49 rad/m in k from
+    the plate's, whose echo is several times stronger."""
+    data, pts = _image(band, dev32, tmp_path)
+    within, med, hit = _score(pts, _objects(data))
+    assert within >= 0.95 and med <= 0.005
+    assert hit >= {"c1", "c2", "c3", "p1"}
+
+
+def test_narrow_band_full_wave_beats_the_paper_method_and_das(dev32, cl_env, tmp_path):
+    """0.25 GHz at 4 GHz: the whole scene lies within one range resolution
+    (1.2 m).  phase-rpm puts more of its points within 50 mm than the
+    paper's method and than DAS's image peaks (the issue's floor: never worse
+    than DAS), with a smaller median.  (Not every object: each echo track's
+    range is the envelope's, and with the other objects' echoes in the same
+    resolution cell c2's is 60 mm off; the paper's method's points slide
+    along their circles and cross every object now and then, 20 % of them
+    within 50 mm.)"""
+    from rpm_cl.das import DeviceDAS, parse_grid
+    from rpm_cl.reproduce import das_points
+
+    band = (3.875e9, 4.125e9)
+    data, pts = _image(band, dev32, tmp_path)
+    objects = _objects(data)
+    within, med, _ = _score(pts, objects)
+    _, base = _image(band, dev32, tmp_path, "kspace-rpm")
+    b_within, b_med, _ = _score(base, objects)
+    das, _ = das_points(DeviceDAS(cl_env), data, parse_grid("0.05:0.85:0.004,0.15:0.75:0.004"),
+                        "image")
+    d_within, _, _ = _score(das, objects)
+    assert within > b_within and within > d_within and med < b_med
