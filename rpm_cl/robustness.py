@@ -340,8 +340,8 @@ def table(rows) -> str:
 
 def plot(rows, path) -> None:
     """Fraction within tolerance and median error against S/N, one panel
-    pair per scene kind (2-D pooled over scenes, 3-D), the position CRB
-    beside the medians."""
+    pair per scene kind (2-D pooled over scenes, 3-D), the position and
+    range CRBs beside the medians."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -365,11 +365,13 @@ def plot(rows, path) -> None:
                 md.append(1e3 * float(np.median(meds)) if meds else np.nan)
             axes[0, col].plot(xs, fr, "o-", label=m)
             axes[1, col].semilogy(xs, md, "o-", label=m)
-        crbp = []
-        for s in snrs:
-            sel = [r["crb_position"] for r in rs if r["snr"] == s]
-            crbp.append(1e3 * float(np.median(sel)) if sel else np.nan)
-        axes[1, col].semilogy(xs, crbp, "k--", label="CRB position (one target)")
+        for key, style, text in (("crb_position", "k--", "CRB position (one target)"),
+                                 ("crb_range", "k:", "CRB range (one antenna)")):
+            bound = []
+            for s in snrs:
+                sel = [r[key] for r in rs if r["snr"] == s]
+                bound.append(1e3 * float(np.median(sel)) if sel else np.nan)
+            axes[1, col].semilogy(xs, bound, style, label=text)
         tol = 1e3 * rs[0]["tol"]
         axes[0, col].set(title=f"{label}: points within {tol:.0f} mm", ylabel="%",
                          xlabel="in-band S/N, dB (60 = noise-free)", ylim=(0, 102))
