@@ -793,6 +793,26 @@ def _show_warning(shown):
     return show
 
 
+#: Arguments that name files a command reads, and files it writes.
+_READS = ("input", "inputs", "background", "config", "sidecar")
+_WRITES = ("output", "png", "json")
+
+
+def _refuse_overwriting_inputs(args) -> None:
+    """No command writes over a file it reads (the same path, or the same
+    file through a link): one error line, before anything is computed."""
+    from .data import refuse_overwrite
+
+    reads = []
+    for name in _READS:
+        v = getattr(args, name, None)
+        reads += [v] if isinstance(v, str) else list(v or [])
+    for name in _WRITES:
+        v = getattr(args, name, None)
+        if isinstance(v, str):
+            refuse_overwrite(v, reads)
+
+
 def main(argv=None) -> int:
     """Entry point of the ``rpm-cl`` command; returns the exit code."""
     import signal
@@ -823,6 +843,7 @@ def main(argv=None) -> int:
                 stack.enter_context(contextlib.redirect_stdout(io.StringIO()))
             stack.enter_context(warnings.catch_warnings())
             warnings.showwarning = _show_warning(warnings.showwarning)
+            _refuse_overwriting_inputs(args)
             if hasattr(args, "config"):
                 _load_config(args)
             return args.func(args)

@@ -46,6 +46,7 @@ __all__ = [
     "atomic_write_text",
     "check_plausible",
     "load_npz",
+    "refuse_overwrite",
     "save_npz",
     "unit_hint",
 ]
@@ -569,3 +570,16 @@ def data_arrays(data: RadarData) -> dict:
 def save_npz(path, data: RadarData) -> None:
     """Write ``data`` (and its truth, if any) following the input contract."""
     atomic_savez(path, **data_arrays(data))
+
+
+def refuse_overwrite(path, inputs) -> None:
+    """Raise :class:`InputError` when ``path`` is (or links to) one of ``inputs``
+    (a command never writes over what it reads)."""
+    out = os.path.realpath(os.fspath(path))
+    for p in inputs:
+        p = os.fspath(p)
+        same = os.path.realpath(p) == out
+        if not same and os.path.exists(path) and os.path.exists(p):
+            same = os.path.samefile(p, path)
+        if same:
+            raise InputError(f"{path}: is also an input ({p}); write the output elsewhere")

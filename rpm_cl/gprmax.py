@@ -62,7 +62,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .data import C0, InputError, _finite_scalar, _uniform_axis
+from .data import C0, InputError, _finite_scalar, _uniform_axis, refuse_overwrite
 
 __all__ = [
     "MU0",
@@ -921,15 +921,3 @@ def save_spectrum(path, arrays: dict, inputs=()) -> None:
         atomic_savez(path, **arrays)
     else:
         _atomic_file(path, lambda tmp: _h5_write_arrays(tmp, arrays))
-
-
-def refuse_overwrite(path, inputs) -> None:
-    """Raise :class:`InputError` when ``path`` is (or links to) one of ``inputs``."""
-    out = os.path.realpath(os.fspath(path))
-    for p in inputs:
-        p = os.fspath(p)
-        same = os.path.realpath(p) == out
-        if not same and os.path.exists(path) and os.path.exists(p):
-            same = os.path.samefile(p, path)
-        if same:
-            raise InputError(f"{path}: is also an input ({p}); write the output elsewhere")
