@@ -72,6 +72,7 @@ from .data import (
     atomic_savez,
     check_plausible,
     data_arrays,
+    drop_spikes,
     output_path,
     unit_hint,
 )
@@ -361,7 +362,7 @@ def _build(src, frame, range_window: str, conjugate: bool) -> RadarData:
     key = _data_key(src)
     z = src.read("z") if "z" in src else None
     array = Array(_need(src, "x"), z)
-    values = _select(src, key, _n_axes(src), frame)
+    values = drop_spikes(_select(src, key, _n_axes(src), frame), key)
     truth = _truth(src)
     if key == "signal":
         if "frequency" in src:
