@@ -617,7 +617,7 @@ def drop_spikes(values: np.ndarray, name: str) -> np.ndarray:
     """
     import warnings
 
-    mag = np.abs(values).ravel()
+    mag = np.abs(values).astype(np.float64).ravel()   # the threshold may exceed float32
     if not np.all(np.isfinite(mag)):
         return values
     m = max(SPIKE_COUNT, mag.size // 10_000)
