@@ -193,10 +193,12 @@ def _independent_scene(seed, snr_db):
     rng_t = np.hypot(x[:, None] - tg[None, :, 0], tg[None, :, 1])
     y = np.sum(np.exp(-4j * np.pi * f[None, None, :] * rng_t[:, :, None] / C0)
                / rng_t[:, :, None], axis=1)
-    peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
-    sigma2 = peak / 10 ** (snr_db / 10) * nf
-    g = np.random.default_rng(1000 + seed)
-    y = y + np.sqrt(sigma2 / 2) * (g.standard_normal(y.shape) + 1j * g.standard_normal(y.shape))
+    if snr_db is not None:
+        peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
+        sigma2 = peak / 10 ** (snr_db / 10) * nf
+        g = np.random.default_rng(1000 + seed)
+        y = y + np.sqrt(sigma2 / 2) * (g.standard_normal(y.shape)
+                                       + 1j * g.standard_normal(y.shape))
     s, rng_axis = range_compress(y, f, 0.5 * (f[0] + f[-1]), "hann")
     keep = rng_axis < 2.0
     data = RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(0.5 * (f[0] + f[-1]),
@@ -234,3 +236,35 @@ def test_phase_rpm_on_the_paper_scene(dev32):
         s = summary(res.rps, res.image, data.truth)
         assert s["rp_within_10mm"] == s["rp_total"] == 63
         assert s["rpm_within_50mm"] == s["rpm_total"]
+
+
+def test_coherent_level_removes_the_envelope_bias_of_a_shared_range_cell():
+    """Noise-free, three or four targets in one range cell: the envelope
+    ranges of each decomposed echo are pulled by the others' leakage, the
+    coherent sum along the echo's own phase walk is not.  Per-track constant
+    errors (against the true ranges of the target the walk follows): the
+    coherent level's RMS is at least a fifth below the envelope mean's (what
+    remains is the leakage through the taper's sidelobes and the parabola's
+    fit to a flat top; measured 3.8 against 5.4 mm on these seeds)."""
+    from rpm_cl.kspace import decompose
+    from rpm_cl.rangepoints import rps_from_decomposition
+
+    errs = {True: [], False: []}
+    for seed in range(4):
+        data, tg = _independent_scene(seed, None)
+        params = imaging.default_params(data)
+        dec = decompose(data, params.kspace)
+        rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
+        ks = np.array([c.k for c in dec.clusters])
+        for coherent in (True, False):
+            out, refined = phase_ranges(data, rps, ks, PhaseParams(coherent_level=coherent))
+            for c in np.unique(out.cluster):
+                s = (out.cluster == c) & refined
+                true = np.hypot(out.x[s][:, None] - tg[None, :, 0], tg[None, :, 1])
+                d = true - out.range[s][:, None]
+                t = int(np.argmin(np.std(d, axis=0)))
+                if np.std(d[:, t]) < 1e-3:          # a clean track of target t
+                    errs[coherent].append(np.mean(d[:, t]))
+    rms = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in errs.items()}
+    assert len(errs[True]) >= 10
+    assert rms[True] < 0.8 * rms[False]
