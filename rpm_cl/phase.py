@@ -271,7 +271,8 @@ def phase_ranges(data: RadarData, rps: RangePoints, cluster_k: np.ndarray,
 
 
 #: The coherent level search spans this many range resolutions either side
-#: of the envelope's constant, in steps of a quarter range gate.
+#: of the envelope's constant (coarse steps of LEVEL_FIT / 4 resolutions,
+#: then a quarter range gate around the coarse peak).
 LEVEL_SPAN = 0.5
 #: Half-width of the parabola fitted to the coherent sum's peak, range
 #: resolutions.
@@ -298,23 +299,32 @@ def _coherent_level(data: RadarData, antenna: np.ndarray, grid: np.ndarray,
         lo, hi = grid[:, a].min(), grid[:, a].max()
         if hi > lo:
             w = w * np.sin(np.pi * (grid[:, a] - lo + 1) / (hi - lo + 2)) ** 2
-    span = LEVEL_SPAN * data.waveform.range_resolution
-    step = 0.25 * data.dr
-    c = np.arange(-span, span + step / 2, step)
-    pos = (r_fit[:, None] + c[None, :] - data.range[0]) / data.dr     # fractional gates
-    g0 = np.clip(np.floor(pos).astype(np.int64), 0, data.range.size - 2)
-    f = np.clip(pos - g0, 0.0, 1.0)
-    inside = (pos >= 0) & (pos <= data.range.size - 1)
-    rows = antenna[:, None]
-    v = ((1 - f) * sig[rows, g0] + f * sig[rows, g0 + 1]) * inside
-    prof = np.abs(np.sum((w * np.exp(2j * kc * r_fit))[:, None] * v, axis=0))
+    res = data.waveform.range_resolution
+    weights = w * np.exp(2j * kc * r_fit)
+
+    def profile(c):
+        pos = (r_fit[:, None] + c[None, :] - data.range[0]) / data.dr   # fractional gates
+        g0 = np.clip(np.floor(pos).astype(np.int64), 0, data.range.size - 2)
+        f = np.clip(pos - g0, 0.0, 1.0)
+        inside = (pos >= 0) & (pos <= data.range.size - 1)
+        rows = antenna[:, None]
+        v = ((1 - f) * sig[rows, g0] + f * sig[rows, g0 + 1]) * inside
+        return np.abs(np.sum(weights[:, None] * v, axis=0))   # no BLAS: its threads spin
+
+    # coarse over the span, then fine (a quarter gate) around the coarse peak
+    half = LEVEL_FIT * res
+    coarse = np.arange(-LEVEL_SPAN * res, LEVEL_SPAN * res + half / 8, half / 4)
+    top = coarse[int(np.argmax(profile(coarse)))]
+    step = min(0.25 * data.dr, half / 8)
+    c = top + np.arange(-2 * half, 2 * half + step / 2, step)
+    prof = profile(c)
     j = int(np.argmax(prof))
     if not prof[j] > 0:
         return 0.0
     # a parabola through the top LEVEL_FIT resolutions either side: the
     # envelope's top is flat over a resolution, and ripples of what leaks
     # through the taper would move a three-sample peak
-    h = max(1, round(LEVEL_FIT * data.waveform.range_resolution / step))
+    h = max(1, round(half / step))
     sl = slice(max(0, j - h), min(len(c), j + h + 1))
     if sl.stop - sl.start >= 3:
         a2, a1, _ = np.polyfit(c[sl] - c[j], prof[sl] / prof[j], 2)
