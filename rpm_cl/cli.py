@@ -617,7 +617,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.set_defaults(func=cmd_simulate)
 
     sp = sub.add_parser("convert", help="recorded or simulated data -> the input schema: "
-                        "gprMax output, MATLAB/NumPy/HDF5 arrays by a key mapping")
+                        "gprMax output, MATLAB/NumPy/HDF5 arrays by a key mapping, GSSI .dzt")
     convert_opts(sp)
     sp.set_defaults(func=cmd_convert)
 
@@ -762,7 +762,7 @@ def convert_opts(sp) -> None:
     scale = _bounded_float(1e-15, 1e15, "a scale factor must be 1e-15 .. 1e15")
     sp.add_argument("inputs", nargs="+", metavar="IN", help="the file(s) to convert: gprMax "
                     ".out/.h5 (a merged B-scan or the per-trace files), .mat/.npz/.npy/.h5 "
-                    "with --map")
+                    "with --map, GSSI .dzt")
     sp.add_argument("-o", "--output", required=True, help="OUT.npz or OUT.h5")
     sp.add_argument("--format", choices=sorted(FORMATS), help="the reader (default: from the "
                     "extension; .h5 with --map is arrays, without it gprmax)")
@@ -770,7 +770,8 @@ def convert_opts(sp) -> None:
     g.add_argument("--background", nargs="+", metavar="BG", help="the same scan without "
                    "targets (merged, or per-trace files), subtracted trace by trace")
     g.add_argument("--band", type=_band, metavar="F0:F1", help="frequency band kept, Hz "
-                   "(e.g. 2e9:4e9)")
+                   "(e.g. 2e9:4e9); required for gprMax; dzt: default the antenna's nominal "
+                   "band")
     g.add_argument("--waveform", metavar="KIND:FREQ[:AMP]", help="gprMax's source waveform, "
                    "e.g. ricker:3e9 (else from --sidecar or the trace files)")
     g.add_argument("--sidecar", metavar="F.json", help="JSON with the waveform, scan positions "
@@ -791,6 +792,17 @@ def convert_opts(sp) -> None:
                    "(1e9: GHz)")
     g.add_argument("--conjugate", action="store_true", help="conjugate a spectrum recorded "
                    "as exp(+j 4 pi f R / c)")
+    g = sp.add_argument_group("GSSI DZT (--format dzt)")
+    g.add_argument("--dx", type=_bounded_float(1e-9, 1e4, "dx must be a length in m, 1e-9 .. "
+                   "1e4"), help="scan spacing, m (default 1 / the header's scans "
+                   "per metre)")
+    g.add_argument("--time-zero", type=_bounded_float(0, 1e6, "time zero must be a sample "
+                   "number >= 0"), metavar="SAMPLE", help="sample of time zero (the transmit "
+                   "instant; may be fractional; default 0, the window's start)")
+    g.add_argument("--channel", type=_int_at_least(0, "channel "), help="channel, from 0 "
+                   "(default 0)")
+    g.add_argument("--subtract-mean", action="store_true", help="subtract the mean trace "
+                   "(direct coupling, ground bounce, horizontal bands)")
 
 
 def common_opts(sp) -> None:

@@ -10,6 +10,7 @@ name       inputs                      module
 =========  ==========================  ===================================
 gprmax     ``.out``, ``.h5``           :mod:`rpm_cl.gprmax`
 arrays     ``.mat .npz .npy .h5``      :mod:`rpm_cl.mapped` (``map`` given)
+dzt        ``.dzt``                    :mod:`rpm_cl.dzt`
 =========  ==========================  ===================================
 
 :func:`convert` picks the reader from the inputs' extension (an HDF5 file
@@ -46,6 +47,8 @@ FORMATS = {
     "arrays": Format((".mat", ".npz", ".npy", ".h5", ".hdf5"),
                      ("map", "transpose", "scale_x", "scale_f", "conjugate"), ("map",),
                      "named arrays (MATLAB, NumPy, HDF5) by a key mapping"),
+    "dzt": Format((".dzt",), ("band", "dx", "time_zero", "channel", "subtract_mean"), (),
+                  "GSSI DZT (impulse GPR)"),
 }
 
 
@@ -87,7 +90,8 @@ def convert(inputs, fmt: str | None = None, **options) -> tuple:
         gprmax ``background, band, waveform`` (a
         :class:`rpm_cl.gprmax.SourceWaveform`) ``, sidecar, df, rx``;
         arrays ``map`` (``"spectrum=F,..."``) ``, transpose, scale_x,
-        scale_f, conjugate``.
+        scale_f, conjugate``; dzt ``band, dx, time_zero, channel,
+        subtract_mean``.
 
     Returns
     -------
@@ -138,7 +142,16 @@ def _arrays(inputs, o):
     return convert(inputs, km)
 
 
-_READ = {"gprmax": _gprmax, "arrays": _arrays}
+def _dzt(inputs, o):
+    from .dzt import convert
+
+    if len(inputs) != 1:
+        raise InputError(f"{len(inputs)} DZT files; convert one at a time")
+    return convert(inputs[0], o.get("band"), o.get("dx"), o.get("time_zero", 0.0),
+                   o.get("channel", 0), bool(o.get("subtract_mean")))
+
+
+_READ = {"gprmax": _gprmax, "arrays": _arrays, "dzt": _dzt}
 
 
 def save(path, arrays: dict, inputs=()) -> None:
