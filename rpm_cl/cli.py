@@ -617,7 +617,8 @@ def build_parser() -> argparse.ArgumentParser:
     sp.set_defaults(func=cmd_simulate)
 
     sp = sub.add_parser("convert", help="recorded or simulated data -> the input schema: "
-                        "gprMax output, MATLAB/NumPy/HDF5 arrays by a key mapping, GSSI .dzt")
+                        "gprMax output, MATLAB/NumPy/HDF5 arrays by a key mapping, GSSI .dzt, "
+                        "TI DCA1000 .bin")
     convert_opts(sp)
     sp.set_defaults(func=cmd_convert)
 
@@ -757,12 +758,14 @@ def build_parser() -> argparse.ArgumentParser:
 def convert_opts(sp) -> None:
     """The options of ``convert``: the inputs, the reader, and each reader's
     own (:data:`rpm_cl.readers.FORMATS` says which belongs to which)."""
+    from .dca1000 import LAYOUTS
     from .readers import FORMATS
 
+    hz = _bounded_float(1.0, 1e15, "start frequency must be in Hz, 1 .. 1e15")
     scale = _bounded_float(1e-15, 1e15, "a scale factor must be 1e-15 .. 1e15")
     sp.add_argument("inputs", nargs="+", metavar="IN", help="the file(s) to convert: gprMax "
                     ".out/.h5 (a merged B-scan or the per-trace files), .mat/.npz/.npy/.h5 "
-                    "with --map, GSSI .dzt")
+                    "with --map, GSSI .dzt, DCA1000 .bin (several: concatenated in order)")
     sp.add_argument("-o", "--output", required=True, help="OUT.npz or OUT.h5")
     sp.add_argument("--format", choices=sorted(FORMATS), help="the reader (default: from the "
                     "extension; .h5 with --map is arrays, without it gprmax)")
@@ -780,7 +783,8 @@ def convert_opts(sp) -> None:
     g.add_argument("--df", type=_bounded_float(1.0, 1e12, "df must be a frequency step in "
                    "Hz, 1 .. 1e12"), help="frequency step, Hz (default: the band in at least "
                    "64 steps, and at most 1/(2T) for a record of T)")
-    g.add_argument("--rx", type=_positive_int, help="the receiver number (default 1)")
+    g.add_argument("--rx", type=_positive_int, help="gprmax: the receiver number (default 1); "
+                   "dca1000: the number of receivers enabled (default 4)")
     g = sp.add_argument_group("named arrays (--format arrays: .mat, .npz, .npy, .h5)")
     g.add_argument("--map", metavar="NAME=KEY,...", help="schema name = key in the file, e.g. "
                    "spectrum=F,frequency=f,x=da (time domain: signal, range, fc, bandwidth, x; "
@@ -794,8 +798,8 @@ def convert_opts(sp) -> None:
                    "as exp(+j 4 pi f R / c)")
     g = sp.add_argument_group("GSSI DZT (--format dzt)")
     g.add_argument("--dx", type=_bounded_float(1e-9, 1e4, "dx must be a length in m, 1e-9 .. "
-                   "1e4"), help="scan spacing, m (default 1 / the header's scans "
-                   "per metre)")
+                   "1e4"), help="dzt: scan spacing, m (default 1 / the header's scans per "
+                   "metre); dca1000: the radar's step between frames, m")
     g.add_argument("--time-zero", type=_bounded_float(0, 1e6, "time zero must be a sample "
                    "number >= 0"), metavar="SAMPLE", help="sample of time zero (the transmit "
                    "instant; may be fractional; default 0, the window's start)")
@@ -803,6 +807,26 @@ def convert_opts(sp) -> None:
                    "(default 0)")
     g.add_argument("--subtract-mean", action="store_true", help="subtract the mean trace "
                    "(direct coupling, ground bounce, horizontal bands)")
+    g = sp.add_argument_group("TI mmWave + DCA1000 (--format dca1000)")
+    g.add_argument("--slope", type=_bounded_float(1e6, 1e16, "slope must be Hz/s, 1e6 .. "
+                   "1e16 (TI's MHz/us x 1e12)"), metavar="HZ/S", help="chirp slope, Hz/s")
+    g.add_argument("--adc-rate", type=_bounded_float(1.0, 1e10, "ADC rate must be samples/s, "
+                   "1 .. 1e10"), metavar="SPS", help="ADC sample rate, samples/s")
+    g.add_argument("--samples", type=_int_at_least(2, "samples "), metavar="N",
+                   help="ADC samples per chirp")
+    g.add_argument("--start-freq", type=hz, metavar="HZ", help="start frequency of the ramp, Hz")
+    g.add_argument("--adc-start-time", type=_bounded_float(0, 1.0, "ADC start time must be "
+                   "0 .. 1 s"), metavar="S", help="first ADC sample after the ramp's start, s "
+                   "(TI's adcStartTime; default 0)")
+    g.add_argument("--chirps", type=_positive_int, metavar="N", help="chirps per frame, "
+                   "averaged per position (default 1)")
+    g.add_argument("--layout", choices=sorted(LAYOUTS), help="complex-2lane (xWR16xx/18xx/"
+                   "68xx, default), complex-4lane (xWR12xx/14xx), real")
+    g.add_argument("--rx-spacing", type=_bounded_float(1e-9, 1e4, "rx spacing must be a "
+                   "length in m, 1e-9 .. 1e4"), metavar="M", help="receiver spacing, m: the "
+                   "receivers as the array, at their midpoints with the transmitter (d/2 apart)")
+    g.add_argument("--receiver", type=_int_at_least(0, "receiver "), help="with --dx: the "
+                   "receiver used, from 0 (default 0)")
 
 
 def common_opts(sp) -> None:

@@ -11,6 +11,7 @@ name       inputs                      module
 gprmax     ``.out``, ``.h5``           :mod:`rpm_cl.gprmax`
 arrays     ``.mat .npz .npy .h5``      :mod:`rpm_cl.mapped` (``map`` given)
 dzt        ``.dzt``                    :mod:`rpm_cl.dzt`
+dca1000    ``.bin``                    :mod:`rpm_cl.dca1000`
 =========  ==========================  ===================================
 
 :func:`convert` picks the reader from the inputs' extension (an HDF5 file
@@ -49,6 +50,10 @@ FORMATS = {
                      "named arrays (MATLAB, NumPy, HDF5) by a key mapping"),
     "dzt": Format((".dzt",), ("band", "dx", "time_zero", "channel", "subtract_mean"), (),
                   "GSSI DZT (impulse GPR)"),
+    "dca1000": Format((".bin",), ("slope", "adc_rate", "samples", "start_freq", "adc_start_time",
+                                  "chirps", "rx", "layout", "dx", "rx_spacing", "receiver"),
+                      ("slope", "adc_rate", "samples", "start_freq"),
+                      "TI mmWave + DCA1000 raw ADC capture"),
 }
 
 
@@ -91,7 +96,9 @@ def convert(inputs, fmt: str | None = None, **options) -> tuple:
         :class:`rpm_cl.gprmax.SourceWaveform`) ``, sidecar, df, rx``;
         arrays ``map`` (``"spectrum=F,..."``) ``, transpose, scale_x,
         scale_f, conjugate``; dzt ``band, dx, time_zero, channel,
-        subtract_mean``.
+        subtract_mean``; dca1000 ``slope, adc_rate, samples, start_freq,
+        adc_start_time, chirps, rx`` (receivers) ``, layout, dx, rx_spacing,
+        receiver``.
 
     Returns
     -------
@@ -151,7 +158,16 @@ def _dzt(inputs, o):
                    o.get("channel", 0), bool(o.get("subtract_mean")))
 
 
-_READ = {"gprmax": _gprmax, "arrays": _arrays, "dzt": _dzt}
+def _dca1000(inputs, o):
+    from .dca1000 import Chirp, convert
+
+    chirp = Chirp(o["slope"], o["adc_rate"], o["samples"], o["start_freq"],
+                  o.get("adc_start_time", 0.0), o.get("chirps", 1), o.get("rx", 4),
+                  o.get("layout", "complex-2lane"))
+    return convert(inputs, chirp, o.get("dx"), o.get("rx_spacing"), o.get("receiver", 0))
+
+
+_READ = {"gprmax": _gprmax, "arrays": _arrays, "dzt": _dzt, "dca1000": _dca1000}
 
 
 def save(path, arrays: dict, inputs=()) -> None:
