@@ -188,6 +188,8 @@ def test_cli_convert_dzt(tmp_path, capsys):
     assert copy.read_bytes() == SCAN.read_bytes()
     assert "--map does not apply to dzt input (it is for arrays)" in _one_error(
         capsys, ["convert", str(SCAN), "--map", "spectrum=a", "-o", str(tmp_path / "o.npz")])
+    assert "2 DZT files; convert one at a time" in _one_error(
+        capsys, ["convert", str(SCAN), str(copy), "-o", str(tmp_path / "o.npz")])
     assert "time zero must be a sample number" in _one_error(
         capsys, ["convert", str(SCAN), "--time-zero", "-3", "-o", str(tmp_path / "o.npz")])
     assert not (tmp_path / "o.npz").exists()
