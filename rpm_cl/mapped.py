@@ -346,13 +346,17 @@ class _Sources:
 
         self.srcs = []
         self.where = {}
-        for p in paths:
-            src = _guarded(p, lambda p=p: _open_source(p))
-            self.srcs.append(src)
-            for k in _guarded(p, src.keys):
-                if k in self.where:
-                    raise InputError(f"{k!r} is in both {self.where[k].path} and {p}")
-                self.where[k] = src
+        try:
+            for p in paths:
+                src = _guarded(p, lambda p=p: _open_source(p))
+                self.srcs.append(src)
+                for k in _guarded(p, src.keys):
+                    if k in self.where:
+                        raise InputError(f"{k!r} is in both {self.where[k].path} and {p}")
+                    self.where[k] = src
+        except BaseException:
+            self.close()     # the files opened so far
+            raise
 
     def read(self, key: str, name: str):
         from .formats import _guarded
