@@ -177,23 +177,37 @@ def _band(text):
 
 
 def cmd_convert(args) -> int:
+    from .data import refuse_overwrite
     from .formats import DATA_EXTENSIONS, check_output
-    from .gprmax import SourceWaveform, convert, refuse_overwrite, save_spectrum
+    from .gprmax import SourceWaveform
+    from .readers import FORMATS, convert, save
 
     inputs = list(args.inputs) + list(args.background or []) + (
         [args.sidecar] if args.sidecar else [])
     check_output(args.output, DATA_EXTENSIONS, "data output")
     refuse_overwrite(args.output, inputs)
-    waveform = SourceWaveform.parse(args.waveform) if args.waveform else None
-    arrays = convert(args.inputs, args.background, args.band, waveform, args.sidecar, args.df,
-                     args.rx)
-    save_spectrum(args.output, arrays, inputs)
-    f, x = arrays["frequency"], arrays["x"]
-    print(f"wrote {args.output}: spectrum {arrays['spectrum'].shape} (antennas x frequencies), "
-          f"{f[0] / 1e9:g}-{f[-1] / 1e9:g} GHz at {(f[1] - f[0]) / 1e6:.4g} MHz, x {x[0]:.4g}.."
-          f"{x[-1]:.4g} m{', with the sidecar truth' if 'truth_boundary' in arrays else ''}"
-          f"{'' if args.background else '; no background subtracted'}")
+    names = {o for f in FORMATS.values() for o in f.options}
+    options = {k: getattr(args, k) for k in names}
+    if args.waveform:
+        options["waveform"] = SourceWaveform.parse(args.waveform)
+    fmt, arrays = convert(args.inputs, args.format, **options)
+    save(args.output, arrays, inputs)
+    data = "spectrum" if "spectrum" in arrays else "signal"
+    print(f"wrote {args.output}: {fmt}, {data} {arrays[data].shape}, {_axes_line(arrays)}"
+          f"{', with the sidecar truth' if 'truth_boundary' in arrays else ''}"
+          f"{'; no background subtracted' if fmt == 'gprmax' and not args.background else ''}")
     return 0
+
+
+def _axes_line(arrays) -> str:
+    x = arrays["x"]
+    pos = f"x {x[0]:.4g}..{x[-1]:.4g} m"
+    if "frequency" not in arrays:
+        r = arrays["range"]
+        return f"range {r[0]:.4g}..{r[-1]:.4g} m, {pos}"
+    f = arrays["frequency"]
+    return (f"{f[0] / 1e9:g}-{f[-1] / 1e9:g} GHz at {(f[1] - f[0]) / 1e6:.4g} MHz "
+            f"({f.size} samples), {pos}")
 
 
 def _params(args, data, base=None):
@@ -602,24 +616,10 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--seed", type=_seed, default=0)
     sp.set_defaults(func=cmd_simulate)
 
-    sp = sub.add_parser("convert", help="gprMax 2-D TM output (.out/.h5: one merged B-scan "
-                        "or one file per trace) -> the frequency-domain input schema")
-    sp.add_argument("inputs", nargs="+", metavar="IN", help="a merged B-scan, or the per-trace "
-                    "files of one scan")
-    sp.add_argument("-o", "--output", required=True, help="OUT.npz or OUT.h5")
-    sp.add_argument("--background", nargs="+", metavar="BG", help="the same scan without "
-                    "targets (merged, or per-trace files), subtracted trace by trace")
-    sp.add_argument("--band", type=_band, required=True, metavar="F0:F1",
-                    help="frequency band kept, Hz (e.g. 2e9:4e9)")
-    sp.add_argument("--waveform", metavar="KIND:FREQ[:AMP]", help="gprMax's source waveform, "
-                    "e.g. ricker:3e9 (else from --sidecar or the trace files)")
-    sp.add_argument("--sidecar", metavar="F.json", help="JSON with the waveform, scan positions "
-                    "and geometry (tests/data/gprmax/scene.json is one); the geometry becomes "
-                    "the truth_* arrays")
-    sp.add_argument("--df", type=_bounded_float(1.0, 1e12, "df must be a frequency step in "
-                    "Hz, 1 .. 1e12"), help="frequency step, Hz (default: the band in at least "
-                    "64 steps, and at most 1/(2T) for a record of T)")
-    sp.add_argument("--rx", type=_positive_int, default=1, help="receiver number (default 1)")
+    sp = sub.add_parser("convert", help="recorded or simulated data -> the input schema: "
+                        "gprMax output, MATLAB/NumPy/HDF5 arrays by a key mapping, GSSI .dzt, "
+                        "TI DCA1000 .bin")
+    convert_opts(sp)
     sp.set_defaults(func=cmd_convert)
 
     sp = sub.add_parser("image", help="image an .npz or .h5 (input schema in the README); "
@@ -753,6 +753,80 @@ def build_parser() -> argparse.ArgumentParser:
     for sp in sub.choices.values():  # every subcommand, those added later too
         common_opts(sp)
     return p
+
+
+def convert_opts(sp) -> None:
+    """The options of ``convert``: the inputs, the reader, and each reader's
+    own (:data:`rpm_cl.readers.FORMATS` says which belongs to which)."""
+    from .dca1000 import LAYOUTS
+    from .readers import FORMATS
+
+    hz = _bounded_float(1.0, 1e15, "start frequency must be in Hz, 1 .. 1e15")
+    scale = _bounded_float(1e-15, 1e15, "a scale factor must be 1e-15 .. 1e15")
+    sp.add_argument("inputs", nargs="+", metavar="IN", help="the file(s) to convert: gprMax "
+                    ".out/.h5 (a merged B-scan or the per-trace files), .mat/.npz/.npy/.h5 "
+                    "with --map, GSSI .dzt, DCA1000 .bin (several: concatenated in order)")
+    sp.add_argument("-o", "--output", required=True, help="OUT.npz or OUT.h5")
+    sp.add_argument("--format", choices=sorted(FORMATS), help="the reader (default: from the "
+                    "extension; .h5 with --map is arrays, without it gprmax)")
+    g = sp.add_argument_group("gprMax output (--format gprmax)")
+    g.add_argument("--background", nargs="+", metavar="BG", help="the same scan without "
+                   "targets (merged, or per-trace files), subtracted trace by trace")
+    g.add_argument("--band", type=_band, metavar="F0:F1", help="frequency band kept, Hz "
+                   "(e.g. 2e9:4e9); required for gprMax; dzt: default the antenna's nominal "
+                   "band")
+    g.add_argument("--waveform", metavar="KIND:FREQ[:AMP]", help="gprMax's source waveform, "
+                   "e.g. ricker:3e9 (else from --sidecar or the trace files)")
+    g.add_argument("--sidecar", metavar="F.json", help="JSON with the waveform, scan positions "
+                   "and geometry (tests/data/gprmax/scene.json is one); the geometry becomes "
+                   "the truth_* arrays")
+    g.add_argument("--df", type=_bounded_float(1.0, 1e12, "df must be a frequency step in "
+                   "Hz, 1 .. 1e12"), help="frequency step, Hz (default: the band in at least "
+                   "64 steps, and at most 1/(2T) for a record of T)")
+    g.add_argument("--rx", type=_positive_int, help="gprmax: the receiver number (default 1); "
+                   "dca1000: the number of receivers enabled (default 4)")
+    g = sp.add_argument_group("named arrays (--format arrays: .mat, .npz, .npy, .h5)")
+    g.add_argument("--map", metavar="NAME=KEY,...", help="schema name = key in the file, e.g. "
+                   "spectrum=F,frequency=f,x=da (time domain: signal, range, fc, bandwidth, x; "
+                   "z for a planar array; a .npy's key is its file name)")
+    g.add_argument("--transpose", action="store_true", help="reverse the axes of the data "
+                   "array (MATLAB's F(nf, nx) -> (nx, nf))")
+    g.add_argument("--scale-x", type=scale, help="factor to metres for x and z (1e-3: mm)")
+    g.add_argument("--scale-f", type=scale, help="factor to Hz for frequency, fc and bandwidth "
+                   "(1e9: GHz)")
+    g.add_argument("--conjugate", action="store_true", help="conjugate a spectrum recorded "
+                   "as exp(+j 4 pi f R / c)")
+    g = sp.add_argument_group("GSSI DZT (--format dzt)")
+    g.add_argument("--dx", type=_bounded_float(1e-9, 1e4, "dx must be a length in m, 1e-9 .. "
+                   "1e4"), help="dzt: scan spacing, m (default 1 / the header's scans per "
+                   "metre); dca1000: the radar's step between frames, m")
+    g.add_argument("--time-zero", type=_bounded_float(0, 1e6, "time zero must be a sample "
+                   "number >= 0"), metavar="SAMPLE", help="sample of time zero (the transmit "
+                   "instant; may be fractional; default 0, the window's start)")
+    g.add_argument("--channel", type=_int_at_least(0, "channel "), help="channel, from 0 "
+                   "(default 0)")
+    g.add_argument("--subtract-mean", action="store_true", help="subtract the mean trace "
+                   "(direct coupling, ground bounce, horizontal bands)")
+    g = sp.add_argument_group("TI mmWave + DCA1000 (--format dca1000)")
+    g.add_argument("--slope", type=_bounded_float(1e6, 1e16, "slope must be Hz/s, 1e6 .. "
+                   "1e16 (TI's MHz/us x 1e12)"), metavar="HZ/S", help="chirp slope, Hz/s")
+    g.add_argument("--adc-rate", type=_bounded_float(1.0, 1e10, "ADC rate must be samples/s, "
+                   "1 .. 1e10"), metavar="SPS", help="ADC sample rate, samples/s")
+    g.add_argument("--samples", type=_int_at_least(2, "samples "), metavar="N",
+                   help="ADC samples per chirp")
+    g.add_argument("--start-freq", type=hz, metavar="HZ", help="start frequency of the ramp, Hz")
+    g.add_argument("--adc-start-time", type=_bounded_float(0, 1.0, "ADC start time must be "
+                   "0 .. 1 s"), metavar="S", help="first ADC sample after the ramp's start, s "
+                   "(TI's adcStartTime; default 0)")
+    g.add_argument("--chirps", type=_positive_int, metavar="N", help="chirps per frame, "
+                   "averaged per position (default 1)")
+    g.add_argument("--layout", choices=sorted(LAYOUTS), help="complex-2lane (xWR16xx/18xx/"
+                   "68xx, default), complex-4lane (xWR12xx/14xx), real")
+    g.add_argument("--rx-spacing", type=_bounded_float(1e-9, 1e4, "rx spacing must be a "
+                   "length in m, 1e-9 .. 1e4"), metavar="M", help="receiver spacing, m: the "
+                   "receivers as the array, at their midpoints with the transmitter (d/2 apart)")
+    g.add_argument("--receiver", type=_int_at_least(0, "receiver "), help="with --dx: the "
+                   "receiver used, from 0 (default 0)")
 
 
 def common_opts(sp) -> None:

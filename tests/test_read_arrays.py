@@ -1,0 +1,248 @@
+"""Named arrays -> the input schema by a key mapping (rpm_cl.mapped, `rpm-cl convert --map`).
+
+The MATLAB fixtures (tests/data/readers, made by benchmarks/readers_fixture.py
+to MATLAB's documented layouts: no MATLAB file could be downloaded) hold a
+stepped-frequency scan ``F`` (nf, nx) as MATLAB keeps it, ``f`` (1, nf) Hz
+and ``da`` (1, nx) mm, with one point target; ``targets.mat`` is a v7 file
+(compressed v5, scipy.io.savemat), ``targets_v73.mat`` a v7.3 file (HDF5
+with MATLAB's header, reversed axes and a real/imag compound).
+"""
+
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from rpm_cl import mapped as M
+from rpm_cl.cli import main
+from rpm_cl.data import C0, InputError
+from rpm_cl.formats import load_data, range_compress
+from rpm_cl.readers import convert
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import readers_fixture as RF
+
+DATA = Path(__file__).parent / "data" / "readers"
+MAT5, MAT73 = DATA / "targets.mat", DATA / "targets_v73.mat"
+MAP = "spectrum=F,frequency=f,x=da"
+
+
+def _one_error(capsys, argv) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("rpm-cl: error:") and "\n" not in err
+    return err
+
+
+def _read(path, **kw):
+    kw = {"map": MAP, "transpose": True, "scale_x": 1e-3, **kw}
+    return convert(path, **kw)[1]
+
+
+def _echo_ranges(arrays, window="rect"):
+    """Each antenna's compressed peak (range, phase relative to -2 k_c R_true)."""
+    f = arrays["frequency"]
+    fc = float(f.mean())
+    s, r = range_compress(arrays["spectrum"], f, fc, window)
+    tx, ty = RF.MAT["target"]
+    true = np.hypot(arrays["x"] - tx, ty)
+    i = np.abs(s).argmax(axis=-1)
+    peak = s[np.arange(len(i)), i]
+    return r[i], true, np.angle(peak * np.exp(4j * np.pi * fc * true / C0)), r[1] - r[0]
+
+
+def test_matlab_v7_and_v73_read_alike_and_each_echo_lands_at_its_range():
+    a5, a73 = _read(MAT5), _read(MAT73)
+    assert a5["spectrum"].shape == (16, 41) and a5["spectrum"].dtype == np.complex128
+    for k in ("spectrum", "frequency", "x"):
+        np.testing.assert_array_equal(a5[k], a73[k])
+    np.testing.assert_allclose(a5["x"], RF.MAT["x_mm"] * 1e-3)
+    np.testing.assert_array_equal(a5["spectrum"], RF.mat_spectrum().T)
+    got, true, phase, gate = _echo_ranges(a5)
+    # the gate grid holds the true range within half a gate; the phase of the
+    # peak is -2 k_c R exactly for a real, positive echo amplitude
+    assert np.max(np.abs(got - true)) <= 0.5 * gate + 1e-9
+    assert np.max(np.abs(phase)) < 1e-6
+
+
+def test_v73_axes_come_out_as_matlab_shows_them():
+    with h5py.File(MAT73, "r") as f:
+        assert f["F"].shape == (16, 41)          # HDF5: reversed
+        assert f["F"].dtype.names == ("real", "imag")
+    with pytest.raises(InputError, match=r"shape \(41, 16\).*--transpose"):
+        _read(MAT73, transpose=False)
+    with pytest.raises(InputError, match=r"shape \(41, 16\).*--transpose"):
+        _read(MAT5, transpose=False)
+
+
+def test_v73_struct_fields_by_dotted_key(tmp_path):
+    path = tmp_path / "s.mat"
+    RF.write_mat_v73(path, {"f": RF.MAT["f"], "da": RF.MAT["x_mm"]})
+    with h5py.File(path, "r+") as h, h5py.File(MAT73, "r") as src:
+        g = h.create_group("meas")
+        g.attrs.create("MATLAB_class", np.bytes_("struct"))
+        src.copy("F", g)
+    out = _read(path, map="spectrum=meas.F,frequency=f,x=da")
+    np.testing.assert_array_equal(out["spectrum"], _read(MAT5)["spectrum"])
+    with pytest.raises(InputError, match="a MATLAB struct"):
+        _read(path, map="spectrum=meas,frequency=f,x=da")
+
+
+def test_npz_npy_hdf5_and_matlab_v4_inputs_with_the_same_mapping(tmp_path):
+    ref = _read(MAT5)
+    F, f, da = RF.mat_spectrum(), RF.MAT["f"], RF.MAT["x_mm"]
+    np.savez(tmp_path / "scan.npz", F=F, f=f, da=da)
+    for name, v in (("F", F), ("f", f), ("da", da)):
+        np.save(tmp_path / f"{name}.npy", v)
+    with h5py.File(tmp_path / "scan.h5", "w") as h:
+        h["grp/F"], h["f"], h["da"] = F, f, da
+    RF.write_mat_v5(tmp_path / "v4.mat", {"F": F, "f": f, "da": da}, compress=False,
+                    version="4")
+    outs = [_read(tmp_path / "scan.npz"), _read(tmp_path / "v4.mat"),
+            _read([tmp_path / "F.npy", tmp_path / "f.npy", tmp_path / "da.npy"]),
+            _read(tmp_path / "scan.h5", map="spectrum=grp/F,frequency=f,x=da")]
+    for out in outs:
+        for k in ("spectrum", "frequency", "x"):
+            np.testing.assert_array_equal(out[k], ref[k])
+
+
+def test_time_domain_mapping_and_scales(tmp_path):
+    rng = np.random.default_rng(3)
+    sig = rng.normal(size=(8, 30)) + 1j * rng.normal(size=(8, 30))
+    np.savez(tmp_path / "t.npz", s=sig, r=0.01 * np.arange(30), fc=20.0, bw=0.5,
+             pos=np.arange(8) * 5.0)
+    fmt, out = convert(tmp_path / "t.npz", map="signal=s,range=r,fc=fc,bandwidth=bw,x=pos",
+                       scale_x=1e-3, scale_f=1e9)
+    assert fmt == "arrays"
+    assert out["fc"] == pytest.approx(20e9) and out["bandwidth"] == pytest.approx(0.5e9)
+    np.testing.assert_allclose(out["x"], np.arange(8) * 5e-3)
+    np.testing.assert_array_equal(out["signal"], sig)
+    # GHz frequencies: --scale-f 1e9 gives the Hz file's arrays
+    np.savez(tmp_path / "g.npz", F=RF.mat_spectrum(), f=RF.MAT["f"] / 1e9, da=RF.MAT["x_mm"])
+    ghz = _read(tmp_path / "g.npz", scale_f=1e9)
+    np.testing.assert_allclose(ghz["frequency"], RF.MAT["f"], rtol=1e-15)
+
+
+def test_conjugate_and_a_real_array_taken_as_complex(tmp_path):
+    ref = _read(MAT5)
+    conj = _read(MAT5, conjugate=True)
+    np.testing.assert_array_equal(conj["spectrum"], np.conj(ref["spectrum"]))
+    np.savez(tmp_path / "r.npz", F=np.ones((41, 16)), f=RF.MAT["f"], da=RF.MAT["x_mm"])
+    out = _read(tmp_path / "r.npz")
+    assert out["spectrum"].dtype == np.complex128 and np.all(out["spectrum"] == 1)
+
+
+def test_planar_mapping_checks_the_z_axis(tmp_path):
+    spec = np.zeros((4, 3, 5), complex)
+    np.savez(tmp_path / "p.npz", S=spec, f=1e9 + np.arange(5) * 1e6, x=np.arange(4.0),
+             z=np.arange(3.0))
+    out = convert(tmp_path / "p.npz", map="spectrum=S,frequency=f,x=x,z=z")[1]
+    assert out["z"].shape == (3,) and out["spectrum"].shape == (4, 3, 5)
+    np.savez(tmp_path / "q.npz", S=spec, f=1e9 + np.arange(5) * 1e6, x=np.arange(4.0),
+             z=np.arange(4.0))
+    with pytest.raises(InputError, match=r"expected \(4, 4, 5\)"):
+        convert(tmp_path / "q.npz", map="spectrum=S,frequency=f,x=x,z=z")
+
+
+@pytest.mark.parametrize("mapping, message", [
+    ("spectrum=F,frequency=f,x=nope", r"no 'nope' \(for x\).*it holds: F, da, f"),
+    ("spectrum=F,frequency=f,x=da,foo=f", "unknown name 'foo'"),
+    ("spectrum=F,frequency=f,x=da,range=f", "range does not go with spectrum"),
+    ("spectrum=F,x=da", "lacks frequency"),
+    ("signal=F,range=f,x=da", "lacks fc, bandwidth"),
+    ("spectrum=F,signal=F,frequency=f,x=da", "both spectrum and signal"),
+    ("frequency=f,x=da", "neither spectrum"),
+    ("spectrum=F,frequency=f,x=da,x=f", "x is mapped twice"),
+    ("spectrum=F;frequency=f", "NAME=KEY pairs"),
+    ("spectrum=F,frequency=da,x=da", "frequency must be > 0 Hz"),
+    ("spectrum=F,frequency=f,x=F", r"x \(F\) must be a vector"),
+])
+def test_mapping_errors_are_one_line_naming_the_key(mapping, message):
+    with pytest.raises(InputError, match=message) as info:
+        _read(MAT5, map=mapping)
+    assert "\n" not in str(info.value)
+
+
+def test_refusals_before_reading(tmp_path, monkeypatch):
+    from scipy.io import savemat
+
+    savemat(tmp_path / "s.mat", {"S": {"F": np.ones((2, 2))}, "C": np.array([[1, "a"]],
+                                                                              dtype=object)})
+    with pytest.raises(InputError, match="struct of a v4-v7.2 file"):
+        convert(tmp_path / "s.mat", map="spectrum=S,frequency=C,x=C")
+    with pytest.raises(InputError, match="MATLAB cell"):
+        convert(tmp_path / "s.mat", map="spectrum=C,frequency=C,x=C")
+    # sizes from the headers: an oversized array is refused before its data are read
+    monkeypatch.setattr(M, "MAX_ELEMENTS", 100)
+
+    def no_read(*a, **k):
+        raise AssertionError("data read before the size check")
+    monkeypatch.setattr("scipy.io.loadmat", no_read)
+    with pytest.raises(InputError, match="656 values, more than 100"):
+        _read(MAT5)
+    with pytest.raises(InputError, match="656 values, more than 100"):
+        _read(MAT73)
+
+
+def test_hdf5_links_out_of_the_file_are_refused(tmp_path):
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as h:
+        h["F"] = RF.mat_spectrum()
+    with h5py.File(tmp_path / "l.h5", "w") as h:
+        h["F"] = h5py.ExternalLink(str(other), "F")
+        h["f"], h["da"] = RF.MAT["f"], RF.MAT["x_mm"]
+    with pytest.raises(InputError, match="external link"):
+        _read(tmp_path / "l.h5")
+    with h5py.File(tmp_path / "s.h5", "w") as h:
+        h["F"], h["f"], h["da"] = RF.mat_spectrum(), RF.MAT["f"], RF.MAT["x_mm"]
+        h["soft"] = h5py.SoftLink("/f")
+    with pytest.raises(InputError, match="soft link"):
+        _read(tmp_path / "s.h5", map="spectrum=F,frequency=soft,x=da")
+    with h5py.File(tmp_path / "e.h5", "w") as h:
+        h.create_dataset("F", shape=(16, 41), dtype="c16", external=[(str(other), 0, 1 << 20)])
+        h["f"], h["da"] = RF.MAT["f"], RF.MAT["x_mm"]
+    with pytest.raises(InputError, match="external files"):
+        _read(tmp_path / "e.h5")
+
+
+def test_a_key_in_two_files_is_refused(tmp_path):
+    np.save(tmp_path / "f.npy", RF.MAT["f"])
+    with pytest.raises(InputError, match="'f' is in both"):
+        _read([MAT5, tmp_path / "f.npy"])
+
+
+# --------------------------------------------------------------------- CLI
+def test_cli_convert_mat_writes_what_load_data_reads(tmp_path, capsys):
+    out = tmp_path / "scan.h5"
+    assert main(["convert", str(MAT73), "--map", MAP, "--transpose", "--scale-x", "1e-3",
+                 "-o", str(out)]) == 0
+    assert "wrote" in capsys.readouterr().out
+    data = load_data(out, range_window="rect")
+    assert data.array.n == 16 and data.waveform.fc == pytest.approx(RF.MAT["f"].mean())
+    # an .h5 with --map is read as arrays, so the written file converts back
+    again = tmp_path / "again.npz"
+    assert main(["convert", str(out), "--map", "spectrum=spectrum,frequency=frequency,x=x",
+                 "-o", str(again), "-q"]) == 0
+    np.testing.assert_array_equal(np.load(again)["spectrum"], _read(MAT5)["spectrum"])
+
+
+def test_cli_convert_arrays_errors_are_one_line(tmp_path, capsys):
+    mat = tmp_path / "t.mat"
+    mat.write_bytes(MAT5.read_bytes())
+    base = ["convert", str(mat), "--map", MAP, "--transpose"]
+    assert "is also an input" in _one_error(capsys, base + ["-o", str(mat)])
+    assert mat.read_bytes() == MAT5.read_bytes()
+    assert "--transpose (transpose=True)" in _one_error(capsys, base[:-1] + [
+        "-o", str(tmp_path / "o.npz")])
+    assert "--waveform does not apply to arrays input (it is for gprmax)" in _one_error(
+        capsys, base + ["--waveform", "ricker:3e9", "-o", str(tmp_path / "o.npz")])
+    assert "arrays input needs --map" in _one_error(capsys, ["convert", str(mat), "--format",
+                                                             "arrays", "-o",
+                                                             str(tmp_path / "o.npz")])
+    bad = tmp_path / "bad.mat"
+    bad.write_bytes(b"not a mat file at all" * 10)
+    assert "bad.mat" in _one_error(capsys, ["convert", str(bad), "--map", MAP, "-o",
+                                            str(tmp_path / "o.npz")])
+    assert not (tmp_path / "o.npz").exists()
