@@ -521,3 +521,21 @@ def test_narrow_band_full_wave_beats_the_paper_method_and_das(dev32, cl_env, tmp
                         "image")
     d_within, _, _ = _score(das, objects)
     assert within > b_within and within > d_within and med < b_med
+
+
+def test_full_wave_double_bounce_is_flagged(dev32, tmp_path):
+    """1.5-5 GHz: the full-wave data hold a double bounce between the objects
+    (rpm_cl.simulate makes none).  With --multipath flag its cluster is
+    flagged: every flagged point lies more than 50 mm from every object and
+    every point kept lies within 50 mm of one."""
+    from rpm_cl.imaging import default_params, run_method
+
+    path = tmp_path / "scan.npz"
+    G.save_spectrum(path, G.convert(TARGETS, BACKGROUND, (1.5e9, 5e9), sidecar=SCENE))
+    data = load_data(path)
+    img = run_method("phase-rpm", data, default_params(data, multipath="flag"), dev32).image
+    objects = _objects(data)
+    d = np.stack([np.min(np.linalg.norm(img.points[:, None] - b[None], axis=2), axis=1)
+                  for b in objects.values()], axis=1).min(axis=1)
+    assert img.multipath.sum() >= 10
+    assert np.all(d[img.multipath] > 0.05) and np.all(d[~img.multipath] <= 0.05)
