@@ -37,7 +37,7 @@ N = np.sqrt(EPS)
 H = 0.08                                   # antenna height above the surface, m
 X = np.arange(51) * 0.01 - 0.25            # 51 antennas at 10 mm
 #: point targets under the surface (x, y) in the imaging frame, m: the last
-#: one 0.22 m aside at 0.06 m depth, seen at up to 75 degrees in air
+#: one 0.22 m aside at 0.06 m depth, seen at up to 80 degrees in air
 TARGETS = np.array([[0.0, H + 0.10], [0.10, H + 0.20], [-0.12, H + 0.25], [0.22, H + 0.06]])
 
 
