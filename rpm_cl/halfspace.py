@@ -45,8 +45,7 @@ from dataclasses import replace
 import numpy as np
 
 from .imaging import Image, RPMParams, rpm_image
-from .medium import (Medium, air_ranges, one_way, paraxial, point_on_ray, ray_through,
-                     virtual_centre)
+from .medium import Medium, air_ranges, one_way, paraxial, point_on_ray, ray_through, virtual_centre
 from .rangepoints import RangePoints
 
 __all__ = ["ITERATIONS", "PARTNER_TOL", "exact_crossing", "halfspace_rpm", "to_air",

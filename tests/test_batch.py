@@ -248,7 +248,7 @@ def test_halfspace_frames(tmp_path, client, dev32):
     """A medium reaches every frame: the points and the DAS image (the reuse
     tables built with the refracted ranges, or the direct host
     back-projection) are those of the single runs."""
-    from test_medium import EPS, H, TARGETS, _ranges, _spectrum_data
+    from test_medium import EPS, TARGETS, H, _ranges, _spectrum_data
 
     from rpm_cl.batch import BatchConfig, run_batch
     from rpm_cl.das import das_numpy, parse_grid
