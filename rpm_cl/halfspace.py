@@ -173,7 +173,7 @@ def _partners(rps_virtual: RangePoints, centres_y: float, image: Image, tol: flo
 def _polish(pts, virt, y_v, image, ant, r_air, medium, params, dim):
     """Each point moved onto the exact crossing of the refracted curves of
     its main RP and the partner(s) whose circles (spheres) it lies on
-    (module notes, step 3); points without partners, or whose crossing does
+    (module notes, step 2); points without partners, or whose crossing does
     not converge or lies above the surface, stay."""
     local = replace(image, points=pts)
     part = _partners(virt, y_v, local, PARTNER_TOL * params.sigma_r, dim)
