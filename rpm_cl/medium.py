@@ -43,8 +43,9 @@ paths.  In the data as recorded, an echo's range walk is that of an air
 target at ``h + d / n`` (0.12-0.2 m for rods 0.1-0.3 m deep under 0.08 m of
 air, n = 2.45), a strongly curved, wide-angle track; in the paraxial scene
 it is that of a target at ``d + n h`` (0.3-0.5 m), which the k-space
-decomposition's windows and curvature model are made for (synthetic rods,
-1-3 GHz, noise-free: phase-rpm's RPs 13 mm off at the median against 1.4 mm).
+decomposition's windows and curvature model are made for (three synthetic
+point targets, 1-3 GHz, noise-free: phase-rpm's RPs 13 mm off at the median
+against 1.4 mm).
 """
 
 from __future__ import annotations
