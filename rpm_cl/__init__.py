@@ -11,6 +11,7 @@ from .data import Array, DataWarning, InputError, RadarData, Truth, Waveform, lo
 from .formats import frame_count, load_data, range_compress, save_data, save_result
 from .imaging import METHODS, ImagingParams, RPMParams, default_params, run_method
 from .kspace import KSpaceParams, decompose
+from .medium import Medium
 from .metrics import err_range, err_rpm, summary
 from .rpm import DeviceRPM
 from .scene import Ellipsoid, PointTarget, Scene, get_preset
@@ -26,6 +27,7 @@ __all__ = [
     "ImagingParams",
     "InputError",
     "KSpaceParams",
+    "Medium",
     "NoOpenCLError",
     "PointTarget",
     "RPMParams",

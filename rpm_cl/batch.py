@@ -111,6 +111,7 @@ class BatchConfig:
     def __post_init__(self):
         from .imaging import DEFAULT_METHOD, METHODS, ImagingParams, RPMParams
         from .kspace import KSpaceParams
+        from .medium import Medium
 
         if self.method is None:
             object.__setattr__(self, "method", DEFAULT_METHOD)
@@ -122,12 +123,13 @@ class BatchConfig:
             if not (isinstance(key, tuple) and len(key) == 2):
                 raise InputError(f"imaging parameter keys are (section, name), got {key!r}")
             by_section.setdefault(key[0], {})[key[1]] = value
-        unknown = set(by_section) - {"kspace", "rpm", "imaging"}
+        unknown = set(by_section) - {"kspace", "rpm", "medium", "imaging"}
         if unknown:
             raise InputError(f"unknown parameter section(s): {', '.join(sorted(unknown))}")
         try:
             KSpaceParams(**by_section.get("kspace", {}))
             RPMParams(**by_section.get("rpm", {}))
+            Medium(**by_section.get("medium", {}))
             ImagingParams(**by_section.get("imaging", {}))
         except TypeError as exc:
             raise InputError(f"unknown imaging parameter: {exc}") from None
@@ -265,9 +267,14 @@ class _WorkerEngine(_WorkerPlugin):
             self._built = (env, rpm, das)
             return (env, rpm, das, time.perf_counter() - t0)
 
-    def das_image(self, das, data: RadarData, grid):
+    def das_image(self, das, data: RadarData, grid, medium=None):
         """DAS image of ``data`` by the variant chosen for its geometry (the
         first frame of a geometry chooses, see :class:`BatchConfig`).
+
+        ``medium`` (:class:`rpm_cl.medium.Medium`): a homogeneous one's
+        equivalent air scene is back-projected; a half-space's refracted
+        ranges go into the reuse tables, or the direct back-projection
+        computes them on the host (:class:`rpm_cl.das.DeviceDAS`).
 
         Returns
         -------
@@ -275,33 +282,39 @@ class _WorkerEngine(_WorkerPlugin):
         mode : str
             "plan" or "direct".
         """
+        from .medium import in_medium
+
+        refr = None
+        if medium is not None:
+            data = in_medium(data, medium)
+            refr = medium if medium.half_space else None
         key = (data.signal.shape, float(data.range[0]), data.dr, data.waveform.fc,
-               data.array.positions().tobytes(), grid.shape, grid.x[0], grid.y[0])
+               data.array.positions().tobytes(), grid.shape, grid.x[0], grid.y[0], refr)
         with self._lock:
             if self._plan is None or self._plan[0] != key:
                 self._plan = None  # free the old tables first
-                mode, plan, img = self._choose(das, data, grid)
+                mode, plan, img = self._choose(das, data, grid, refr)
                 self._plan = (key, mode, plan)
                 return img, mode
             _, mode, plan = self._plan
         if mode == "plan":
             return plan.apply(data), mode
-        return das.backproject(data, grid), mode
+        return das.backproject(data, grid, medium=refr), mode
 
-    def _choose(self, das, data, grid):
+    def _choose(self, das, data, grid, refr=None):
         """(mode, plan or None, this frame's image)."""
         from .das import DASPlan
 
         if self.das_reuse == "direct":
-            return "direct", None, das.backproject(data, grid)
+            return "direct", None, das.backproject(data, grid, medium=refr)
         try:
-            plan = DASPlan(data, grid, self.memory_budget)
+            plan = DASPlan(data, grid, self.memory_budget, refr)
         except InputError:  # the tables exceed the budget
-            return "direct", None, das.backproject(data, grid)
+            return "direct", None, das.backproject(data, grid, medium=refr)
         t0 = time.perf_counter()
         img = plan.apply(data)
         t_plan = time.perf_counter() - t0
-        if self.das_reuse == "plan":
+        if self.das_reuse == "plan" or refr is not None:   # the host's direct one is slower
             return "plan", plan, img
         das.backproject(data, grid)  # warm-up: PoCL compiles at the first launch
         t0 = time.perf_counter()
@@ -356,7 +369,7 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
             from .das import write_image
 
             t0 = time.perf_counter()
-            img, mode = engine.das_image(das, data, grid)
+            img, mode = engine.das_image(das, data, grid, params.medium)
             timings["das"] = time.perf_counter() - t0
             rec["das_mode"] = mode
 

@@ -446,10 +446,17 @@ def cmd_das(args) -> int:
     if grid.dim != data.array.dim:
         raise CLIError(f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
                        f" array needs {data.array.dim} (x, y{', z' if data.array.planar else ''})")
+    medium = _medium(args)
     budget = args.memory_budget * 1e9
     n_bp = grid.size * data.array.n
     timing = {}
-    if args.backend == "opencl":
+    backend = args.backend
+    if medium.half_space and backend == "opencl":
+        # the kernel's distances are straight lines from its grid axes
+        log.info("das: above a half-space the refracted ranges are computed on the host "
+                 "(the numpy backend, float64)")
+        backend = "numpy"
+    if backend == "opencl":
         from .cl import create_env
 
         env = create_env(args.device)
@@ -462,7 +469,7 @@ def cmd_das(args) -> int:
         def fill(out):
             with callback(None, total=grid.size, desc="das", unit="voxel") as bar:
                 t0 = time.perf_counter()
-                dev.backproject(data, grid, out=out, progress=bar)
+                dev.backproject(data, grid, out=out, progress=bar, medium=medium)
                 timing["seconds"] = time.perf_counter() - t0
     else:
         device, dtype = "numpy (float64)", np.complex128
@@ -470,17 +477,17 @@ def cmd_das(args) -> int:
         def fill(out):
             with callback(None, total=grid.size, desc="das", unit="voxel") as bar:
                 t0 = time.perf_counter()
-                das_numpy(data, grid, budget, out=out, progress=bar)
+                das_numpy(data, grid, budget, out=out, progress=bar, medium=medium)
                 timing["seconds"] = time.perf_counter() - t0
 
-    meta = {"version": __version__, "method": "das", "backend": args.backend, "device": device,
-            "precision": args.precision if args.backend == "opencl" else "float64",
+    meta = {"version": __version__, "method": "das", "backend": backend, "device": device,
+            "precision": args.precision if backend == "opencl" else "float64",
             "input": args.input, "frame": args.frame, "range_window": args.range_window,
-            "conjugate": args.conjugate,
+            "conjugate": args.conjugate, "medium": asdict(medium),
             "grid": args.grid, "timing": timing}
     write_volume(args.output, grid, fill, dtype, meta)
     sec = timing.get("seconds", float("nan"))
-    print(f"das ({args.backend}): image {grid.shape} from {data.array.n} antennas in {sec:.3f} s "
+    print(f"das ({backend}): image {grid.shape} from {data.array.n} antennas in {sec:.3f} s "
           f"({n_bp / sec:.3g} back-projections/s); wrote {args.output}")
     return 0
 
@@ -497,11 +504,13 @@ def cmd_rma(args) -> int:
                      conjugate=args.conjugate)
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
+    medium = _medium(args)
     t0 = time.perf_counter()
-    img, x, y = rma_image(data, upsample_x=args.upsample_x, y_min=args.y_min, y_max=args.y_max)
+    img, x, y = rma_image(data, upsample_x=args.upsample_x, y_min=args.y_min, y_max=args.y_max,
+                          medium=medium)
     sec = time.perf_counter() - t0
     meta = {"version": __version__, "method": "rma", "input": args.input, "seconds": sec,
-            "upsample_x": args.upsample_x}
+            "upsample_x": args.upsample_x, "medium": asdict(medium)}
 
     def fill(out):
         out[...] = img
@@ -703,6 +712,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="GB the back-projection may hold (default 2)")
     input_opts(sp)
     device_opts(sp)
+    medium_opts(sp)
     sp.set_defaults(func=cmd_das)
 
     sp = sub.add_parser("rma", help="range migration (f-k, Stolt) image of a linear-array file")
@@ -713,6 +723,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--upsample-x", type=_positive_int, default=1,
                     help="x pixels per array pitch (default 1)")
     input_opts(sp)
+    medium_opts(sp)
     sp.set_defaults(func=cmd_rma)
 
     sp = sub.add_parser("bench", help="time each method and stage on the paper's scenes")
@@ -838,10 +849,34 @@ def common_opts(sp) -> None:
 
 
 def param_opts(sp) -> None:
-    """A flag per imaging parameter ([kspace], [rpm], [imaging] of --config)."""
+    """A flag per imaging parameter ([kspace], [rpm], [medium], [imaging] of
+    --config)."""
     from .config import add_flags
 
-    add_flags(sp, ("kspace", "rpm", "imaging"))
+    add_flags(sp, ("kspace", "rpm", "medium", "imaging"))
+
+
+def medium_opts(sp) -> None:
+    """``--config`` and a flag per field of the [medium] section (``das``,
+    ``rma``: the material the waves travel in)."""
+    from .config import add_flags
+
+    if not any("--config" in a.option_strings for a in sp._actions):
+        sp.add_argument("--config", metavar="FILE.toml",
+                        help="parameters from this TOML file (its [medium] section; flags "
+                             "override it)")
+    add_flags(sp, ("medium",))
+
+
+def _medium(args):
+    """The :class:`rpm_cl.medium.Medium` of ``--config`` [medium] and the
+    flags."""
+    from .config import flag_values, merge, resolve_medium, settings
+
+    flags = flag_values(args)
+    sources = {k: str(args.config) for k in args.cfg_file}
+    sources.update({(s.section, s.name): s.flag for s in settings() if (s.section, s.name) in flags})
+    return resolve_medium(merge(args.cfg_file, flags), sources)
 
 
 class _Terminated(BaseException):

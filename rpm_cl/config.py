@@ -9,6 +9,7 @@ section          fields of
 ===============  ==========================================================
 ``[kspace]``     :class:`rpm_cl.kspace.KSpaceParams` (decomposition)
 ``[rpm]``        :class:`rpm_cl.imaging.RPMParams` (the RPM step)
+``[medium]``     :class:`rpm_cl.medium.Medium` (the material: eps_r, antenna_height)
 ``[imaging]``    the plain fields of :class:`rpm_cl.imaging.ImagingParams`
 ``[engine]``     :class:`EngineParams` (OpenCL device, precision)
 ===============  ==========================================================
@@ -41,7 +42,7 @@ from typing import Any, Literal
 from .data import InputError
 
 __all__ = ["EngineParams", "Setting", "add_flags", "dump_toml", "flag_values", "load_config",
-           "merge", "resolve", "resolve_engine", "settings"]
+           "merge", "resolve", "resolve_engine", "resolve_medium", "settings"]
 
 _AUTO = ("auto", "none")
 
@@ -84,7 +85,7 @@ class Setting:
     Attributes
     ----------
     section : str
-        TOML section (``kspace``, ``rpm``, ``imaging``, ``engine``).
+        TOML section (``kspace``, ``rpm``, ``medium``, ``imaging``, ``engine``).
     name : str
         Field name (the TOML key).
     kind : type
@@ -362,7 +363,7 @@ def add_flags(parser, sections=("kspace", "rpm", "imaging")) -> None:
     argument group each); a flag not given leaves no attribute
     (``argparse.SUPPRESS``), so :func:`flag_values` sees what was given."""
     titles = {"kspace": "k-space decomposition", "rpm": "RPM", "imaging": "range points",
-              "engine": "engine"}
+              "medium": "medium", "engine": "engine"}
     groups = {}
     for s in settings():
         if s.section not in sections:
@@ -444,6 +445,21 @@ def resolve(data, values: dict, base: dict | None = None, sources: dict | None =
             raise InputError(f"{where + ': ' if where else ''}[{k[0]}] {k[1]}: {msg}") from None
         raise
     return params
+
+
+def resolve_medium(values: dict, sources: dict | None = None):
+    """:class:`rpm_cl.medium.Medium` from the ``medium`` entries of ``values``
+    (for the commands that take no other imaging parameter: ``das``,
+    ``rma``)."""
+    from .medium import Medium
+
+    kw = {name: v for (section, name), v in values.items() if section == "medium"}
+    try:
+        return Medium(**kw)
+    except InputError as exc:
+        key = next((k for k in values if k[0] == "medium" and k[1] in str(exc)), None)
+        where = (sources or {}).get(key, "")
+        raise InputError(f"{where + ': ' if where else ''}{exc}") from None
 
 
 def resolve_engine(values: dict, sources: dict | None = None) -> EngineParams:

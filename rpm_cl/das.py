@@ -20,6 +20,16 @@ Three implementations of the same sum:
 
 Images are complex on a :class:`Grid`: shape (nx, ny) in 2-D (linear arrays),
 (nx, ny, nz) in 3-D (planar arrays), C order, axes in metres.
+
+In a medium (``medium``, :class:`rpm_cl.medium.Medium`) ``|p - a|`` becomes
+the air-equivalent travel range: a homogeneous medium is back-projected as
+its equivalent air scene (:func:`rpm_cl.medium.in_medium`, every
+implementation, the kernel included); above a half-space each (voxel,
+antenna) range is Fermat's refracted path (:func:`rpm_cl.medium.one_way`),
+computed on the host: :func:`das_numpy`, :func:`das_adjoint` and
+:class:`DASPlan` take it, and :class:`DeviceDAS` hands such images to
+:func:`das_numpy` (the kernel computes straight-line distances from its
+grid axes).
 """
 
 from __future__ import annotations
@@ -150,12 +160,19 @@ def check_float32_range(data: RadarData) -> None:
                          f"antennas); use --precision float64, or scale the signal")
 
 
-def _weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float):
-    """Sample index (n, A), the two complex weights (n, A) for voxels p (n, 3)."""
-    d = np.square(p[:, 0:1] - ant[None, :, 0])
-    d += np.square(p[:, 1:2] - ant[None, :, 1])
-    d += np.square(p[:, 2:3] - ant[None, :, 2])
-    np.sqrt(d, out=d)
+def _weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float,
+             medium=None):
+    """Sample index (n, A), the two complex weights (n, A) for voxels p (n, 3);
+    ``medium`` a half-space: refracted ranges."""
+    if medium is not None and medium.half_space:
+        from .medium import one_way
+
+        d = one_way(medium, ant[None, :, :], p[:, None, :])
+    else:
+        d = np.square(p[:, 0:1] - ant[None, :, 0])
+        d += np.square(p[:, 1:2] - ant[None, :, 1])
+        d += np.square(p[:, 2:3] - ant[None, :, 2])
+        np.sqrt(d, out=d)
     ph = np.exp(1j * k2 * d)
     d -= r0
     d /= dr  # d is now the fractional sample index t
@@ -169,13 +186,37 @@ def _weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: 
     return i.astype(np.int64), ph, w1
 
 
-def _chunk_voxels(n_ant: int, budget: float, per: int = 160) -> int:
+#: Bytes per (voxel, antenna) of a chunk's temporaries: straight lines
+#: (the measured peak of :func:`_weights` and the gather), and refracted
+#: paths (:func:`rpm_cl.medium.crossing` holds about a dozen float64 arrays
+#: more).
+BYTES_PER_TERM = 160
+BYTES_PER_TERM_REFRACTED = 400
+
+
+def _chunk_voxels(n_ant: int, budget: float, per: int = BYTES_PER_TERM) -> int:
     """Voxels per chunk so that ``per`` bytes per (voxel, antenna) fit the budget."""
     return max(1, int(budget // (per * max(1, n_ant))))
 
 
+def _per(medium) -> int:
+    return BYTES_PER_TERM_REFRACTED if medium is not None and medium.half_space \
+        else BYTES_PER_TERM
+
+
+def _seen(data: RadarData, medium):
+    """The data a back-projection works on: a homogeneous medium's
+    equivalent air scene, else ``data``; and the medium left for the
+    ranges (a half-space, else None)."""
+    if medium is None or medium.air:
+        return data, None
+    from .medium import in_medium
+
+    return in_medium(data, medium), (medium if medium.half_space else None)
+
+
 def das_numpy(data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_DEFAULT,
-              out: np.ndarray | None = None, progress=None) -> np.ndarray:
+              out: np.ndarray | None = None, progress=None, medium=None) -> np.ndarray:
     """DAS image, float64 NumPy (the specification of the kernel).
 
     Parameters
@@ -192,11 +233,14 @@ def das_numpy(data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_
         larger than memory); default a new complex128 array.
     progress : callable, optional
         Called with (voxels done, voxels total) after each chunk.
+    medium : rpm_cl.medium.Medium, optional
+        The material (module notes); None: air.  The grid is in true metres.
 
     Returns
     -------
     ndarray, complex, shape grid.shape
     """
+    data, refr = _seen(data, medium)
     ant = _geometry(data, grid)
     sig = np.ascontiguousarray(data.signal.reshape(-1, data.range.size), np.complex128)
     nr = data.range.size
@@ -204,11 +248,12 @@ def das_numpy(data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_
     if out is None:
         out = np.empty(grid.shape, np.complex128)
     flat = out.reshape(-1)
-    step = _chunk_voxels(len(ant), memory_budget)
+    step = _chunk_voxels(len(ant), memory_budget, _per(refr))
     a_idx = np.arange(len(ant))[None, :]
     for lo in range(0, grid.size, step):
         hi = min(grid.size, lo + step)
-        i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2)
+        i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2,
+                             refr)
         w0 *= sig[a_idx, i]
         w1 *= sig[a_idx, i + 1]
         w0 += w1
@@ -218,27 +263,31 @@ def das_numpy(data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_
     return out
 
 
-def das_adjoint(image: np.ndarray, data: RadarData, grid: Grid) -> np.ndarray:
+def das_adjoint(image: np.ndarray, data: RadarData, grid: Grid, medium=None) -> np.ndarray:
     """The adjoint of :func:`das_numpy`: a discretised forward model.
 
     Each voxel's reflectivity is spread onto the two range samples around its
     distance to each antenna (linear-interpolation weights) with the phase
-    exp(-j 2 k_c d).  ``<das_adjoint(x), s> = <x, das_numpy(s)>``.
+    exp(-j 2 k_c d).  ``<das_adjoint(x), s> = <x, das_numpy(s)>`` (with the
+    same ``medium``; a homogeneous one's range axis is the equivalent air
+    scene's).
 
     Returns
     -------
     ndarray, complex, shape data.signal.shape
     """
+    data, refr = _seen(data, medium)
     ant = _geometry(data, grid)
     nr = data.range.size
     k2 = 4 * np.pi * data.waveform.fc / C0
     x = np.asarray(image, np.complex128).reshape(-1)
     out = np.zeros((len(ant), nr), np.complex128)
-    step = _chunk_voxels(len(ant), MEMORY_BUDGET_DEFAULT)
+    step = _chunk_voxels(len(ant), MEMORY_BUDGET_DEFAULT, _per(refr))
     a_idx = np.broadcast_to(np.arange(len(ant))[None, :], (min(step, x.size), len(ant)))
     for lo in range(0, x.size, step):
         hi = min(x.size, lo + step)
-        i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2)
+        i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2,
+                             refr)
         xa = x[lo:hi, None]
         np.add.at(out, (a_idx[:hi - lo], i), np.conj(w0) * xa)
         np.add.at(out, (a_idx[:hi - lo], i + 1), np.conj(w1) * xa)
@@ -260,11 +309,17 @@ class DASPlan:
     memory_budget : float
         Bytes the tables may take; a larger grid raises :class:`InputError`
         saying how much it would need.
+    medium : rpm_cl.medium.Medium, optional
+        The material (module notes); each frame is then that of the same
+        medium.
     """
 
     BYTES_PER_TERM = 20
 
-    def __init__(self, data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_DEFAULT):
+    def __init__(self, data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_DEFAULT,
+                 medium=None):
+        self.medium = medium
+        data, refr = _seen(data, medium)
         ant = _geometry(data, grid)
         need = float(grid.size) * len(ant) * self.BYTES_PER_TERM
         if need > memory_budget:
@@ -279,17 +334,18 @@ class DASPlan:
         self.index = np.empty((grid.size, len(ant)), np.int32)
         self.w0 = np.empty((grid.size, len(ant)), np.complex64)
         self.w1 = np.empty((grid.size, len(ant)), np.complex64)
-        step = _chunk_voxels(len(ant), memory_budget / 4)
+        step = _chunk_voxels(len(ant), memory_budget / 4, _per(refr))
         offset = (np.arange(len(ant)) * nr)[None, :]
         for lo in range(0, grid.size, step):
             hi = min(grid.size, lo + step)
-            i, w0, w1 = _weights(grid.points(lo, hi), ant, self.range0, self.dr, nr, k2)
+            i, w0, w1 = _weights(grid.points(lo, hi), ant, self.range0, self.dr, nr, k2, refr)
             self.index[lo:hi] = i + offset  # flat index into (antenna, range)
             self.w0[lo:hi], self.w1[lo:hi] = w0, w1
         self.nbytes = self.index.nbytes + self.w0.nbytes + self.w1.nbytes
 
     def apply(self, data: RadarData) -> np.ndarray:
         """DAS image of one frame with the same geometry, shape grid.shape."""
+        data, _ = _seen(data, self.medium)
         if (data.signal.shape != self.shape or float(data.range[0]) != self.range0
                 or data.dr != self.dr or data.waveform.fc != self.fc
                 or not np.array_equal(data.array.positions(), self.positions)):
@@ -363,7 +419,7 @@ class DeviceDAS:
                          hostbuf=a)
 
     def backproject(self, data: RadarData, grid: Grid, out: np.ndarray | None = None,
-                    reduce=None, progress=None):
+                    reduce=None, progress=None, medium=None):
         """DAS image on the device, row chunk by row chunk.
 
         Parameters
@@ -379,6 +435,11 @@ class DeviceDAS:
             summary, e.g. a projection).
         progress : callable, optional
             Called with (voxels done, voxels total).
+        medium : rpm_cl.medium.Medium, optional
+            The material (module notes).  A half-space's refracted ranges
+            are not the kernel's straight lines: that image is
+            :func:`das_numpy`'s (float64, on the host), rounded to this
+            precision.
 
         Returns
         -------
@@ -387,6 +448,9 @@ class DeviceDAS:
         """
         import pyopencl as cl
 
+        data, refr = _seen(data, medium)
+        if refr is not None:
+            return self._host(data, grid, out, reduce, progress, refr)
         ant = _geometry(data, grid)
         nr = data.range.size
         # common origin removed in float64 so float32 sees small coordinates
@@ -428,6 +492,18 @@ class DeviceDAS:
             if progress:
                 progress((r0 + n) * nlast, grid.size)
         return None if reduce is not None else out
+
+    def _host(self, data, grid, out, reduce, progress, medium):
+        """:meth:`backproject` by :func:`das_numpy` (a half-space)."""
+        if out is None or reduce is not None:
+            out = np.empty(grid.shape, self.cplx)
+        das_numpy(data, grid, self.memory_budget, out=out, progress=progress, medium=medium)
+        if reduce is None:
+            return out
+        nlast = grid.shape[-1]
+        flat = out.reshape(-1, nlast)
+        reduce(0, flat)
+        return None
 
 
 def image_points(image: np.ndarray, grid: Grid, threshold_db: float = -10.0,

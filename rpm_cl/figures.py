@@ -79,22 +79,25 @@ def kspace_map(data: RadarData, params=None) -> KSpaceMap:
         Default :func:`rpm_cl.imaging.default_params` of the data.
     """
     from .kspace import decompose
+    from .medium import air_ranges, seen_data
     from .nearfield import near_field_wanted
 
-    p = _params(data, params).kspace
-    dec = decompose(data, p)
+    pp = _params(data, params)
+    p = pp.kspace
+    seen = seen_data(data, pp.medium)   # in a medium: what the decomposition sees
+    dec = decompose(seen, p)
     arr = data.array
     kx = dec.k_axes[0]
     kp_x = 2 * np.pi / arr.dx
     mag = dec.magnitude
     kz = None
-    centres = [(c.k[0], c.r_centre) for c in dec.clusters]
+    centres = [(c.k[0], float(air_ranges(pp.medium, c.r_centre))) for c in dec.clusters]
     if arr.planar:
         iz = int(np.unravel_index(int(np.argmax(mag)), mag.shape)[1])
         kz = float(dec.k_axes[1][iz])
         kp_z = 2 * np.pi / arr.dz
         quarter = 0.25 * (p.window_z or p.window_x)
-        centres = [(c.k[0], c.r_centre) for c in dec.clusters
+        centres = [(c.k[0], float(air_ranges(pp.medium, c.r_centre))) for c in dec.clusters
                    if abs(_wrap(c.k[1] - kz, kp_z)) <= quarter]
         mag = mag[:, iz, :]
     order = np.argsort(kx)
@@ -104,8 +107,8 @@ def kspace_map(data: RadarData, params=None) -> KSpaceMap:
             np.full(mag.shape, -np.inf)
     c = np.array(centres, np.float64).reshape(-1, 2)
     c[:, 0] = _wrap(c[:, 0], kp_x)
-    nf = not arr.planar and (p.near_field or (p.near_field is None and near_field_wanted(data)))
-    return KSpaceMap(kx[order], data.range.copy(), db, c, kz, bool(nf))
+    nf = not arr.planar and (p.near_field or (p.near_field is None and near_field_wanted(seen)))
+    return KSpaceMap(kx[order], np.array(air_ranges(pp.medium, seen.range)), db, c, kz, bool(nf))
 
 
 def draw_kspace(m: KSpaceMap, ax, dynamic_range: float = 40.0):
@@ -165,12 +168,16 @@ def rp_sets(data: RadarData, params=None) -> RPSets:
     data : RadarData
     params : rpm_cl.imaging.ImagingParams, optional
     """
+    from .halfspace import to_air
     from .kspace import decompose
+    from .medium import seen_data
     from .metrics import err_range
     from .rangepoints import rps_from_decomposition
 
     p = _params(data, params)
-    rps = rps_from_decomposition(data, decompose(data, p.kspace), p.rp_threshold_db)
+    seen = seen_data(data, p.medium)   # in a medium: what the decomposition sees
+    rps = to_air(rps_from_decomposition(seen, decompose(seen, p.kspace), p.rp_threshold_db),
+                 p.medium)
     arr = data.array
     keep = np.ones(len(rps), bool)
     row_z = None
@@ -286,12 +293,14 @@ def compare_images(data: RadarData, engine, das=None, grid=None, params=None) ->
 
     if data.array.planar:
         raise InputError("the compare figure needs a linear-array file (2-D); this array is planar")
-    res = run_method("kspace-rpm", data, _params(data, params), engine)
+    p = _params(data, params)
+    res = run_method("kspace-rpm", data, p, engine)
     if grid is None:
         grid = auto_grid(data, res.image.points)
     if grid.dim != 2:
         raise InputError(f"the compare grid needs 2 axes (x, y), got {grid.dim}")
-    image = das.backproject(data, grid) if das is not None else das_numpy(data, grid)
+    image = (das.backproject(data, grid, medium=p.medium) if das is not None
+             else das_numpy(data, grid, medium=p.medium))
     truth = data.truth.boundary if data.truth is not None else None
     return Comparison(res.image.points, res.image.cluster, grid, image, truth, data.array.x)
 

@@ -565,6 +565,13 @@ class Sidecar:
         ``{"cylinders": [{"centre": [cx, cy], "radius": r}, ...]}``, m.
     polygons : tuple of ndarray (k, 2)
         ``{"plates": [{"corners": [[x, y], ...]}, ...]}``: convex outlines, m.
+    eps_r : float or None
+        ``{"medium": {"eps_r": 6.0, ...}}``: the relative permittivity of
+        the material the objects lie in; None: free space.
+    surface_y : float or None
+        ``{"medium": {"surface_y": y}}``: gprMax's y of the flat surface of
+        a half-space of that material (the antennas on the other side of it,
+        in air), m; None with ``eps_r``: a homogeneous medium.
     """
 
     waveform: SourceWaveform | None = None
@@ -572,6 +579,21 @@ class Sidecar:
     scan_y: float | None = None
     cylinders: tuple = ()
     polygons: tuple = ()
+    eps_r: float | None = None
+    surface_y: float | None = None
+
+    def medium(self, y_scan: float | None = None):
+        """The :class:`rpm_cl.medium.Medium` of the sidecar in the engine's
+        frame (the antenna height ``|surface_y - y_scan|``), None in free
+        space."""
+        from .medium import Medium
+
+        if self.eps_r is None:
+            return None
+        y = self.scan_y if y_scan is None else y_scan
+        if self.surface_y is None or y is None:
+            return Medium(self.eps_r)
+        return Medium(self.eps_r, abs(self.surface_y - y))
 
 
 def _numbers(value, shape_ok, what: str, path: str) -> np.ndarray:
@@ -638,7 +660,21 @@ def read_sidecar(path) -> Sidecar:
             raise InputError(f"{path}: a plate must be {{\"corners\": [[x, y], ...]}}")
         polys.append(_numbers(p["corners"], lambda s: len(s) == 2 and 3 <= s[0] <= 1000
                               and s[1] == 2, "plate corners", path))
-    return Sidecar(wave, sx, sy, tuple(cyl), tuple(polys))
+    eps_r = surface = None
+    if "medium" in doc:
+        med = doc["medium"]
+        if not isinstance(med, dict) or "eps_r" not in med:
+            raise InputError(f"{path}: medium must be {{\"eps_r\": ..., \"surface_y\": m}}")
+        eps_r = float(_numbers(med["eps_r"], lambda s: s == (), "medium.eps_r", path))
+        if "surface_y" in med:
+            surface = float(_numbers(med["surface_y"], lambda s: s == (), "medium.surface_y", path))
+        from .medium import Medium
+
+        try:
+            Medium(eps_r)
+        except InputError as exc:
+            raise InputError(f"{path}: medium: {exc}") from None
+    return Sidecar(wave, sx, sy, tuple(cyl), tuple(polys), eps_r, surface)
 
 
 def _list(doc, key, path):
@@ -795,7 +831,11 @@ def truth_arrays(sidecar: Sidecar, x, y_scan: float, step: float = 1e-3) -> dict
     A point ``(X, Y)`` of gprMax's plane is ``(X, |Y - y_scan|)``.  The true
     RPs are, for every antenna and object, the distance to the object's
     nearest surface point (a specular point, or a plate's edge where no
-    specular point exists).
+    specular point exists).  With a medium (``sidecar.eps_r``) the distance is
+    the air-equivalent range (optical path, :func:`rpm_cl.medium.one_way`):
+    ``sqrt(eps_r)`` times the distance in a homogeneous medium, Fermat's
+    refracted path to the nearest boundary sample above a half-space (the
+    ranges :func:`rpm_cl.imaging.run_method` returns its RPs in there).
 
     Parameters
     ----------
@@ -816,6 +856,7 @@ def truth_arrays(sidecar: Sidecar, x, y_scan: float, step: float = 1e-3) -> dict
     """
     x = np.asarray(x, np.float64)
     ant = np.stack([x, np.full_like(x, y_scan)], axis=1)
+    medium = sidecar.medium(y_scan)
     bounds, dists = [], []
     for cx, cy, r in sidecar.cylinders:
         n = max(16, math.ceil(2 * math.pi * r / step))
@@ -833,12 +874,51 @@ def truth_arrays(sidecar: Sidecar, x, y_scan: float, step: float = 1e-3) -> dict
         dists.append(d)
     if not bounds:
         return {}
+    if medium is not None and medium.half_space:
+        # refracted: the nearest of boundary samples 0.1 mm apart in optical
+        # path (the path is stationary there: off by about (0.1 mm)^2 / r)
+        dists = [_refracted_min(medium, x, y_scan, b)
+                 for b in _dense_boundaries(sidecar, REFRACTED_STEP)]
+    elif medium is not None:
+        dists = [medium.n * d for d in dists]
     b = np.concatenate(bounds)
     b[:, 1] = np.abs(b[:, 1] - y_scan)
     dist = np.stack(dists, axis=1)                               # (nx, objects)
     ant_idx = np.repeat(np.arange(len(x), dtype=np.int64), dist.shape[1])
     return {"truth_rp_antenna": ant_idx, "truth_rp_range": dist.ravel(),
             "truth_boundary": b}
+
+
+#: Spacing of the boundary samples of the refracted true ranges, m.
+REFRACTED_STEP = 1e-4
+
+
+def _dense_boundaries(sidecar: Sidecar, step: float) -> list:
+    """Boundary samples (k, 2) of each object, cylinders first, in gprMax's
+    frame, ``step`` apart."""
+    out = []
+    for cx, cy, r in sidecar.cylinders:
+        n = max(16, math.ceil(2 * math.pi * r / step))
+        a = 2 * math.pi * np.arange(n) / n
+        out.append(np.stack([cx + r * np.cos(a), cy + r * np.sin(a)], axis=1))
+    for poly in sidecar.polygons:
+        edges = [p + np.linspace(0, 1, max(2, math.ceil(np.hypot(*(q - p)) / step) + 1))[:, None]
+                 * (q - p) for p, q in zip(poly, np.roll(poly, -1, axis=0))]
+        out.append(np.concatenate(edges))
+    return out
+
+
+def _refracted_min(medium, x, y_scan: float, boundary: np.ndarray) -> np.ndarray:
+    """Least optical path (nx,) from each antenna to a boundary's samples
+    (gprMax's frame), in antenna chunks of a few MB, m."""
+    from .medium import one_way
+
+    p3 = np.stack([boundary[:, 0], np.abs(boundary[:, 1] - y_scan),
+                   np.zeros(len(boundary))], axis=1)
+    ant = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
+    step = max(1, (1 << 17) // max(1, len(p3)))
+    return np.concatenate([one_way(medium, ant[i:i + step, None], p3[None]).min(axis=1)
+                           for i in range(0, len(ant), step)])
 
 
 def convert(inputs, background=None, band=(2e9, 4e9), waveform: SourceWaveform | None = None,

@@ -23,6 +23,7 @@ import numpy as np
 
 from .data import InputError, RadarData
 from .kspace import KSpaceParams, decompose
+from .medium import Medium, seen_data
 from .rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
 from .rpm.neighbours import neighbour_lists
 from .rpm.reference import MS_DENSITY_T
@@ -196,10 +197,11 @@ class RPMParams:
 
 @dataclass(frozen=True)
 class ImagingParams:
-    """All imaging settings: decomposition, RP extraction and RPM."""
+    """All imaging settings: decomposition, RP extraction, RPM and the medium."""
 
     kspace: KSpaceParams = field(default_factory=KSpaceParams)
     rpm: RPMParams = field(default_factory=RPMParams)
+    medium: Medium = field(default_factory=Medium)
     rp_threshold_db: float = RP_THRESHOLD_DB_DEFAULT
     multipath: Literal["drop", "flag"] = "drop"
 
@@ -237,14 +239,18 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     - window_x: linear arrays :data:`WINDOW_LINEAR_PER_KC` times the carrier
       wavenumber (417 rad/m, the paper's 2-D value, at its 20 GHz),
       :data:`WINDOW_PLANAR_DEFAULT` for planar ones; window_z = window_x.
+    - in a medium (``eps_r``, ``antenna_height``): sigma_r and window_x of
+      the scene the RP extraction sees (:func:`rpm_cl.medium.seen_data`:
+      ranges divided by sqrt(eps_r), carrier wavenumber k_c sqrt(eps_r)).
     - everything else: the dataclass defaults.
 
     Parameters
     ----------
     data : RadarData
     overrides : keyword arguments
-        Any field of :class:`RPMParams`, :class:`KSpaceParams` or the plain
-        fields of :class:`ImagingParams`, by name (each name is routed to the
+        Any field of :class:`RPMParams`, :class:`KSpaceParams`,
+        :class:`rpm_cl.medium.Medium` or the plain fields of
+        :class:`ImagingParams`, by name (each name is routed to the
         dataclass that has it, so a field added there is accepted here).
         None means "the default" (use :func:`dataclasses.replace` on the
         result to set a field to None).
@@ -259,17 +265,20 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
 
     arr = data.array
     ov = {k: v for k, v in overrides.items() if v is not None}
+    top = {f.name for f in fields(ImagingParams)} - {"kspace", "rpm", "medium"}
+    rpm_names = {f.name for f in fields(RPMParams)}
+    ks_names = {f.name for f in fields(KSpaceParams)}
+    medium_names = {f.name for f in fields(Medium)}
+    unknown = sorted(set(ov) - top - rpm_names - ks_names - medium_names)
+    if unknown:
+        raise InputError(f"unknown imaging parameter {unknown[0]!r}")
+    medium = Medium(**{k: v for k, v in ov.items() if k in medium_names})
+    seen = seen_data(data, medium)   # what the decomposition and RPM see
     if arr.planar:
         sigma_x = 2.5 * max(arr.dx, arr.dz)
     else:
         sigma_x = float(arr.x[-1] - arr.x[0])
-    rpm_kw = {"sigma_x": sigma_x, "sigma_r": _derived_sigma_r(data)}
-    top = {f.name for f in fields(ImagingParams)} - {"kspace", "rpm"}
-    rpm_names = {f.name for f in fields(RPMParams)}
-    ks_names = {f.name for f in fields(KSpaceParams)}
-    unknown = sorted(set(ov) - top - rpm_names - ks_names)
-    if unknown:
-        raise InputError(f"unknown imaging parameter {unknown[0]!r}")
+    rpm_kw = {"sigma_x": sigma_x, "sigma_r": _derived_sigma_r(seen)}
     derived = {k for k in ("sigma_x", "sigma_r") if k not in ov}
     rpm_kw.update({k: v for k, v in ov.items() if k in rpm_names})
     top_kw = {k: v for k, v in ov.items() if k in top}
@@ -287,8 +296,8 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
         ks_kw.setdefault("window_x", WINDOW_PLANAR_DEFAULT)
         ks_kw.setdefault("window_z", ks_kw["window_x"])
     else:
-        ks_kw.setdefault("window_x", WINDOW_LINEAR_PER_KC * data.waveform.kc)
-    return ImagingParams(KSpaceParams(**ks_kw), RPMParams(**rpm_kw), **top_kw)
+        ks_kw.setdefault("window_x", WINDOW_LINEAR_PER_KC * seen.waveform.kc)
+    return ImagingParams(KSpaceParams(**ks_kw), RPMParams(**rpm_kw), medium, **top_kw)
 
 
 def _derived_sigma_r(data: RadarData, range_error: float = 0.01) -> float:
@@ -570,7 +579,7 @@ def _kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     t1 = time.perf_counter()
     rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
     t2 = time.perf_counter()
-    image = rpm_image(rps, params.rpm, engine)
+    image = _rpm(rps, params, engine)
     t3 = time.perf_counter()
     return ImageResult("kspace-rpm", rps, image,
                        {"decompose": t1 - t0, "range_points": t2 - t1, "rpm": t3 - t2,
@@ -587,23 +596,42 @@ def _phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     if not dec.near_field and dec.clusters:
         rps, _ = phase_ranges(data, rps, np.array([c.k for c in dec.clusters]))
     t2 = time.perf_counter()
-    image = rpm_image(rps, params.rpm, engine)
+    image = _rpm(rps, params, engine)
     t3 = time.perf_counter()
-    image = _multipath(data, rps, image, params.multipath)
+    image = _multipath(data, rps, image, params.multipath, params.medium)
     t4 = time.perf_counter()
     return ImageResult("phase-rpm", rps, image,
                        {"decompose": t1 - t0, "range_points": t2 - t1, "rpm": t3 - t2,
                         "multipath": t4 - t3, "total": t4 - t0})
 
 
-def _multipath(data: RadarData, rps: RangePoints, image: Image, mode: str) -> Image:
+def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
+    """RPM of the method's RPs: :func:`rpm_image`, or above a half-space
+    :func:`rpm_cl.halfspace.halfspace_rpm` of their air-equivalent ranges
+    (the refracted equal-time curves)."""
+    if params.medium.half_space:
+        from .halfspace import halfspace_rpm, to_air
+
+        return halfspace_rpm(to_air(rps, params.medium), params.rpm, engine, params.medium)
+    return rpm_image(rps, params.rpm, engine)
+
+
+def _multipath(data: RadarData, rps: RangePoints, image: Image, mode: str,
+               medium: Medium | None = None) -> Image:
     """The image without (``"drop"``) or with flags on (``"flag"``) the
-    points of double-bounce clusters (:mod:`rpm_cl.multipath`)."""
+    points of double-bounce clusters (:mod:`rpm_cl.multipath`); above a
+    half-space the double bounces' paths refract (``medium``)."""
     from dataclasses import replace
 
     from .multipath import flag_multipath
 
-    flags = flag_multipath(data.array.positions(), rps, image, data.waveform.range_resolution)
+    resolution = data.waveform.range_resolution
+    if medium is not None and medium.half_space:   # rps of the paraxial scene: back to air
+        from .halfspace import to_air
+
+        rps, resolution = to_air(rps, medium), resolution * medium.n
+    flags = flag_multipath(data.array.positions(), rps, image, resolution,
+                           medium if medium is not None and medium.half_space else None)
     if mode == "flag":
         return replace(image, multipath=flags)
     keep = ~flags
@@ -615,7 +643,7 @@ def _mf_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     t0 = time.perf_counter()
     rps = rps_from_profiles(data, params.rp_threshold_db)
     t1 = time.perf_counter()
-    image = rpm_image(rps, params.rpm, engine)
+    image = _rpm(rps, params, engine)
     t2 = time.perf_counter()
     return ImageResult("mf-rpm", rps, image,
                        {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0})
@@ -627,7 +655,7 @@ def _capon_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     t0 = time.perf_counter()
     rps = rps_from_capon(data, CaponParams(), params.rp_threshold_db)
     t1 = time.perf_counter()
-    image = rpm_image(rps, params.rpm, engine)
+    image = _rpm(rps, params, engine)
     t2 = time.perf_counter()
     return ImageResult("capon-rpm", rps, image,
                        {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0})
@@ -655,6 +683,17 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
         (``data.range_sidelobe_db``, known for a compressed spectrum) reach
         above the k-space peak threshold: each strong echo's sidelobes would
         become clusters of spurious points.
+
+    Notes
+    -----
+    ``params.medium``: in a homogeneous medium the method images the
+    equivalent air scene (:func:`rpm_cl.medium.in_medium`); above a
+    half-space it extracts RPs from the paraxial scene
+    (:func:`rpm_cl.medium.paraxial_data`) and images them with
+    :func:`rpm_cl.halfspace.halfspace_rpm`.  Either way the RPs come back
+    with the data's own air-equivalent ranges (c tau / 2, as measured, and as
+    a file's ``truth_rp_range`` gives them), the image points in true
+    metres.
     """
     try:
         fn = METHODS[name]
@@ -662,7 +701,17 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
         raise InputError(f"unknown method {name!r}; choose from {', '.join(METHODS)}") from None
     if name in ("kspace-rpm", "phase-rpm"):
         _check_sidelobes(data, params.kspace.peak_threshold_db)
-    return fn(data, params, engine)
+    medium = params.medium
+    # in a medium the method runs on the scene of rpm_cl.medium.seen_data
+    # (in air: ``data`` itself)
+    result = fn(seen_data(data, medium), params, engine)
+    if not medium.air:   # RPs as measured: air-equivalent ranges
+        from dataclasses import replace
+
+        from .halfspace import to_air
+
+        result = replace(result, rps=to_air(result.rps, medium))
+    return result
 
 
 def _check_sidelobes(data: RadarData, threshold_db: float) -> None:

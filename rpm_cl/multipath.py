@@ -25,6 +25,12 @@ alone fails where the ghost's cluster also holds the ends of its legs'
 stronger echoes, whose wavenumbers reach into its window; RPM's density
 leaves those out of the points.)
 
+Above a dielectric half-space (:class:`rpm_cl.medium.Medium` with an
+antenna height) the legs from and to the antenna are refracted optical
+paths (:func:`rpm_cl.medium.one_way`), the leg between the objects is ``n``
+times its length, and the envelope point lies on the refracted ray whose
+parameter is the predicted range's slope (:func:`rpm_cl.medium.point_on_ray`).
+
 The objects are represented by their image points (at most
 :data:`MAX_OBJECT_POINTS` of each, evenly spread), so a double bounce between
 two parts of one surface is not sought.  A cluster that fails the test is
@@ -66,7 +72,8 @@ GRADIENT_STEP = 1e-4
 MAX_OBJECT_POINTS = 32
 
 
-def double_bounce(antennas: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def double_bounce(antennas: np.ndarray, a: np.ndarray, b: np.ndarray,
+                  medium=None) -> np.ndarray:
     """Range of the shortest path antenna -> A -> B -> antenna, halved.
 
     Parameters
@@ -75,15 +82,25 @@ def double_bounce(antennas: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndar
         Antenna positions, m.
     a, b : ndarray, shape (Ma, 3), (Mb, 3)
         Points of the two objects, m.
+    medium : rpm_cl.medium.Medium, optional
+        A half-space: optical paths (air-equivalent, both objects in the
+        material); None: air.
 
     Returns
     -------
     ndarray, shape (N,)
         m.
     """
-    da = np.linalg.norm(antennas[:, None, :] - a[None], axis=2)          # (N, Ma)
-    db = np.linalg.norm(antennas[:, None, :] - b[None], axis=2)          # (N, Mb)
-    ab = np.linalg.norm(a[:, None, :] - b[None], axis=2)                 # (Ma, Mb)
+    if medium is None:
+        da = np.linalg.norm(antennas[:, None, :] - a[None], axis=2)          # (N, Ma)
+        db = np.linalg.norm(antennas[:, None, :] - b[None], axis=2)          # (N, Mb)
+        ab = np.linalg.norm(a[:, None, :] - b[None], axis=2)                 # (Ma, Mb)
+    else:
+        from .medium import one_way
+
+        da = one_way(medium, antennas[:, None, :], a[None])
+        db = one_way(medium, antennas[:, None, :], b[None])
+        ab = medium.n * np.linalg.norm(a[:, None, :] - b[None], axis=2)
     total = da[:, :, None] + ab[None] + db[:, None, :]
     return 0.5 * total.reshape(len(antennas), -1).min(axis=1)
 
@@ -102,7 +119,8 @@ def _xyz(p: np.ndarray) -> np.ndarray:
     return np.column_stack([p, np.zeros(len(p))])
 
 
-def flag_multipath(positions: np.ndarray, rps, image, resolution: float) -> np.ndarray:
+def flag_multipath(positions: np.ndarray, rps, image, resolution: float,
+                   medium=None) -> np.ndarray:
     """Which image points come from double-bounce clusters (module notes).
 
     Parameters
@@ -115,6 +133,9 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float) -> np.n
         Points (M, 2|3), their clusters and main RPs.
     resolution : float
         Range resolution c / 2B, m (:data:`LEVEL_TOL`).
+    medium : rpm_cl.medium.Medium, optional
+        A half-space below the antennas (module notes); None: air (or a
+        homogeneous medium's equivalent air scene).
 
     Returns
     -------
@@ -146,10 +167,10 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float) -> np.n
             for j in range(i + 1, len(accepted)):
                 if amp > GHOST_AMP * min(strength[i], strength[j]):
                     continue
-                if abs(rr[k] - double_bounce(one, accepted[i], accepted[j])[0]) > \
+                if abs(rr[k] - double_bounce(one, accepted[i], accepted[j], medium)[0]) > \
                         LEVEL_TOL * resolution:
                     continue
-                g = ghost_points(ant, accepted[i], accepted[j])
+                g = ghost_points(ant, accepted[i], accepted[j], medium)
                 if len(g) == 0:
                     continue
                 centre = np.median(g, axis=0)
@@ -181,7 +202,8 @@ def _median_gap(p: np.ndarray, q: np.ndarray, centre: np.ndarray) -> float:
     return float(np.median(np.min(gap, axis=1)))
 
 
-def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray,
+                 medium=None) -> np.ndarray:
     """Where RPM images the double bounce A-B seen from ``antennas``: the
     envelope point of each antenna's range sphere (module notes).
 
@@ -191,6 +213,8 @@ def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarr
         m (y = 0).
     a, b : ndarray, shape (Ma, 3), (Mb, 3)
         m.
+    medium : rpm_cl.medium.Medium, optional
+        A half-space (refracted paths and rays); None: air.
 
     Returns
     -------
@@ -198,15 +222,23 @@ def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarr
         The points of the antennas where the predicted range walk is a
         direction (|grad R| < 1), m.
     """
-    r = double_bounce(antennas, a, b)
+    r = double_bounce(antennas, a, b, medium)
     grad = np.zeros((len(antennas), 3))
     for axis in (0, 2):
         e = np.zeros(3)
         e[axis] = GRADIENT_STEP
-        grad[:, axis] = (double_bounce(antennas + e, a, b)
-                         - double_bounce(antennas - e, a, b)) / (2 * GRADIENT_STEP)
+        grad[:, axis] = (double_bounce(antennas + e, a, b, medium)
+                         - double_bounce(antennas - e, a, b, medium)) / (2 * GRADIENT_STEP)
     across = 1.0 - grad[:, 0] ** 2 - grad[:, 2] ** 2
     ok = across > 0
+    if medium is not None:
+        from .medium import point_on_ray
+
+        p = np.sqrt(np.maximum(1.0 - across, 0.0))
+        h = -grad[:, [0, 2]]
+        e = np.where(p[:, None] > 0, h / np.where(p > 0, p, 1.0)[:, None], [1.0, 0.0])
+        pt, _ = point_on_ray(medium, antennas, np.where(ok, p, 0.0), e, r)
+        return pt[ok]
     out = antennas - r[:, None] * grad
     out[:, 1] = r * np.sqrt(np.where(ok, across, 0.0))
     return out[ok]

@@ -31,6 +31,24 @@ extrapolation, unlike the Capon filter's): the image is that of the data as
 given, and a range window shorter than the echoes' responses (paper-2d) only
 cuts the image's range streaks.
 
+In a medium (:class:`rpm_cl.medium.Medium`): a homogeneous one is imaged as
+its equivalent air scene (:func:`rpm_cl.medium.in_medium`: the same maths
+with the wavenumber ``n k``), exactly.  Above a half-space (antennas ``h``
+above the surface) the image is a *phase-shift migration through the air
+layer, then Stolt in the material*: ``S(kx, k)`` is continued down to the
+surface by ``exp(+j sqrt(4 k^2 - kx^2) h)`` (the exact two-way propagator of
+a plane-wave component through ``h`` of air; the evanescent part,
+``|kx| > 2k``, is dropped), which leaves the data of antennas on the surface
+of a homogeneous material, and those are Stolt-mapped with the material's
+dispersion relation ``ky = sqrt(4 n^2 k^2 - kx^2)``.  ``kx`` is conserved
+across a flat surface (Snell's law), so both steps are exact for the travel
+times of every plane-wave component; the approximations are RMA's own
+(stationary phase, linear interpolation in ``k``) and the surface's
+transmission coefficients, which change amplitudes, not positions, and are
+left out.  Components steeper than the critical angle (``2k < |kx| <
+2nk``) never reach the air and are absent from the data.  The half-space
+image covers the material, ``y >= h``.
+
 Accuracy: with 3 GHz of bandwidth a point images within 1-2 mm of itself.
 With paper-2d's 0.2 GHz (750 mm range resolution, 0.1 m aperture) each
 target is a streak along its line of sight: its bearing comes out within
@@ -100,7 +118,7 @@ def _stolt(spec: np.ndarray, kx: np.ndarray, k: np.ndarray, ky: np.ndarray,
 
 def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_r: int = 8,
               dy: float | None = None, y_min: float | None = None,
-              y_max: float | None = None, jacobian: bool = True):
+              y_max: float | None = None, jacobian: bool = True, medium=None):
     """f-k migration image of a linear array's data.
 
     Parameters
@@ -130,6 +148,11 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
         Crop of the image in y, m; default the data's range axis.
     jacobian : bool
         Apply ``dk/dky`` in the Stolt mapping.
+    medium : rpm_cl.medium.Medium, optional
+        The material (module notes); None or air: free space.  ``y`` is
+        then in true metres; above a half-space the default crop is the
+        material, from the surface ``y = h`` to the depth the range axis
+        reaches, and a crop above the surface is refused.
 
     Returns
     -------
@@ -149,22 +172,34 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
     """
     if data.array.planar:
         raise InputError("RMA is implemented for linear arrays only; this array is planar")
+    from .medium import Medium, in_medium
+
+    medium = Medium() if medium is None else medium
+    data = in_medium(data, medium)   # a homogeneous medium: its equivalent air scene
+    n_in, height = (medium.n, medium.antenna_height) if medium.half_space else (1.0, 0.0)
     pad_x = _positive_int("pad_x", pad_x)
     upsample_x = _positive_int("upsample_x", upsample_x)
     zero_pad_r = _positive_int("zero_pad_r", zero_pad_r)
     if dy is not None and not (np.isfinite(dy) and dy > 0):
         raise InputError(f"dy must be > 0, got {dy}")
-    y_lo = float(data.range[0]) if y_min is None else float(y_min)
-    y_hi = float(data.range[-1]) if y_max is None else float(y_max)
-    if not (np.isfinite(y_lo) and np.isfinite(y_hi) and y_hi > y_lo):
-        raise InputError(f"need y_min < y_max, got {y_lo} and {y_hi}")
     # |y| <= R for every target: pixels beyond the range axis hold only the
     # FFT's periodic copies of the scene (every zero_pad_r * nr * dr in y),
-    # which would read as targets
+    # which would read as targets; below a surface the deepest point an
+    # air-equivalent range R reaches is h + (R - h) / n
     r_max = float(data.range[-1]) + data.dr
-    if y_lo < -r_max or y_hi > r_max:
-        raise InputError(f"the y crop {y_lo:g} .. {y_hi:g} m must lie within {-r_max:g} .. "
-                         f"{r_max:g} m (the data's range axis: no target lies farther)")
+    lo_lim, hi_lim = ((height, height + max(r_max - height, 0.0) / n_in) if medium.half_space
+                      else (-r_max, r_max))
+    y_lo = (float(data.range[0]) if not medium.half_space else lo_lim) if y_min is None \
+        else float(y_min)
+    y_hi = (float(data.range[-1]) if not medium.half_space else hi_lim) if y_max is None \
+        else float(y_max)
+    if not (np.isfinite(y_lo) and np.isfinite(y_hi) and y_hi > y_lo):
+        raise InputError(f"need y_min < y_max, got {y_lo} and {y_hi}")
+    if y_lo < lo_lim or y_hi > hi_lim:
+        what = ("the material below the surface at y = h and the depth the range axis reaches"
+                if medium.half_space else "the data's range axis: no target lies farther")
+        raise InputError(f"the y crop {y_lo:g} .. {y_hi:g} m must lie within {lo_lim:g} .. "
+                         f"{hi_lim:g} m ({what})")
 
     # frequency samples with the matched-filter weight (a tapered spectrum:
     # low range sidelobes), from the zero-padded FFT of the windowed profiles
@@ -175,6 +210,11 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
     n_kx = pad_x * nx
     spec = np.fft.fft(y_f, n=n_kx, axis=0)  # (n_kx, L): X relative to x[0]
     kx = 2 * np.pi * np.fft.fftfreq(n_kx, dx)
+    if medium.half_space:
+        # phase shift through the air layer: the data referred to the surface
+        kz2 = 4 * k[None, :] ** 2 - kx[:, None] ** 2
+        spec = np.where(kz2 > 0, spec * np.exp(1j * np.sqrt(np.maximum(kz2, 0.0)) * height), 0)
+        k = n_in * k   # then Stolt with the material's wavenumber
 
     # uniform ky grid over every ky the band reaches, spaced 2 dk (the spacing
     # of ky = 2k at kx = 0, so the y period stays c / 2 df)
@@ -196,7 +236,7 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
         img_k = full
     period_y = 2 * np.pi / dky
     dy_nat = 2 * np.pi / (ky.size * dky)
-    want = dy if dy is not None else C0 / (data.waveform.fc + f[-1]) / 4
+    want = dy if dy is not None else C0 / (data.waveform.fc + f[-1]) / n_in / 4
     n_y = max(ky.size, int(np.ceil(period_y / min(want, dy_nat))))
     img = np.fft.ifft(np.fft.ifft(img_k, axis=0), n=n_y, axis=1) * (n_x * n_y)
 
@@ -208,14 +248,15 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
     x_axis = data.array.x[0] + jx * px
     img = img[jx % n_x]
     ny_step = period_y / n_y
-    first = int(np.ceil(y_lo / ny_step))
-    last = int(np.floor(y_hi / ny_step))
+    # below a surface the image's y is the depth under it, y - h
+    first = int(np.ceil((y_lo - height) / ny_step))
+    last = int(np.floor((y_hi - height) / ny_step))
     if last - first + 1 > n_y:
         last = first + n_y - 1  # the crop is longer than the y period
     iy = np.arange(first, last + 1)
     if iy.size == 0:
         raise InputError(f"the crop [{y_lo}, {y_hi}] m holds no pixel of {ny_step:g} m")
-    return img[:, iy % n_y], x_axis, iy * ny_step
+    return img[:, iy % n_y], x_axis, height + iy * ny_step
 
 
 def image_peaks(image: np.ndarray, x: np.ndarray, y: np.ndarray, *, n_peaks: int = 10,

@@ -242,3 +242,33 @@ def test_hdf5_stack_frames(tmp_path, dev32):
     (inp / "single.npz").write_bytes(b"")  # single.npz and single.h5: one output name
     with pytest.raises(InputError, match="same result"):
         frame_sources(inp)
+
+
+def test_halfspace_frames(tmp_path, client, dev32):
+    """A medium reaches every frame: the points and the DAS image (the reuse
+    tables built with the refracted ranges, or the direct host
+    back-projection) are those of the single runs."""
+    from test_medium import EPS, TARGETS, H, _ranges, _spectrum_data
+
+    from rpm_cl.batch import BatchConfig, run_batch
+    from rpm_cl.das import das_numpy, parse_grid
+    from rpm_cl.formats import load_data, save_data
+    from rpm_cl.medium import Medium
+
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    save_data(frames / "hs.npz", _spectrum_data(_ranges(TARGETS[:3])))
+    data = load_data(frames / "hs.npz")
+    grid = "-0.3:0.3:0.004,0.1:0.4:0.004"
+    medium = (("medium", "eps_r"), EPS), (("medium", "antenna_height"), H)
+    want_pts = run_method(DEFAULT_METHOD, data, default_params(data, eps_r=EPS, antenna_height=H),
+                          dev32).image.points
+    want = das_numpy(data, parse_grid(grid), medium=Medium(EPS, H))
+    for k, reuse in enumerate(("plan", "direct")):
+        out = tmp_path / f"out{k}"
+        s = run_batch(frames, out, BatchConfig(overrides=medium, das_grid=grid, das_reuse=reuse),
+                      client=client)
+        assert s.done == 1 and s.das_modes == [reuse]
+        np.testing.assert_allclose(np.load(out / "hs.npz")["points"], want_pts, atol=1e-6)
+        with np.load(out / "hs_das.npz") as f:
+            assert np.abs(f["image"] - want).max() <= 1e-4 * np.abs(want).max()

@@ -12,6 +12,7 @@ from rpm_cl.config import EngineParams, dump_toml, load_config, resolve, setting
 from rpm_cl.data import InputError, load_npz
 from rpm_cl.imaging import WINDOW_PLANAR_DEFAULT, ImagingParams, RPMParams, default_params
 from rpm_cl.kspace import KSpaceParams
+from rpm_cl.medium import Medium
 
 try:
     import tomllib
@@ -41,8 +42,9 @@ def test_every_dataclass_field_is_a_setting():
     have = {(s.section, s.name) for s in settings()}
     want = {("kspace", f.name) for f in dataclasses.fields(KSpaceParams)}
     want |= {("rpm", f.name) for f in dataclasses.fields(RPMParams)}
+    want |= {("medium", f.name) for f in dataclasses.fields(Medium)}
     want |= {("imaging", f.name) for f in dataclasses.fields(ImagingParams)
-             if f.name not in ("kspace", "rpm")}
+             if f.name not in ("kspace", "rpm", "medium")}
     want |= {("engine", f.name) for f in dataclasses.fields(EngineParams)}
     assert want == have
     image = build_parser()._subparsers._group_actions[0].choices["image"]
@@ -206,7 +208,7 @@ def test_dump_toml_loads_as_toml_with_every_key(files):
     data = load_npz(files[1])
     p = default_params(data)
     doc = tomllib.loads(dump_toml(p, EngineParams()))
-    assert set(doc) == {"kspace", "rpm", "imaging", "engine"}
+    assert set(doc) == {"kspace", "rpm", "medium", "imaging", "engine"}
     assert sum(len(v) for v in doc.values()) == len(settings())
 
 
