@@ -9,8 +9,9 @@
  *     Y = Pn - C^H X - X^H C + C^H Pm C
  * (block elimination of the joint Gram matrix [[I, C], [C^H, I]]).  D =
  * I - C^H C is regularised by 1e-12 of its trace; tr(D^-1 Y) =
- * tr(adj(D) Y) / det(D), and 0 where det(D) <= 0 (a pair whose atoms span
- * fewer than four dimensions).
+ * tr(adj(D) Y) / det(D), and 0 where det(D) <= DEGENERATE_DET (a build
+ * option, rpm_cl.nearfield.DEGENERATE_DET: a pair whose atoms span fewer
+ * than four dimensions, where det and tr are both rounding noise).
  *
  * The host computes the products over the antennas and gates with BLAS:
  * c and x are the (2 ni, 2 nj) complex matrices Fm^H Fn and Gm Gn^H (row
@@ -69,6 +70,6 @@ __kernel void pair_energy(__global const cplx *c, __global const cplx *x,
     d11 += eps;
     const double det = d00 * d11 - cabs2(d01);
     const double tr = d11 * y00 + d00 * y11 - 2.0 * cmulc(d01, y01).x;
-    out[(long)i * nj + j] = em[i] + (det > 0.0 ? tr / det : 0.0);
+    out[(long)i * nj + j] = em[i] + (det > DEGENERATE_DET ? tr / det : 0.0);
 }
 

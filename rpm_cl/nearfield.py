@@ -455,6 +455,16 @@ def _explained_pairs(qm, qn, sp, algebra=None):
     return (algebra or _pair_algebra)(c, x, pm, pn, em)
 
 
+#: det(I - C^H C) at or below which a pair of candidates counts as one
+#: (dimensionless: the product of the squared sines of the two bases'
+#: principal angles).  Two equal candidates leave det at rounding level,
+#: 1e-30 either side of zero, and tr at the same level, so tr / det is
+#: noise as large as the data's energy; 1e-24 (both angles under ~1e-6 rad)
+#: sits a millionfold above that, and a pair degenerate in one direction
+#: only keeps det ~1e-12 through the regularisation.
+DEGENERATE_DET = 1e-24
+
+
 def _pair_algebra(c, x, pm, pn, em):
     """Joint explained energy of every pair from its products (float64
     NumPy reference of the ``pair_energy`` kernel, kernels/nearfield.cl).
@@ -476,7 +486,8 @@ def _pair_algebra(c, x, pm, pn, em):
     Returns
     -------
     ndarray, shape (ni, nj)
-        ``|g_m|^2 + tr((I - C^H C)^-1 Y)``, Y = (g_n - C^H g_m)(g_n - C^H g_m)^H
+        ``|g_m|^2 + tr((I - C^H C)^-1 Y)``, Y = (g_n - C^H g_m)(g_n - C^H g_m)^H,
+        or ``|g_m|^2`` alone where det(I - C^H C) <= :data:`DEGENERATE_DET`
         (the block elimination of the joint Gram matrix [[I, C], [C^H, I]]);
         the 2 x 2 algebra is written out per element over all pairs at once
         (the stacked 2 x 2 matrix products it replaces cost 3-5 times more).
@@ -509,7 +520,7 @@ def _pair_algebra(c, x, pm, pn, em):
     det = d00 * d11 - _abs2(d01)
     tr = d11 * y00 + d00 * y11 - 2 * (d01.conj() * y01).real
     with np.errstate(divide="ignore", invalid="ignore"):
-        joint = np.where(det > 0, tr / det, 0.0)
+        joint = np.where(det > DEGENERATE_DET, tr / det, 0.0)
     return np.asarray(em)[:, None] + joint
 
 

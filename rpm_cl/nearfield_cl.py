@@ -35,8 +35,11 @@ class NearFieldDevice:
     def __init__(self, env: CLEnv):
         if not env.has_double:
             raise ValueError(f"device {env.name} has no float64 support")
+        from .nearfield import DEGENERATE_DET  # nearfield imports this module
+
         self.env = env
-        self._k = get_kernels(env, "nearfield.cl", ["pair_energy"])
+        self._k = get_kernels(env, "nearfield.cl", ["pair_energy"],
+                              {"DEGENERATE_DET": DEGENERATE_DET})
 
     def pair_algebra(self, c, x, pm, pn, em):
         """Joint explained energy of every pair, shape (ni, nj): the

@@ -38,7 +38,7 @@ def _products(qm, qn, sp):
 def test_kernel_matches_reference(nfdev, seed):
     """Fresh random bases and data of the search's sizes (odd and uneven
     candidate counts), with some n candidates equal to m candidates (C^H C =
-    I: det <= 0, the masked case) and some nearly so.  The kernel evaluates
+    I: det at rounding level, the masked case) and some nearly so.  The kernel evaluates
     the reference's expression in another order (and may contract to FMA),
     float64 over some 100 operations on values of the order of the data's
     energy: 1e-11 of that energy bounds the difference with a wide margin."""
@@ -64,6 +64,7 @@ def test_kernel_matches_reference(nfdev, seed):
     assert np.all(exact | near)
     assert np.all(np.isfinite(got))
     assert np.array_equal(np.diag(got[:k, :k]), np.diag(ref[:k, :k]))   # masked: |g_m|^2
+    assert np.array_equal(np.diag(ref[:k, :k]), args[4][:k])
 
 
 def test_reference_is_the_projection():
