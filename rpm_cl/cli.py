@@ -123,6 +123,17 @@ _metres = _bounded_float(-1e4, 1e4, "must be a length in m within +-1e4")
 _frame = _int_at_least(0, "frame ")
 
 
+def _memory_size(text) -> int:
+    """argparse type: a size in bytes (rpm_cl.guard.parse_bytes)."""
+    from .data import InputError
+    from .guard import parse_bytes
+
+    try:
+        return parse_bytes(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def _picture_size(text):
     """argparse type: 'WxH' pixels, each 100..10000."""
     try:
@@ -252,7 +263,7 @@ def cmd_image(args) -> int:
 
     check_output(args.output, RESULT_EXTENSIONS, "result")
     data = load_data(args.input, frame=args.frame, range_window=args.range_window,
-                     conjugate=args.conjugate)
+                     conjugate=args.conjugate, max_memory=args.max_memory)
     params = _params(args, data)
     engine, env = _engine(args)
     verbose = log.isEnabledFor(logging.INFO) and hasattr(engine, "kernel_times")
@@ -286,7 +297,7 @@ def cmd_params(args) -> int:
     from .formats import load_data
 
     data = load_data(args.input, frame=args.frame, range_window=args.range_window,
-                     conjugate=args.conjugate)
+                     conjugate=args.conjugate, max_memory=args.max_memory)
     params = _params(args, data)
     text = dump_toml(params, args.engine_params,
                      header=f"rpm-cl {__version__}: parameters resolved for {args.input}\n"
@@ -441,7 +452,8 @@ def cmd_das(args) -> int:
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
     data = load_data(args.input, frame=args.frame, range_window=args.range_window,
-                     conjugate=args.conjugate)
+                     conjugate=args.conjugate, max_memory=args.max_memory,
+                     with_truth=False)
     grid = parse_grid(args.grid)
     if grid.dim != data.array.dim:
         raise CLIError(f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
@@ -501,7 +513,8 @@ def cmd_rma(args) -> int:
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
     data = load_data(args.input, frame=args.frame, range_window=args.range_window,
-                     conjugate=args.conjugate)
+                     conjugate=args.conjugate, max_memory=args.max_memory,
+                     with_truth=False)
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
     medium = _medium(args)
@@ -608,6 +621,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="conjugate a spectrum before compressing it (samples recorded as "
                         "exp(+j 4 pi f R / c), whose echoes land at the unambiguous range "
                         "minus their range)")
+        sp.add_argument("--max-memory", metavar="BYTES", type=_memory_size,
+                        help="refuse an input whose run would need more memory than this "
+                        "(e.g. 8G; default RPM_CL_MAX_MEMORY or half the machine's memory), "
+                        "checked from the file's headers before any data is read")
 
     sp = sub.add_parser("info", help="list OpenCL platforms/devices and the one chosen")
     sp.add_argument("--device")

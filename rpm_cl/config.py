@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 import re
 import types
 import typing
@@ -245,6 +246,10 @@ def settings() -> list[Setting]:
 
 # --------------------------------------------------------------------------
 # the file
+#: Largest ``--config`` file read, bytes: a parameter file is a few kB.
+CONFIG_MAX_BYTES = 1 << 20
+
+
 def load_config(path) -> dict:
     """Read and type-check a TOML parameter file.
 
@@ -263,6 +268,12 @@ def load_config(path) -> dict:
     except ModuleNotFoundError:  # Python 3.10
         import tomli as tomllib
 
+    from .guard import regular_file
+
+    path = regular_file(path, "config")
+    if os.path.getsize(path) > CONFIG_MAX_BYTES:
+        raise InputError(f"{path}: a config of {os.path.getsize(path)} bytes is not a "
+                         f"parameter file (at most {CONFIG_MAX_BYTES} bytes)")
     try:
         with open(path, "rb") as fh:
             doc = tomllib.load(fh)

@@ -76,6 +76,17 @@ from .data import (
     output_path,
     unit_hint,
 )
+from .guard import (
+    check_budget,
+    check_declared,
+    fmt_bytes,
+    h5_dataset,
+    h5_has,
+    h5_stored,
+    memory_limit,
+    regular_file,
+    run_bytes,
+)
 
 __all__ = [
     "DATA_EXTENSIONS",
@@ -83,6 +94,7 @@ __all__ = [
     "RANGE_WINDOWS",
     "RESULT_EXTENSIONS",
     "VOLUME_EXTENSIONS",
+    "check_members",
     "check_output",
     "frame_count",
     "load_data",
@@ -109,6 +121,9 @@ RANGE_WINDOWS = {"rect": "boxcar", "hann": "hann", "hamming": "hamming",
 RANGE_OVERSAMPLE = 16
 
 _H5_EXT = (".h5", ".hdf5")
+#: ``truth_scene`` (a JSON description) is read only up to this size, bytes.
+TEXT_MAX_BYTES = 1 << 20
+TEXT_MAX_ITEMS = 1
 
 
 def _ext(path: str) -> str:
@@ -154,7 +169,8 @@ def _h5py():
 # sources: one interface over .npz members and HDF5 root datasets
 class _NpzSource:
     """Members of an ``.npz``, read through their ``.npy`` headers, so that a
-    frame of a stack is read without the rest."""
+    frame of a stack is read without the rest, and nothing is inflated
+    before its header and its member's sizes agree."""
 
     def __init__(self, path: str):
         self.path = path
@@ -173,19 +189,46 @@ class _NpzSource:
             return np.lib.format.read_array_header_1_0(fh)
         return np.lib.format.read_array_header_2_0(fh)
 
+    def _checked_header(self, key, fh):
+        """The member's (shape, fortran, dtype) once its sizes agree: the
+        header's array fits the member's declared size, which fits what the
+        archive stores for it (:func:`rpm_cl.guard.check_declared`)."""
+        try:
+            shape, fortran, dtype = self._header(fh)
+        except Exception as exc:  # noqa: BLE001 - ValueError, TokenError, SyntaxError ...
+            raise InputError(f"{key}: corrupt .npy header ({' '.join(str(exc).split())})") \
+                from None
+        if dtype.hasobject:
+            raise InputError(f"{key} holds Python objects (dtype {dtype}); only numeric "
+                             f"arrays are read")
+        info = self.zf.getinfo(self.names[key])
+        nbytes = int(np.prod(shape, dtype=object)) * dtype.itemsize
+        if nbytes > info.file_size - fh.tell():
+            raise InputError(f"{key} is truncated or its header is corrupt: the header "
+                             f"declares {fmt_bytes(nbytes)}, the member holds "
+                             f"{fmt_bytes(max(info.file_size - fh.tell(), 0))}")
+        check_declared(key, info.file_size, info.compress_size)
+        return tuple(shape), fortran, dtype
+
     def shape_dtype(self, key):
         with self.zf.open(self.names[key]) as fh:
-            shape, _, dtype = self._header(fh)
-        return tuple(shape), np.dtype(dtype)
+            shape, _, dtype = self._checked_header(key, fh)
+        return shape, np.dtype(dtype)
+
+    def stored(self, key):
+        return self.zf.getinfo(self.names[key]).compress_size
 
     def read(self, key):
         with self.zf.open(self.names[key]) as fh:
+            self._checked_header(key, fh)
+            fh.seek(0)
             return np.lib.format.read_array(fh, allow_pickle=False)
 
     def read_frame(self, key, i):
         with self.zf.open(self.names[key]) as fh:
-            shape, fortran, dtype = self._header(fh)
-            if fortran or dtype.hasobject:
+            shape, fortran, dtype = self._checked_header(key, fh)
+            if fortran:
+                fh.seek(0)
                 return np.lib.format.read_array(fh, allow_pickle=False)[i]
             n = int(np.prod(shape[1:])) * dtype.itemsize
             fh.seek(fh.tell() + i * n)
@@ -195,6 +238,9 @@ class _NpzSource:
         return np.frombuffer(buf, dtype).reshape(shape[1:]).copy()
 
     def text(self, key):
+        shape, dtype = self.shape_dtype(key)
+        if int(np.prod(shape, dtype=object)) * dtype.itemsize > TEXT_MAX_BYTES:
+            raise InputError(f"{key} must be a short string, got {shape} of dtype {dtype}")
         return str(self.read(key))
 
     def close(self):
@@ -202,7 +248,8 @@ class _NpzSource:
 
 
 class _H5Source:
-    """Datasets at the root of an HDF5 file; a frame is one hyperslab."""
+    """Datasets at the root of an HDF5 file; a frame is one hyperslab.  Only
+    data inside the file is read (:func:`rpm_cl.guard.h5_dataset`)."""
 
     def __init__(self, path: str):
         self.path = path
@@ -212,26 +259,36 @@ class _H5Source:
         return set(self.f.keys())
 
     def __contains__(self, key):
-        return key in self.f
+        return h5_has(self.f, key)
 
     def _ds(self, key):
-        ds = self.f[key]
-        if not isinstance(ds, _h5py().Dataset):
-            raise InputError(f"{self.path}: {key} must be a dataset at the file root, not a group")
-        return ds
+        return h5_dataset(self.f, key)
 
     def shape_dtype(self, key):
         ds = self._ds(key)
-        return tuple(ds.shape), ds.dtype
+        shape, dtype = tuple(ds.shape), ds.dtype
+        if dtype.kind in "biufc":
+            check_declared(key, int(np.prod(shape, dtype=object)) * dtype.itemsize,
+                           h5_stored(ds))
+        return shape, dtype
+
+    def stored(self, key):
+        return h5_stored(self._ds(key))
 
     def read(self, key):
+        self.shape_dtype(key)
         return np.asarray(self._ds(key)[()])
 
     def read_frame(self, key, i):
+        self.shape_dtype(key)
         return np.asarray(self._ds(key)[i])
 
     def text(self, key):
-        v = self._ds(key)[()]
+        ds = self._ds(key)
+        if ds.size > TEXT_MAX_ITEMS or ds.dtype.itemsize * ds.size > TEXT_MAX_BYTES:
+            raise InputError(f"{key} must be a short string, got {ds.size} items of "
+                             f"{ds.dtype.itemsize} bytes")
+        v = ds[()]
         if isinstance(v, bytes):
             return v.decode("utf-8")
         if isinstance(v, np.ndarray) and v.dtype.kind in "OSU" and v.ndim == 0:
@@ -246,8 +303,7 @@ class _H5Source:
 def _open(path) -> tuple[str, object]:
     path = os.fspath(path)
     ext = _need_ext(path, DATA_EXTENSIONS, "input")
-    if not os.path.exists(path):
-        raise InputError(f"{path}: no such file")
+    regular_file(path)
     try:
         src = _H5Source(path) if ext in _H5_EXT else _NpzSource(path)
     except InputError:
@@ -256,6 +312,51 @@ def _open(path) -> tuple[str, object]:
         kind = "HDF5" if ext in _H5_EXT else ".npz"
         raise InputError(f"{path}: not a readable {kind} file ({_oneline(exc)})") from None
     return path, src
+
+
+def check_members(path, keys, *, budget: bool = True, max_memory=None) -> dict:
+    """Check the members ``keys`` of an ``.npz`` or HDF5 file from their
+    headers, before a reader of that file reads them.
+
+    Each present member's header must fit what the file stores for it (no
+    truncation, no compression bomb, for HDF5 no data outside the file:
+    :mod:`rpm_cl.guard`); with ``budget`` their bytes together must fit
+    ``max_memory`` (:func:`rpm_cl.guard.memory_limit`).
+
+    Parameters
+    ----------
+    path : str or path-like
+        A regular ``.npz`` / ``.h5`` / ``.hdf5`` file (any other extension is
+        read as an ``.npz``).
+    keys : iterable of str
+        The members the reader uses; absent ones are skipped.
+
+    Returns
+    -------
+    dict
+        ``{key: (shape, dtype)}`` of the members present.
+
+    Raises
+    ------
+    InputError
+        One line naming the file and the member.
+    """
+    path = regular_file(path)
+    h5 = _ext(path) in _H5_EXT
+    try:
+        src = _H5Source(path) if h5 else _NpzSource(path)
+    except Exception as exc:  # noqa: BLE001 - not HDF5 / not a zip: the reader says so
+        raise InputError(f"{path}: not a readable {'HDF5' if h5 else '.npz'} file "
+                         f"({_oneline(exc)})") from None
+    try:
+        found = _guarded(path, lambda: {k: src.shape_dtype(k) for k in keys if k in src})
+    finally:
+        src.close()
+    if budget:
+        total = sum(_nbytes(*sd) for sd in found.values())
+        _guarded(path, lambda: check_budget(run_bytes(0, total), memory_limit(max_memory),
+                                            "reading it"))
+    return found
 
 
 def _oneline(exc: BaseException) -> str:
@@ -349,6 +450,66 @@ def _select(src, key: str, n_axes: int, frame):
     return src.read_frame(key, int(frame))
 
 
+#: The arrays beside the data and the shapes they must have, from the data
+#: header's core shape (nx[, nz], n): a callable of (core, n_axes).
+_BESIDE = {
+    "x": lambda key, core, n_axes: (core[0],),
+    "z": lambda key, core, n_axes: (core[1],) if n_axes == 3 else None,
+    "range": lambda key, core, n_axes: (core[-1],) if key == "signal" else None,
+    "frequency": lambda key, core, n_axes: (core[-1],) if key == "spectrum" else None,
+    "fc": lambda key, core, n_axes: (),
+    "bandwidth": lambda key, core, n_axes: (),
+}
+_TRUTH = ("truth_boundary", "truth_rp_antenna", "truth_rp_range")
+#: An array beside the data larger than the data's header allows is refused
+#: from its header when it holds more than this, bytes; a smaller one is
+#: read and its mismatch reported by the validators in their own words.
+BESIDE_READ_BYTES = 1 << 20
+
+
+def _nbytes(shape, dtype) -> int:
+    return int(np.prod(shape, dtype=object)) * np.dtype(dtype).itemsize
+
+
+def _preflight(src, key: str, n_axes: int, with_truth: bool, max_memory) -> None:
+    """Every array the run reads, checked from its header before any data is
+    read: numeric, no larger than the data's header allows (``x`` its first
+    axis, ``range`` / ``frequency`` its last, ``fc`` one number; see
+    :data:`BESIDE_READ_BYTES`), and the whole run within ``max_memory``
+    (:func:`rpm_cl.guard.run_bytes`)."""
+    shape, _ = src.shape_dtype(key)
+    core = shape[-n_axes:]
+    other = 0
+    for name, want in _BESIDE.items():
+        if name not in src:
+            continue
+        got, dtype = src.shape_dtype(name)
+        need = want(key, core, n_axes)
+        if dtype.kind not in "biuf":
+            what = "a real number" if need == () else "real numbers"
+            raise InputError(f"{name} must be {what}, got dtype {dtype}")
+        size, nbytes = int(np.prod(got, dtype=object)), _nbytes(got, dtype)
+        if need is not None and size > int(np.prod(need, dtype=object)) \
+                and nbytes > BESIDE_READ_BYTES:
+            what = "one number" if need == () else f"{need[0]} values ({key} has shape {shape})"
+            raise InputError(f"{name} must hold {what}, its header declares shape {got}")
+        other += nbytes
+    if with_truth:
+        for name in _TRUTH:
+            if name in src:
+                got, dtype = src.shape_dtype(name)
+                other += _nbytes(got, dtype)
+    samples = int(np.prod(core[:-1], dtype=object))
+    if key == "spectrum":   # range-compressed onto next_fast_len(16 nf) gates
+        from scipy.fft import next_fast_len
+
+        samples *= next_fast_len(RANGE_OVERSAMPLE * max(int(core[-1]), 1))
+    else:
+        samples *= int(core[-1])
+    check_budget(run_bytes(samples, other), memory_limit(max_memory),
+                 f"{key} {shape}")
+
+
 def _truth(src):
     if "truth_boundary" not in src:
         return None
@@ -358,12 +519,16 @@ def _truth(src):
     return Truth(rp[0], rp[1], src.read("truth_boundary"), scene)
 
 
-def _build(src, frame, range_window: str, conjugate: bool) -> RadarData:
+def _build(src, frame, range_window: str, conjugate: bool, with_truth: bool = True,
+           max_memory=None) -> RadarData:
     key = _data_key(src)
+    n_axes = _n_axes(src)
+    _frames(src, key, n_axes)
+    _preflight(src, key, n_axes, with_truth, max_memory)
     z = src.read("z") if "z" in src else None
     array = Array(_need(src, "x"), z)
-    values = drop_spikes(_select(src, key, _n_axes(src), frame), key)
-    truth = _truth(src)
+    values = drop_spikes(_select(src, key, n_axes, frame), key)
+    truth = _truth(src) if with_truth else None
     if key == "signal":
         if "frequency" in src:
             raise InputError("'frequency' goes with 'spectrum', not with 'signal'")
@@ -392,7 +557,8 @@ def _build(src, frame, range_window: str, conjugate: bool) -> RadarData:
 
 
 def load_data(path, *, frame: int | None = None, range_window: str = "hann",
-              conjugate: bool = False) -> RadarData:
+              conjugate: bool = False, with_truth: bool = True,
+              max_memory=None) -> RadarData:
     """Read and validate radar data from an ``.npz`` or HDF5 file.
 
     Parameters
@@ -412,6 +578,12 @@ def load_data(path, *, frame: int | None = None, range_window: str = "hann",
         as ``a exp(+j 4 pi f R / c)`` (whose echoes otherwise land at the
         unambiguous range minus their range; a warning says when the data
         look so).  Refused for time-domain data.
+    with_truth : bool
+        Read the ``truth_*`` members (scoring); False leaves them unread.
+    max_memory : int or str, optional
+        Bytes a run on the data may take (:func:`rpm_cl.guard.memory_limit`:
+        default ``RPM_CL_MAX_MEMORY`` or half the machine's memory); checked
+        from the headers before any data is read.
 
     Warns
     -----
@@ -428,15 +600,19 @@ def load_data(path, *, frame: int | None = None, range_window: str = "hann",
     Raises
     ------
     InputError
-        One line naming the file and the problem: unknown extension,
-        unreadable or truncated file, missing key, wrong shape or dtype,
+        One line naming the file and the problem: unknown extension, not a
+        regular file, unreadable or truncated file, a header declaring more
+        than the file holds or the run more memory than ``max_memory``,
+        data outside the file (HDF5 external links or storage, virtual
+        datasets), missing key, wrong shape or dtype,
         non-uniform axis, NaN/Inf, a stack of no frames, a stack without
         ``frame``, ``frame`` out of range, an unknown window.
     """
     _window_name(range_window)
     path, src = _open(path)
     try:
-        return _guarded(path, lambda: _build(src, frame, range_window, bool(conjugate)))
+        return _guarded(path, lambda: _build(src, frame, range_window, bool(conjugate),
+                                             bool(with_truth), max_memory))
     finally:
         src.close()
 

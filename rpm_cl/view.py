@@ -74,7 +74,13 @@ def load_result(path) -> dict:
         The file is missing or unreadable, or a field has the wrong type or
         shape; the message names the field.
     """
+    from .formats import check_members
+
     path = os.fspath(path)
+    if os.path.isfile(path) and not os.path.splitext(path)[1].lower() in (".h5", ".hdf5") \
+            and not zipfile.is_zipfile(path):
+        raise InputError(f"{path}: not an .npz result (not a zip archive)")
+    check_members(path, ("points", "cluster", "rp_x", "rp_z", "meta"))
     try:
         if os.path.splitext(path)[1].lower() in (".h5", ".hdf5"):
             out, meta = _read_h5(path)
@@ -436,7 +442,11 @@ def load_das_image(path) -> DASImage:
         Missing file or key, wrong shapes, axes not finite and strictly
         increasing, or an image that is not numeric.
     """
+    from .formats import check_members
+
     path = os.fspath(path)
+    check_members(path, ("x", "y", "z", "meta"))
+    check_members(path, ("image",), budget=False)   # read slab by slab
     try:
         if os.path.splitext(path)[1].lower() in (".h5", ".hdf5"):
             axes, meta, img = _h5_image_parts(path)
@@ -761,6 +771,9 @@ def view(path, png=None, size=(1000, 800), dynamic_range: float = DYNAMIC_RANGE_
         raise InputError(f"the dynamic range must be > 0 dB, got {dynamic_range:g}")
     if iso is not None and not (np.isfinite(iso) and iso < 0):
         raise InputError(f"the iso-surface level must be below the maximum (< 0 dB), got {iso:g}")
+    from .guard import regular_file
+
+    regular_file(path)   # before anything opens it: a FIFO would block
     if _is_image_file(path):
         img = load_das_image(path)
         if img.dim == 2:

@@ -1,0 +1,195 @@
+"""Inputs from strangers: what is checked before a byte of data is read.
+
+Every input file is treated as hostile until its headers say otherwise:
+
+- only a regular file is opened (after links): a FIFO blocks the reader
+  forever, a link to ``/dev/zero`` or ``/dev/urandom`` never ends;
+- every array's shape and dtype come from its header (an ``.npy`` member's
+  header, an HDF5 dataset's metadata) and are checked against the others
+  and against the memory a run on them would take (:func:`run_bytes`)
+  before any data is read; above the limit (:func:`memory_limit`) the run
+  is refused with the size named;
+- a member that declares far more bytes than the file stores for it
+  (:data:`BOMB_RATIO`) is a compression bomb or a corrupt header: refused
+  without inflating it;
+- an HDF5 dataset is read only from the file itself: external links,
+  external raw storage and virtual datasets are refused (each would pull
+  another file of the machine into the run).
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+
+from .data import InputError
+
+__all__ = ["BOMB_MIN_BYTES", "BOMB_RATIO", "RUN_BASE_BYTES", "RUN_BYTES_PER_SAMPLE",
+           "check_declared", "h5_dataset", "h5_has", "memory_limit", "parse_bytes",
+           "regular_file", "run_bytes"]
+
+#: Share of the machine's memory a run may take when no limit is given: a
+#: run holds a few copies of its data at once and the machine is shared.
+MEMORY_SHARE = 0.5
+#: Working memory of a run per complex sample of its range profiles, bytes:
+#: sixteen complex128 copies (the input, its range compression, the k-space
+#: decomposition's FFTs and windows, the back-projection's inputs).
+RUN_BYTES_PER_SAMPLE = 256
+#: Fixed memory of a run, bytes: the interpreter, NumPy/SciPy and the OpenCL
+#: runtime (a small run peaks at 230-280 MB resident).
+RUN_BASE_BYTES = 512 << 20
+#: Declared bytes per stored byte above which a member is refused as a
+#: compression bomb (deflate cannot exceed ~1030:1; radar samples, noisy by
+#: nature, compress by a few times at most).
+BOMB_RATIO = 100
+#: Members declaring less than this are never taken for bombs (a small
+#: all-zero input compresses well and is harmless).
+BOMB_MIN_BYTES = 64 << 20
+
+_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"),
+          (stat.S_ISDIR, "a folder"))
+
+
+def regular_file(path, what: str = "input") -> str:
+    """``path`` as a string if it names a regular file (after links).
+
+    Raises
+    ------
+    InputError
+        No such file, not readable, or not a regular file (a FIFO, a device
+        such as ``/dev/zero``, a socket, a folder): one line naming it.
+    """
+    path = os.fspath(path)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the {what} ({exc.strerror or exc})") from None
+    if not stat.S_ISREG(st.st_mode):
+        kind = next((name for test, name in _KINDS if test(st.st_mode)), "not a file")
+        raise InputError(f"{path}: the {what} must be a regular file, this is {kind}")
+    return path
+
+
+def fmt_bytes(n: float) -> str:
+    """``n`` bytes as a short decimal figure (``3.3 GB``)."""
+    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{int(n)} bytes"
+
+
+def parse_bytes(text) -> int:
+    """A size in bytes from ``8e9``, ``8G``, ``512M``, ``64k`` (decimal units).
+
+    Raises
+    ------
+    InputError
+        Not a positive size.
+    """
+    s = str(text).strip()
+    scale = {"k": 1e3, "m": 1e6, "g": 1e9, "t": 1e12}.get(s[-1:].lower(), 1.0)
+    body = s[:-1] if scale != 1.0 else s
+    body = body[:-1] if scale != 1.0 and body[-1:].lower() == "b" else body
+    try:
+        value = float(body) * scale
+    except ValueError:
+        value = float("nan")
+    if not (value >= 1 and value < 1e18):
+        raise InputError(f"a memory size must be a positive number of bytes (e.g. 8G, 512M), "
+                         f"got {text!r}")
+    return int(value)
+
+
+def _physical_memory() -> int:
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+    except (ValueError, OSError, AttributeError):   # not POSIX: assume a small machine
+        return 8 << 30
+
+
+def memory_limit(limit=None) -> int:
+    """The memory a run may take, bytes: ``limit`` (bytes or a size string,
+    :func:`parse_bytes`), else the environment's ``RPM_CL_MAX_MEMORY``, else
+    :data:`MEMORY_SHARE` of the machine's memory."""
+    if limit is None:
+        limit = os.environ.get("RPM_CL_MAX_MEMORY") or None
+    if limit is None:
+        return int(MEMORY_SHARE * _physical_memory())
+    return parse_bytes(limit)
+
+
+def run_bytes(samples: int, other_bytes: int = 0) -> int:
+    """Memory a run on ``samples`` complex range-profile samples takes, bytes
+    (:data:`RUN_BASE_BYTES` + :data:`RUN_BYTES_PER_SAMPLE` a sample), plus
+    ``other_bytes`` read beside them (axes, truth)."""
+    return RUN_BASE_BYTES + RUN_BYTES_PER_SAMPLE * int(samples) + int(other_bytes)
+
+
+def check_budget(need: int, limit: int, what: str) -> None:
+    """Refuse a run needing ``need`` bytes above ``limit`` (one line naming both)."""
+    if need > limit:
+        raise InputError(f"{what} would need about {fmt_bytes(need)} of memory, above the "
+                         f"limit of {fmt_bytes(limit)} (--max-memory / RPM_CL_MAX_MEMORY "
+                         f"raise it)")
+
+
+def check_declared(key: str, declared: int, stored: int) -> None:
+    """Refuse a member declaring ``declared`` bytes of data in ``stored``
+    bytes of file where that is a compression bomb or a corrupt header."""
+    if declared >= BOMB_MIN_BYTES and declared > BOMB_RATIO * max(stored, 1):
+        raise InputError(f"{key} declares {fmt_bytes(declared)} of data in "
+                         f"{fmt_bytes(stored)} of file ({declared / max(stored, 1):.0f}:1): a "
+                         f"compression bomb or a corrupt header; refused unread")
+
+
+def h5_has(f, key: str) -> bool:
+    """Whether the HDF5 file ``f`` has a link ``key`` at its root (without
+    following it: an external link is there, and refused when used)."""
+    try:
+        return f.get(key, getlink=True) is not None
+    except (KeyError, ValueError, OSError, RuntimeError):
+        return False
+
+
+def h5_dataset(f, key: str):
+    """The dataset ``key`` at the root of ``f``, if its data lives in ``f``.
+
+    Raises
+    ------
+    InputError
+        ``key`` is an external link, a group, a virtual dataset or one whose
+        raw data is stored in external files.
+    """
+    import h5py
+
+    link = f.get(key, getlink=True)
+    if isinstance(link, h5py.ExternalLink):
+        raise InputError(f"{key} is an external link (to {link.filename}:{link.path}); only "
+                         f"data inside the input is read")
+    try:
+        obj = f[key]
+    except (KeyError, OSError, RuntimeError, ValueError) as exc:
+        raise InputError(f"{key} cannot be opened ({' '.join(str(exc).split())})") from None
+    if not isinstance(obj, h5py.Dataset):
+        raise InputError(f"{key} must be a dataset at the file root, not a group")
+    if os.path.realpath(obj.file.filename) != os.path.realpath(f.filename):
+        raise InputError(f"{key} leads to another file ({obj.file.filename}); only data "
+                         f"inside the input is read")
+    if obj.is_virtual:
+        raise InputError(f"{key} is a virtual dataset (its data lives in other files); only "
+                         f"data inside the input is read")
+    if obj.external:
+        raise InputError(f"{key} keeps its data in external files; only data inside the "
+                         f"input is read")
+    return obj
+
+
+def h5_stored(ds) -> int:
+    """Bytes of file ``ds`` occupies (its storage size; 0 when unallocated)."""
+    try:
+        return int(ds.id.get_storage_size())
+    except Exception:  # noqa: BLE001 - a corrupt layout: nothing known stored
+        return 0
