@@ -79,6 +79,9 @@ class DataWarning(UserWarning):
 #: GHz or MHz values given without their factor and refused (every radar the
 #: engine models, HF included, lies above).
 FC_MIN = 1e6
+#: A range resolution longer than this many range axes is refused: no echo
+#: of such data can be placed in range (a bandwidth in kHz or MHz numbers).
+RES_MAX_SPANS = 20.0
 
 
 def unit_hint(value_hz: float) -> str:
@@ -353,6 +356,12 @@ class RadarData:
         if dr < 1e-9 * res:
             raise InputError(f"range spacing {dr:g} m is below 1e-9 of the range resolution "
                              f"{res:g} m")
+        span = dr * (rng.size - 1)
+        if res > RES_MAX_SPANS * span:
+            raise InputError(f"bandwidth {self.waveform.bandwidth:g} Hz gives a range "
+                             f"resolution c/2B = {res:.3g} m, {res / span:.0f} times the whole "
+                             f"range axis ({span:.3g} m): is bandwidth in kHz or MHz numbers? "
+                             f"give it in Hz")
         t = self.truth
         if t is not None:
             if t.boundary.shape[1] != self.array.dim or len(t.boundary) == 0:

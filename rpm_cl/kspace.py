@@ -530,6 +530,11 @@ def _centres(det: np.ndarray, size: list, n_k: int, threshold, g0: int, nr: int)
     at or above ``threshold`` (a scalar, or one value per gate of the run):
     (indices with global gates, values)."""
     mode = ["wrap"] * n_k + ["nearest"]
+    # a window wider than its axis sees the whole axis, as the axis's own
+    # length (wrapped) or twice it (edges repeated) does: the same maxima,
+    # at a cost bounded by the data, not by the resolution
+    size = [min(int(s), n if m == "wrap" else 2 * n + 1)
+            for s, n, m in zip(size, det.shape, mode)]
     local = det == ndimage.maximum_filter(det, size=size, mode=mode)
     # a strict maximum along R (a flat run of equal values, e.g. a constant
     # signal, is not a peak: every gate of it would pass the test above)

@@ -237,3 +237,38 @@ def test_garbled_npy_header_named_as_such(tmp_path, arrays):
         for n, b in members.items():
             zf.writestr(n, b)
     _refused(path, "corrupt .npy header")
+
+
+def test_bandwidth_in_wrong_units_refused(tmp_path, arrays):
+    """200 Hz (a number meant as MHz or kHz): a resolution of 750 km over a
+    1.5 m range axis ran for minutes in gigabytes; refused with the fix."""
+    path = tmp_path / "bw.npz"
+    np.savez(path, **dict(arrays, bandwidth=np.float64(200.0)))
+    _refused(path, "bandwidth 200 Hz gives a range resolution .* give it in Hz")
+    span = float(arrays["range"][-1] - arrays["range"][0])
+    from rpm_cl.data import C0, RES_MAX_SPANS
+
+    ok = C0 / (2 * 0.9 * RES_MAX_SPANS * span)   # a resolution of 0.9 x the limit: accepted
+    np.savez(path, **dict(arrays, bandwidth=np.float64(ok)))
+    assert load_data(path).waveform.bandwidth == ok
+
+
+def test_peak_window_wider_than_the_map_gives_the_same_maxima():
+    """kspace._centres clamps its window to the map (wrap: the axis length,
+    edges repeated along R: twice it plus one); the maxima are those of the
+    unclamped filter, so a resolution far beyond the range axis costs no more."""
+    from scipy import ndimage
+
+    from rpm_cl import kspace
+
+    rng = np.random.default_rng(11)
+    det = rng.random((9, 40))
+    for size in ([3, 5], [9, 81], [30, 500], [10, 2]):
+        idx, vals = kspace._centres(det, size, 1, 0.0, 0, 40)
+        local = det == ndimage.maximum_filter(det, size=size, mode=["wrap", "nearest"])
+        strict = np.zeros_like(local)
+        strict[:, 1:-1] = (det[:, 1:-1] > det[:, :-2]) & (det[:, 1:-1] >= det[:, 2:])
+        want = np.argwhere(local & strict & (det > 0))
+        want = want[(want[:, -1] > 0) & (want[:, -1] < 39)]
+        np.testing.assert_array_equal(idx, want)
+        np.testing.assert_array_equal(vals, det[tuple(want.T)])
