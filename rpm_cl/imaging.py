@@ -30,6 +30,11 @@ from .rpm.reference import MS_DENSITY_T
 
 #: The paper's sigma_r for 2-D (Section V-A2), m.
 SIGMA_R_DEFAULT = 0.05
+#: Linear arrays: sigma_x is at most this many times the range of the
+#: strongest echo (the half-width a target at that range is seen over by an
+#: antenna of +-63 deg beam, tan 63.4 deg = 2): a GPR line of metres must
+#: not weigh antennas a scan length apart as neighbours.
+SIGMA_X_PER_RANGE = 2.0
 #: k-space window period for planar arrays, rad/m: the measured best on the
 #: paper's 3-D scene (0.8-1.2 k-space resolution cells of its 11 x 17 array;
 #: see rpm_cl.scene._human_body).  Linear arrays: WINDOW_LINEAR_PER_KC.
@@ -74,8 +79,11 @@ class RPMParams:
     min_cluster_rps : int
         Clusters with fewer RPs are not imaged (an intersection needs 2).
     max_cluster_rps : int
-        Larger clusters are refused with an error (the scoring work grows as
-        the cube of a cluster's size).
+        2-D: a main RP whose pair window (the RPs of its cluster within
+        ``pair_cutoff_2d * sigma_x``) holds more RPs is refused with an
+        error (the scoring work per main RP grows as the window's square).
+        3-D clusters of any size are imaged: each main RP scores a bounded
+        neighbour list.
     chunk_slots : int
         Main RPs are processed in chunks of at most this many candidate slots
         (main RPs x slots per main RP), which bounds device memory.
@@ -217,7 +225,9 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
 
     - sigma_x (sigma_D): linear arrays, the aperture length (the paper's 2-D
       choice: 100 mm for its 100 mm aperture, 400 mm for the 400 mm sparse
-      one); planar arrays, 2.5 antenna spacings (the paper: "two or three
+      one), but no more than :data:`SIGMA_X_PER_RANGE` times the range of
+      the strongest echo (:func:`_strongest_range`; a long scan's antennas
+      far apart do not see one target) nor less than 2.5 spacings; planar arrays, 2.5 antenna spacings (the paper: "two or three
       times of sensor separations").
     - sigma_r: from the aperture and the range, as the paper says it "could
       be roughly estimated" (Section II): two circles from antennas a baseline
@@ -274,11 +284,14 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
         raise InputError(f"unknown imaging parameter {unknown[0]!r}")
     medium = Medium(**{k: v for k, v in ov.items() if k in medium_names})
     seen = seen_data(data, medium)   # what the decomposition and RPM see
+    r_echo = _strongest_range(seen)
     if arr.planar:
         sigma_x = 2.5 * max(arr.dx, arr.dz)
     else:
         sigma_x = float(arr.x[-1] - arr.x[0])
-    rpm_kw = {"sigma_x": sigma_x, "sigma_r": _derived_sigma_r(seen)}
+        if r_echo is not None:   # no wider than the echo's reach
+            sigma_x = min(sigma_x, max(SIGMA_X_PER_RANGE * r_echo, 2.5 * arr.dx))
+    rpm_kw = {"sigma_x": sigma_x, "sigma_r": _derived_sigma_r(seen, r_echo)}
     derived = {k for k in ("sigma_x", "sigma_r") if k not in ov}
     rpm_kw.update({k: v for k, v in ov.items() if k in rpm_names})
     top_kw = {k: v for k, v in ov.items() if k in top}
@@ -300,21 +313,20 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     return ImagingParams(KSpaceParams(**ks_kw), RPMParams(**rpm_kw), medium, **top_kw)
 
 
-def _derived_sigma_r(data: RadarData, range_error: float = 0.01) -> float:
-    """sigma_r = range_error * R / L (see :func:`default_params`), m.
+def _strongest_range(data: RadarData) -> float | None:
+    """The range of the strongest echo, m (None where the data hold none).
 
-    R is the range of the strongest echo: the largest local maximum of the
-    profile power summed over the antennas, among those at least half a
-    range resolution or the aperture L from zero, whichever is less.  Closer
-    maxima are left out: an echo there overlaps R = 0 within its main lobe,
-    where antenna coupling and feed-through leakage sit (an echo at 1 mm set
-    sigma_r to the gate spacing), and a scatterer that close cannot be told
-    from them.  Half a resolution, not one, keeps the paper's 2-D scene
-    (targets at 0.37-0.46 m, resolution 0.75 m); the aperture bounds it for
-    narrow bands, whose half resolution can exceed the whole scene (a 0.25
-    GHz sweep at 4 GHz: 0.59 m, with objects at 0.29-0.6 m), and where the
-    estimate, delta R / L, would fall below the range error delta itself.
-    Where no maximum lies beyond, the strongest gate beyond is taken.
+    The largest local maximum of the profile power summed over the
+    antennas, among those at least half a range resolution or the aperture
+    L from zero, whichever is less.  Closer maxima are left out: an echo
+    there overlaps R = 0 within its main lobe, where antenna coupling and
+    feed-through leakage sit (an echo at 1 mm set sigma_r to the gate
+    spacing), and a scatterer that close cannot be told from them.  Half a
+    resolution, not one, keeps the paper's 2-D scene (targets at 0.37-0.46
+    m, resolution 0.75 m); the aperture bounds it for narrow bands, whose
+    half resolution can exceed the whole scene (a 0.25 GHz sweep at 4 GHz:
+    0.59 m, with objects at 0.29-0.6 m).  Where no maximum lies beyond, the
+    strongest gate beyond is taken.
     """
     pos = data.array.positions()
     aperture = float(np.max(np.ptp(pos, axis=0))) if len(pos) > 1 else 0.0
@@ -325,11 +337,23 @@ def _derived_sigma_r(data: RadarData, range_error: float = 0.01) -> float:
     power = np.sum((mag / top) ** 2, axis=0) if top > 0 else np.zeros(data.range.size)
     far = np.abs(data.range) >= min(0.5 * data.waveform.range_resolution, aperture)
     if aperture <= 0 or not np.any(power[far] > 0):
-        return SIGMA_R_DEFAULT
+        return None
     padded = np.concatenate([[-np.inf], power, [-np.inf]])
     peak = (power >= padded[:-2]) & (power >= padded[2:]) & far & (power > 0)
     pick = np.where(peak if np.any(peak) else far, power, -np.inf)
-    r = abs(float(data.range[int(np.argmax(pick))]))
+    return abs(float(data.range[int(np.argmax(pick))]))
+
+
+def _derived_sigma_r(data: RadarData, r: float | None, range_error: float = 0.01) -> float:
+    """sigma_r = range_error * R / L (see :func:`default_params`), m, for
+    the range R of the strongest echo (:func:`_strongest_range`) and the
+    aperture L; :data:`SIGMA_R_DEFAULT` where there is none.  For narrow
+    bands L also bounds R's search (see there), where the estimate, delta
+    R / L, would otherwise fall below the range error delta itself."""
+    pos = data.array.positions()
+    aperture = float(np.max(np.ptp(pos, axis=0))) if len(pos) > 1 else 0.0
+    if r is None or aperture <= 0:
+        return SIGMA_R_DEFAULT
     return float(np.clip(range_error * r / aperture, data.dr, 1.0))
 
 
@@ -374,10 +398,6 @@ def _prepare(rps: RangePoints, params: RPMParams):
     """Kept RPs (clusters with enough RPs), re-indexed, amplitudes scaled to 1."""
     cstart, ccount = rps.cluster_bounds()
     idx = np.nonzero(ccount >= params.min_cluster_rps)[0]
-    if idx.size and int(ccount[idx].max()) > params.max_cluster_rps:
-        raise InputError(f"a cluster holds {int(ccount[idx].max())} RPs, more than "
-                         f"max_cluster_rps={params.max_cluster_rps}; raise the RP or peak "
-                         "thresholds")
     # amplitudes scaled to a maximum of 1: the argmax of eq. 6/10 is unchanged
     # and float32 kernels keep their range whatever the data's scale.
     amp = np.asarray(rps.amp, np.float64)[idx]
@@ -455,6 +475,11 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
     if dim == 2:
         start, count = pair_windows(x, start, count, params.pair_cutoff_2d * params.sigma_x)
         maxc = int(count.max())
+        if maxc > params.max_cluster_rps:
+            raise InputError(f"a main RP pairs with {maxc} RPs (its cluster's RPs within "
+                             f"pair_cutoff_2d x sigma_x = {params.pair_cutoff_2d * params.sigma_x:g}"
+                             f" m), more than max_cluster_rps={params.max_cluster_rps}; lower "
+                             f"sigma_x or pair_cutoff_2d, or raise the RP or peak thresholds")
         for i0, n in _chunks(idx.size, maxc, params.chunk_slots):
             parts.append(engine.rpm_circles(x, r, amp, start, count, maxc, params.sigma_x,
                                             params.sigma_r, i0, n))

@@ -325,3 +325,26 @@ def test_derived_sigma_r_of_a_narrow_band_scene_inside_half_a_resolution():
     want = max(0.01 * 0.45 / 0.32, data.dr)
     assert data.dr == pytest.approx(C0 / (2 * (f[1] - f[0]) * rng_axis.size))
     assert default_params(data).rpm.sigma_r == pytest.approx(want, abs=3e-4)
+
+
+def test_derived_sigma_x_of_a_long_scan_is_the_echo_reach():
+    """A 4 m GPR-like line (200 positions at 2 cm) over targets 0.30-0.34 m
+    deep: sigma_x is SIGMA_X_PER_RANGE x the strongest echo's range (the
+    profile power summed over the line peaks between the shallowest depth
+    and 0.4 m, where the oblique echoes of neighbouring targets pile up),
+    not the scan length (3.98 m) that weighed antennas metres apart as
+    neighbours.  The paper's 0.1 m aperture (targets at ~0.4 m) keeps
+    sigma_x = the aperture, its own choice."""
+    from rpm_cl.data import Array, Waveform
+    from rpm_cl.imaging import SIGMA_X_PER_RANGE, default_params
+    from rpm_cl.scene import PointTarget, Scene
+    from rpm_cl.simulate import simulate, simulate_preset
+
+    xs = np.arange(200) * 0.02 - 2.0
+    scene = Scene(tuple(PointTarget((t, 0.30 + 0.02 * (i % 3)))
+                        for i, t in enumerate((-1.5, -0.9, -0.3, 0.4, 1.0, 1.6))))
+    data = simulate(scene, Array(xs), Waveform(1.5e9, 1.0e9), np.arange(0, 1.5, 0.005))
+    sx = default_params(data).rpm.sigma_x
+    assert SIGMA_X_PER_RANGE * 0.295 <= sx <= SIGMA_X_PER_RANGE * 0.4
+    paper = simulate_preset("paper-2d")[0]
+    assert default_params(paper).rpm.sigma_x == pytest.approx(np.ptp(paper.array.x))
