@@ -6,16 +6,54 @@ Data flow: scene -> simulate -> RadarData -> decompose -> RangePoints -> RPM
 
 __version__ = "0.1.0"
 
-from .cl import CLEnv, NoOpenCLError, create_env, list_devices
-from .data import Array, DataWarning, InputError, RadarData, Truth, Waveform, load_npz, save_npz
-from .formats import frame_count, load_data, range_compress, save_data, save_result
-from .imaging import METHODS, ImagingParams, RPMParams, default_params, run_method
-from .kspace import KSpaceParams, decompose
-from .medium import Medium
-from .metrics import err_range, err_rpm, summary
-from .rpm import DeviceRPM
-from .scene import Ellipsoid, PointTarget, Scene, get_preset
-from .simulate import simulate, simulate_preset
+import sys as _sys
+import types as _types
+
+#: Each public name and the submodule that defines it, imported on first use:
+#: ``import rpm_cl`` (and so the ``rpm-cl`` command's start-up, before its
+#: Ctrl-C handler exists) loads neither NumPy nor OpenCL.
+_WHERE = {
+    "METHODS": "imaging", "Array": "data", "CLEnv": "cl", "DataWarning": "data",
+    "DeviceRPM": "rpm", "Ellipsoid": "scene", "ImagingParams": "imaging",
+    "InputError": "data", "KSpaceParams": "kspace", "Medium": "medium",
+    "NoOpenCLError": "cl", "PointTarget": "scene", "RPMParams": "imaging",
+    "RadarData": "data", "Scene": "scene", "Truth": "data", "Waveform": "data",
+    "create_env": "cl", "decompose": "kspace", "default_params": "imaging",
+    "err_range": "metrics", "err_rpm": "metrics", "frame_count": "formats",
+    "get_preset": "scene", "list_devices": "cl", "load_data": "formats",
+    "load_npz": "data", "range_compress": "formats", "run_method": "imaging",
+    "save_data": "formats", "save_npz": "data", "save_result": "formats",
+    "simulate": "simulate", "simulate_preset": "simulate", "summary": "metrics",
+}
+
+
+def __getattr__(name):
+    where = _WHERE.get(name)
+    if where is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    from importlib import import_module
+
+    value = getattr(import_module(f".{where}", __name__), name)
+    setattr(_sys.modules[__name__], name, value)
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))
+
+
+class _Package(_types.ModuleType):
+    def __setattr__(self, name, value):
+        # the import system binds each submodule to its name in the package;
+        # where a public function has its module's name (simulate), the
+        # function keeps the name
+        if (isinstance(value, _types.ModuleType) and _WHERE.get(name) == name
+                and value.__name__ == f"{self.__name__}.{name}"):
+            value = getattr(value, name)
+        super().__setattr__(name, value)
+
+
+_sys.modules[__name__].__class__ = _Package
 
 __all__ = [
     "METHODS",

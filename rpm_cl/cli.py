@@ -16,14 +16,12 @@ import contextlib
 import io
 import json
 import logging
+import math
 import sys
 import warnings
 from dataclasses import asdict
 
-import numpy as np
-
 from . import __version__
-from .cl import NoOpenCLError
 
 __all__ = ["main"]
 
@@ -59,7 +57,7 @@ def _snr(text):
         v = float("nan")
     if v == float("inf"):
         return None
-    if not (np.isfinite(v) and abs(v) <= 300):
+    if not (math.isfinite(v) and abs(v) <= 300):
         raise argparse.ArgumentTypeError(f"S/N must be a number of dB in [-300, 300] or 'inf', "
                                          f"got {text!r}")
     return v
@@ -107,7 +105,7 @@ def _bounded_float(lo: float, hi: float, what: str):
             v = float(text)
         except ValueError:
             v = float("nan")
-        if not (np.isfinite(v) and lo <= v <= hi):
+        if not (math.isfinite(v) and lo <= v <= hi):
             raise argparse.ArgumentTypeError(f"{what}, got {text!r}")
         return v
     return parse
@@ -181,7 +179,7 @@ def _band(text):
         f0, f1 = (float(v) for v in text.split(":"))
     except ValueError:
         f0 = f1 = float("nan")
-    if not (np.isfinite(f0) and np.isfinite(f1) and 0 < f0 < f1):
+    if not (math.isfinite(f0) and math.isfinite(f1) and 0 < f0 < f1):
         raise argparse.ArgumentTypeError(f"band must be F0:F1 in Hz with 0 < F0 < F1 "
                                          f"(e.g. 2e9:4e9), got {text!r}")
     return f0, f1
@@ -397,6 +395,7 @@ def cmd_demo(args) -> int:
 
 def _points_per_part(points, scene):
     """(part name, number of points nearest that part, their median distance)."""
+    import numpy as np
     from scipy.spatial import cKDTree
 
     from .scene import HUMAN_BODY_PARTS, boundary_samples
@@ -445,6 +444,8 @@ def cmd_figure(args) -> int:
 
 def cmd_das(args) -> int:
     import time
+
+    import numpy as np
 
     from .das import DeviceDAS, das_numpy, parse_grid
     from .formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
@@ -939,14 +940,67 @@ def _refuse_overwriting_inputs(args) -> None:
             refuse_overwrite(v, reads)
 
 
+def _oversized_member(path: str) -> str | None:
+    """The first ``.npy`` member of the ``.npz`` ``path`` whose header
+    declares more bytes than the member holds, as one line; else None."""
+    import zipfile
+
+    import numpy as np
+
+    with zipfile.ZipFile(path) as zf:
+        for info in zf.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            with zf.open(info) as fh:
+                version = np.lib.format.read_magic(fh)
+                read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                        else np.lib.format.read_array_header_2_0)
+                shape, _, dtype = read(fh)
+                held = info.file_size - fh.tell()
+            declared = math.prod(int(n) for n in shape) * dtype.itemsize
+            if declared > held:
+                return (f"{path}: the header of {info.filename} declares {dtype} "
+                        f"{tuple(shape)}, {declared:.3g} bytes, where the member holds "
+                        f"{held}: the header is corrupt")
+    return None
+
+
+def _declared_too_large(args) -> str | None:
+    """After a MemoryError: a corrupt ``.npy`` header (one that declares an
+    array larger than its member) in an ``.npz`` the command reads, as one
+    line; None where there is none (the problem is too large)."""
+    import zipfile
+
+    for name in _READS:
+        v = getattr(args, name, None)
+        for path in [v] if isinstance(v, str) else list(v or []):
+            try:
+                line = _oversized_member(path) if zipfile.is_zipfile(path) else None
+            except Exception:  # noqa: BLE001 - unreadable: the plain out-of-memory line
+                line = None
+            if line:
+                return line
+    return None
+
+
+def _user_error(exc: Exception) -> bool:
+    """Whether ``exc`` is an error of the user's input (printed as one line)."""
+    from .cl import NoOpenCLError
+    from .data import InputError
+
+    return isinstance(exc, (CLIError, InputError, NoOpenCLError))
+
+
 def main(argv=None) -> int:
-    """Entry point of the ``rpm-cl`` command; returns the exit code."""
+    """Entry point of the ``rpm-cl`` command; returns the exit code.
+
+    Ctrl-C (exit 130) and SIGTERM (143) end it with one line from the moment
+    it is called: ``rpm_cl`` and this module import nothing heavy, so that
+    the NumPy, SciPy and OpenCL imports happen inside its handlers."""
     import signal
     import threading
 
-    from .data import InputError
-
-    argv = _bind_negative_values(list(sys.argv[1:] if argv is None else argv))
+    args = None
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("rpm-cl: %(message)s"))
     # only where SIGTERM would kill us anyway (not when a supervisor set it
@@ -956,6 +1010,7 @@ def main(argv=None) -> int:
     if term:
         signal.signal(signal.SIGTERM, _on_sigterm)
     try:
+        argv = _bind_negative_values(list(sys.argv[1:] if argv is None else argv))
         args = build_parser().parse_args(argv)
         log.addHandler(handler)
         log.propagate = False
@@ -973,31 +1028,31 @@ def main(argv=None) -> int:
             if hasattr(args, "config"):
                 _load_config(args)
             return args.func(args)
-    except (CLIError, InputError, NoOpenCLError) as exc:
-        # one line, whatever a library put in the message
-        print(f"rpm-cl: error: {' '.join(str(exc).split())}", file=sys.stderr)
-        return 2
-    except BrokenPipeError:  # output piped into e.g. head: not an error
-        import os
-
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
-    except MemoryError:
-        print("rpm-cl: error: out of memory; lower the problem size or the RPM chunk size",
-              file=sys.stderr)
-        return 2
-    except Exception as exc:  # an OpenCL runtime error is not the user's input
-        if type(exc).__module__.startswith("pyopencl"):
-            print(f"rpm-cl: error: OpenCL: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
-                  file=sys.stderr)
-            return 2
-        raise
     except KeyboardInterrupt:
         print("rpm-cl: interrupted", file=sys.stderr)
         return 130
     except _Terminated:
         print("rpm-cl: terminated", file=sys.stderr)
         return 143
+    except BrokenPipeError:  # output piped into e.g. head: not an error
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    except MemoryError:
+        line = _declared_too_large(args) if args is not None else None
+        print(f"rpm-cl: error: {line or 'out of memory; lower the problem size or the RPM chunk size'}",
+              file=sys.stderr)
+        return 2
+    except Exception as exc:
+        if _user_error(exc):  # one line, whatever a library put in the message
+            print(f"rpm-cl: error: {' '.join(str(exc).split())}", file=sys.stderr)
+            return 2
+        if type(exc).__module__.startswith("pyopencl"):  # not the user's input
+            print(f"rpm-cl: error: OpenCL: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
+                  file=sys.stderr)
+            return 2
+        raise
     finally:
         log.removeHandler(handler)
         if term:

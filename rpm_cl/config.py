@@ -283,6 +283,9 @@ def load_config(path) -> dict:
         raise InputError(f"{path}: not valid TOML: {exc}") from None
     except UnicodeDecodeError:
         raise InputError(f"{path}: not valid TOML: not UTF-8 text") from None
+    except RecursionError:  # tomllib parses nested arrays and tables recursively
+        raise InputError(f"{path}: not a parameter file: arrays or tables nested too deep "
+                         f"to parse") from None
     by_section = {}
     for s in settings():
         by_section.setdefault(s.section, {})[s.name] = s

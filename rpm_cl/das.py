@@ -41,22 +41,31 @@ import numpy as np
 
 from .data import C0, InputError, RadarData
 
-__all__ = ["Grid", "parse_grid", "das_numpy", "das_adjoint", "DASPlan", "DeviceDAS",
-           "MEMORY_BUDGET_DEFAULT", "check_disk", "check_float32_range", "image_points",
-           "write_image"]
+__all__ = ["GRID_COORD_MAX", "MEMORY_BUDGET_DEFAULT", "DASPlan", "DeviceDAS", "Grid",
+           "check_disk", "check_float32_range", "das_adjoint", "das_numpy", "image_points",
+           "parse_grid", "write_image"]
 
 #: Default bound on the memory a DAS run may hold (temporaries, tables), bytes.
 MEMORY_BUDGET_DEFAULT = 2_000_000_000
+
+
+#: Largest grid coordinate, m (1000 km): far beyond any scene a near-field
+#: imager sees, and far enough from float64's limit that a picture's
+#: extents and millimetre labels stay finite numbers.
+GRID_COORD_MAX = 1e6
 
 
 def _axis(name: str, lo: float, hi: float, step: float) -> np.ndarray:
     if not all(map(math.isfinite, (lo, hi, step))) or step <= 0 or hi < lo:
         raise InputError(f"grid axis {name}: need finite start <= stop and step > 0, "
                          f"got {lo}:{hi}:{step}")
+    if max(abs(lo), abs(hi)) > GRID_COORD_MAX:
+        raise InputError(f"grid axis {name}: coordinates must lie within +-{GRID_COORD_MAX:g} m, "
+                         f"got {lo}:{hi}:{step}")
     q = (hi - lo) / step
     if not math.isfinite(q) or q >= 100_000:
         raise InputError(f"grid axis {name}: more than 100000 samples ({lo}:{hi}:{step})")
-    n = int(math.floor(q + 1e-9)) + 1
+    n = math.floor(q + 1e-9) + 1
     return lo + step * np.arange(n)
 
 

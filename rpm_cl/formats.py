@@ -59,7 +59,10 @@ import zipfile
 import numpy as np
 
 from .data import (
+    BANDWIDTH_SPAN_MAX,
+    BANDWIDTH_SPAN_WARN,
     C0,
+    FC_MAX,
     FC_MIN,
     Array,
     DataWarning,
@@ -70,10 +73,12 @@ from .data import (
     _atomic_file,
     _uniform_axis,
     atomic_savez,
+    carrier,
     check_plausible,
     data_arrays,
     drop_spikes,
     output_path,
+    scale_hint,
     unit_hint,
 )
 from .guard import (
@@ -642,6 +647,9 @@ def _frequency_axis(values) -> np.ndarray:
     if f[-1] < FC_MIN:   # as Waveform refuses such an fc: the same words either way
         raise InputError(f"frequency reaches only {f[-1]:g} Hz, below {FC_MIN:g} Hz: it looks "
                          f"like {unit_hint(f[-1])}; give it in Hz")
+    if f[0] > FC_MAX:   # as Waveform refuses such an fc
+        raise InputError(f"frequency starts at {f[0]:g} Hz, above {FC_MAX:g} Hz (10 THz): not "
+                         f"a radar band; give it in Hz")
     return f
 
 
@@ -794,12 +802,28 @@ def _compress_checked(values, freq, fc, bw, window, array):
                          f"{freq.size}), got {y.shape}")
     if not np.all(np.isfinite(y)):
         raise InputError("spectrum contains NaN or Inf")
-    fc = float((freq[0] + freq[-1]) / 2) if fc is None else fc
+    fc = float((freq[0] + freq[-1]) / 2) if fc is None else carrier(fc)
+    if not freq[0] <= fc <= freq[-1]:   # before Waveform: its messages would miss the unit
+        ratio = fc / freq[-1] if fc > freq[-1] else freq[0] / fc
+        hint = (f": one of them looks like {scale_hint(1.0, ratio)}; give both in Hz"
+                if ratio >= 100 else "")
+        raise InputError(f"fc ({fc:g} Hz) must lie within the frequency band "
+                         f"({freq[0]:g} .. {freq[-1]:g} Hz){hint}")
     bw = window_bandwidth(freq, window) if bw is None else bw
     waveform = Waveform(fc, bw)
-    if not freq[0] <= waveform.fc <= freq[-1]:
-        raise InputError(f"fc ({waveform.fc:g} Hz) must lie within the frequency band "
-                         f"({freq[0]:g} .. {freq[-1]:g} Hz)")
+    import warnings
+
+    band = float(freq[-1] - freq[0])
+    for ratio in (BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN):   # as RadarData's span test
+        if waveform.bandwidth * ratio < band:
+            line = (f"bandwidth = {waveform.bandwidth:g} Hz is below 1/{ratio:g} of the "
+                    f"frequency band ({band:g} Hz): it looks like "
+                    f"{scale_hint(waveform.bandwidth, band / BANDWIDTH_SPAN_WARN)}; give fc "
+                    f"and bandwidth in Hz")
+            if ratio == BANDWIDTH_SPAN_MAX:
+                raise InputError(line)
+            warnings.warn(line, DataWarning, stacklevel=2)
+            break
     signal, rng = range_compress(y, freq, waveform.fc, window)
     return signal, rng, waveform
 

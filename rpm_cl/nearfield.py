@@ -676,8 +676,8 @@ class _Search:
         self._rows, self._step, self._axis = gdet, step, data.range
         dk = 2 * np.pi / (pad * self.n * data.array.dx)
         nk = int(np.floor(2 * self.k0 * U_MAX / dk))
+        self._check_size(data, 2 * nk + 1)
         self.u_det = np.arange(-nk, nk + 1) * dk / (2 * self.k0)
-        self._check_size(data)
         self.w = np.hanning(self.n + 2)[1:-1]
         self._tables = {}
         self._memo = {}
@@ -686,13 +686,14 @@ class _Search:
                     2 * int(np.ceil(0.5 * self.res_r / (step * self.dr))) + 1]
         self.gmax = float(self.focus_map(self.s_det).max())
 
-    def _check_size(self, data) -> None:
-        """InputError when one focused map exceeds MAP_TERMS_MAX terms."""
-        terms = self.u_det.size * self.n * self.r_det.size
+    def _check_size(self, data, n_dirs: int) -> None:
+        """InputError when one focused map of ``n_dirs`` directions exceeds
+        MAP_TERMS_MAX terms (checked before the directions are allocated)."""
+        terms = n_dirs * self.n * self.r_det.size
         if terms > MAP_TERMS_MAX:
             raise InputError(
                 f"the near-field search of this sparse array is too large: a focused map of "
-                f"{terms:.3g} terms ({self.u_det.size} directions x {self.n} antennas x "
+                f"{terms:.3g} terms ({n_dirs} directions x {self.n} antennas x "
                 f"{self.r_det.size} range samples; at most {MAP_TERMS_MAX:.3g}), as the "
                 f"{self.aperture:g} m aperture spans {self.aperture / data.waveform.wavelength:.0f}"
                 f" wavelengths and {self.gates.size} range gates hold echoes; crop the range "

@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .das import GRID_COORD_MAX
 from .data import InputError, _atomic_file
 
 __all__ = ["DASImage", "load_das_image", "load_result", "view"]
@@ -472,9 +473,15 @@ def load_das_image(path) -> DASImage:
         raise InputError(f"{path}: a {img.ndim}-D image needs axes x, y{', z' if img.ndim == 3 else ''}")
     for name, a, n in zip("xyz", axes, img.shape):
         if (a.shape != (n,) or not _is_real(a) or not np.all(np.isfinite(a))
-                or np.any(np.diff(a) <= 0)):
+                or np.any(np.diff(a.astype(np.float64)) <= 0)):
             raise InputError(f"{path}: {name} must be a finite, strictly increasing axis of "
                              f"{n} values (the image's shape {img.shape}), got {a.dtype} {a.shape}")
+        # the grids `rpm-cl das` writes (GRID_COORD_MAX); beyond, the picture's
+        # extents and millimetre labels overflow
+        big = float(np.max(np.abs(a.astype(np.float64))))
+        if big > GRID_COORD_MAX:
+            raise InputError(f"{path}: {name} reaches {big:.3g} m, beyond the +-"
+                             f"{GRID_COORD_MAX:g} m of an image grid (a corrupt axis, or not m)")
     axes = tuple(a.astype(np.float64) for a in axes)
     return DASImage(img, axes, meta, mapped, path)
 

@@ -1,0 +1,299 @@
+"""Bad input never ends the command line in a traceback: one line
+``rpm-cl: error: ...`` and exit status 2 (Ctrl-C: 130), and a unit that looks
+wrong is named alike in the time- and the frequency-domain schema.
+
+The inputs are built here with NumPy: two point targets seen by 21 antennas
+of 5 mm pitch at 19.9-20.1 GHz (the paper's band), as range profiles or as
+frequency samples.
+"""
+
+import io
+import os
+import signal
+import subprocess
+import sys
+import time
+import zipfile
+
+import numpy as np
+import pytest
+
+from rpm_cl.cli import main
+from rpm_cl.data import C0, DataWarning, InputError, Waveform
+from rpm_cl.formats import load_data
+
+X = np.linspace(-0.05, 0.05, 21)
+FREQ = np.linspace(19.9e9, 20.1e9, 101)
+TARGETS = ((0.0, 0.3), (0.02, 0.4))
+
+
+def _spectrum(x=X, f=FREQ):
+    r = [np.hypot(x - tx, ty) for tx, ty in TARGETS]
+    return sum(np.exp(-4j * np.pi * f[None, :] * ri[:, None] / C0) for ri in r)
+
+
+def _time_domain(**override):
+    """Range profiles of the same targets: a 0.2 GHz band at 20 GHz, 2.5 mm gates."""
+    rng = np.arange(400) * 2.5e-3
+    r = [np.hypot(X - tx, ty) for tx, ty in TARGETS]
+    res = C0 / (2 * 0.2e9)
+    sig = sum(np.sinc((rng[None, :] - ri[:, None]) / res)
+              * np.exp(-4j * np.pi * 20e9 * ri[:, None] / C0) for ri in r)
+    out = {"signal": sig, "x": X, "range": rng, "fc": 20e9, "bandwidth": 0.2e9}
+    out.update(override)
+    return out
+
+
+def _freq_domain(**override):
+    out = {"spectrum": _spectrum(), "frequency": FREQ, "x": X}
+    out.update(override)
+    return {k: v for k, v in out.items() if v is not None}
+
+
+def _save(path, arrays):
+    np.savez(path, **arrays)
+    return str(path)
+
+
+def _one_line_error(argv, capsys) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("rpm-cl: error:") and "\n" not in err, err
+    assert "Traceback" not in err
+    return err
+
+
+# --- an implausible carrier ---------------------------------------------------
+@pytest.mark.parametrize("arrays", [
+    _time_domain(fc=1e30),
+    _freq_domain(fc=1e30),
+    _freq_domain(frequency=FREQ * 1e20),
+], ids=["time-fc", "freq-fc", "freq-axis"])
+def test_carrier_above_10_thz_is_refused(tmp_path, capsys, arrays):
+    """fc = 1e30 Hz once sized the near-field search at 1e22 directions
+    ("Maximum allowed size exceeded", a traceback)."""
+    src = _save(tmp_path / "in.npz", arrays)
+    err = _one_line_error(["image", src, "-o", str(tmp_path / "out.npz")], capsys)
+    assert "above 1e+13 Hz" in err and ("fc" in err or "frequency" in err), err
+    assert not (tmp_path / "out.npz").exists()
+
+
+def test_waveform_bounds_fc():
+    with pytest.raises(InputError, match="fc = 2e\\+13 Hz is above"):
+        Waveform(2e13, 1e9)
+    assert Waveform(1e12, 1e9).fc == 1e12   # a terahertz imager's carrier is fine
+
+
+# --- a config file nested too deep -------------------------------------------
+@pytest.mark.parametrize("text", [
+    "a = " + "[" * 100_000 + "]" * 100_000 + "\n",
+    "a = " + "{b = " * 5_000 + "1" + "}" * 5_000 + "\n",
+], ids=["arrays", "tables"])
+def test_deeply_nested_config(tmp_path, capsys, text):
+    cfg = tmp_path / "deep.toml"
+    cfg.write_text(text)
+    err = _one_line_error(["image", str(tmp_path / "in.npz"), "-o", str(tmp_path / "o.npz"),
+                           "--config", str(cfg)], capsys)
+    assert "nested too deep" in err and "deep.toml" in err
+
+
+# --- a DAS image whose axes overflow -----------------------------------------
+def _das_image(path, **override):
+    arrays = {"image": np.ones((5, 7), np.complex64), "x": np.linspace(-0.1, 0.1, 5),
+              "y": np.linspace(0.1, 0.4, 7), "meta": np.array('{"method": "das"}')}
+    arrays.update(override)
+    np.savez(path, **arrays)
+    return str(path)
+
+
+@pytest.mark.parametrize("axes", [
+    {"y": np.linspace(0.1, 0.4, 7) * 1e308},   # finite, but x 1e3 (mm) overflows
+    {"x": np.array([-1e308, -5e307, 0.0, 5e307, 1e308])},   # finite; its steps overflow
+], ids=["huge-y", "huge-x"])
+def test_view_refuses_overflowing_axes(tmp_path, capsys, axes):
+    src = _das_image(tmp_path / "img.npz", **axes)
+    err = _one_line_error(["view", src, "--png", str(tmp_path / "p.png")], capsys)
+    assert "beyond the +-1e+06 m of an image grid" in err or "strictly increasing" in err, err
+    assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob(".tmp-*"))
+
+
+def test_das_grid_within_view_bounds(tmp_path, capsys):
+    """`rpm-cl das` writes no grid that `rpm-cl view` would refuse."""
+    src = _save(tmp_path / "in.npz", _time_domain())
+    err = _one_line_error(["das", src, "-o", str(tmp_path / "img.npz"),
+                           "--grid=0:1e300:1e297,0.1:0.4:0.01"], capsys)
+    assert "within +-1e+06 m" in err
+
+
+# --- a corrupt .npy header ------------------------------------------------------
+def _with_header_shape(path, arrays, key, shape):
+    """``arrays`` as an .npz whose member ``key`` declares ``shape`` (the
+    header keeps its length; the data stay as they were)."""
+    with zipfile.ZipFile(path, "w") as zf:
+        for k, v in arrays.items():
+            buf = io.BytesIO()
+            np.lib.format.write_array(buf, np.asarray(v))
+            raw = buf.getvalue()
+            if k == key:
+                end = raw.index(b"\n") + 1
+                head = raw[:end - 1].replace(repr(np.shape(v)).encode(), repr(shape).encode())
+                head = head.rstrip(b" ")
+                assert len(head) < end - 1
+                raw = head + b" " * (end - 1 - len(head)) + b"\n" + raw[end:]
+            zf.writestr(k + ".npy", raw)
+    return str(path)
+
+
+def test_corrupt_header_is_not_out_of_memory(tmp_path, capsys):
+    """A header declaring 2e15 bytes (more than a 47-bit address space, so
+    the allocation fails whatever the overcommit policy) in a member of
+    200 kB is a corrupt file, not a problem too large for the machine."""
+    src = _with_header_shape(tmp_path / "bad.npz", _time_domain(), "signal",
+                             (21, 12_000_000_000_000))
+    err = _one_line_error(["image", src, "-o", str(tmp_path / "o.npz")], capsys)
+    assert "out of memory" not in err
+    assert "signal" in err and "header is corrupt" in err, err
+
+
+# --- Ctrl-C during start-up -----------------------------------------------------
+_CHILD = ("import sys; sys.stderr.write('up\\n'); sys.stderr.flush(); "
+          "from rpm_cl.cli import main; sys.exit(main())")
+
+
+def _env():
+    env = dict(os.environ)
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env["PYTHONPATH"] = os.pathsep.join([root, env.get("PYTHONPATH", "")])
+    return env
+
+
+def test_cli_import_is_light():
+    """``rpm_cl`` and ``rpm_cl.cli`` import neither NumPy nor OpenCL: the
+    heavy imports run inside main()'s Ctrl-C handler."""
+    code = ("import sys, rpm_cl.cli; "
+            "print(sorted(m for m in ('numpy', 'scipy', 'pyopencl') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True,
+                         text=True, env=_env(), timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("delay", [0.15, 0.3, 0.5, 0.8, 1.2])
+def test_ctrl_c_during_start_up(tmp_path, delay):
+    """SIGINT ``delay`` s after Python's own start-up (site, measured from
+    the child's 'up' line; before it nothing of rpm-cl runs): exit 130 and
+    one line, or a finished run; never a traceback nor a partial file.  The
+    imports behind `rpm-cl` took 0.8 s before main() ran."""
+    out = tmp_path / "hb.npz"
+    p = subprocess.Popen([sys.executable, "-c", _CHILD, "simulate", "human-body", "-o", str(out)],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env(), cwd=tmp_path)
+    assert p.stderr.readline() == b"up\n"
+    time.sleep(delay)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    err = err.decode()
+    assert "Traceback" not in err, err
+    # -SIGINT: the signal came after main() returned, in the interpreter's
+    # shutdown (the run had finished: its file is whole)
+    assert p.returncode in (0, 130, -signal.SIGINT), (p.returncode, err)
+    if p.returncode == 130:
+        assert err.strip().splitlines()[-1] == "rpm-cl: interrupted"
+        assert not out.exists()
+    else:
+        assert load_data(out).signal.shape == (11, 17, 400)
+    assert not list(tmp_path.glob(".tmp-*"))
+
+
+# --- units, both input domains ----------------------------------------------------
+def _scaled(domain, unit):
+    """Input of ``domain`` with its frequencies (fc, bandwidth / frequency)
+    divided by ``unit``'s factor."""
+    k = {"kHz": 1e3, "MHz": 1e6, "GHz": 1e9}[unit]
+    if domain == "time":
+        return _time_domain(fc=20e9 / k, bandwidth=0.2e9 / k)
+    return _freq_domain(frequency=FREQ / k)
+
+
+@pytest.mark.parametrize("domain", ["time", "freq"])
+@pytest.mark.parametrize("unit", ["MHz", "GHz"])
+def test_frequencies_in_mhz_or_ghz_numbers_refused(tmp_path, domain, unit):
+    src = _save(tmp_path / "in.npz", _scaled(domain, unit))
+    with pytest.raises(InputError, match=f"looks like {unit} numbers \\(x 1e{unit[0] == 'G' and 9 or 6}\\); give"):
+        load_data(src)
+
+
+def test_frequencies_in_khz_numbers_warned_or_refused(tmp_path):
+    """kHz numbers pass the 1 MHz floor.  A spectrum's band and bandwidth
+    scale together, so the pitch against the wavelength shows them (a
+    warning); the time domain's bandwidth then spans 500 range axes, which
+    no search can use at the clean run's cost: refused, naming the unit."""
+    src = _save(tmp_path / "in.npz", _scaled("freq", "kHz"))
+    with pytest.warns(DataWarning, match="kHz numbers\\? give them in Hz \\(x 1e3\\)"):
+        load_data(src)
+    src = _save(tmp_path / "td.npz", _scaled("time", "kHz"))
+    with pytest.raises(InputError, match="looks like kHz numbers \\(x 1e3\\)"):
+        load_data(src)
+
+
+@pytest.mark.parametrize("domain", ["time", "freq"])
+def test_x_in_mm_warned(tmp_path, domain):
+    make = _time_domain if domain == "time" else _freq_domain
+    src = _save(tmp_path / "in.npz", make(x=X * 1e3))
+    with pytest.warns(DataWarning, match="is x in mm\\? give x in m"):
+        load_data(src)
+
+
+def _bandwidth_only(domain, k):
+    """fc in Hz, bandwidth divided by ``k``."""
+    return (_time_domain(bandwidth=0.2e9 / k) if domain == "time"
+            else _freq_domain(fc=20e9, bandwidth=0.1e9 / k))
+
+
+@pytest.mark.parametrize("domain", ["time", "freq"])
+@pytest.mark.parametrize("unit,k", [("MHz", 1e6), ("GHz", 1e9)])
+def test_bandwidth_alone_in_mhz_or_ghz_numbers_refused(tmp_path, capsys, domain, unit, k):
+    """Refused naming the unit in both domains (the time domain's MHz case
+    ran out of memory)."""
+    src = _save(tmp_path / "in.npz", _bandwidth_only(domain, k))
+    with pytest.raises(InputError, match=f"bandwidth = .* looks like {unit} numbers .*; give fc "
+                                         f"and bandwidth in Hz"):
+        load_data(src)
+    err = _one_line_error(["image", src, "-o", str(tmp_path / "o.npz")], capsys)
+    assert f"{unit} numbers" in err
+
+
+@pytest.mark.parametrize("domain", ["time", "freq"])
+def test_bandwidth_alone_in_khz_numbers_refused(tmp_path, domain):
+    src = _save(tmp_path / "in.npz", _bandwidth_only(domain, 1e3))
+    with pytest.raises(InputError, match="bandwidth = .* looks like kHz numbers \\(x 1e3\\); "
+                                         "give fc and bandwidth in Hz"):
+        load_data(src)
+
+
+@pytest.mark.parametrize("domain", ["time", "freq"])
+def test_bandwidth_a_tenth_of_its_band_warned(tmp_path, domain):
+    """Between BANDWIDTH_SPAN_WARN and BANDWIDTH_SPAN_MAX: warned, the run
+    goes on."""
+    src = _save(tmp_path / "in.npz", _time_domain(bandwidth=C0 / (2 * 10 * 0.9975))
+                if domain == "time" else _freq_domain(fc=20e9, bandwidth=0.1e9 / 10))
+    with pytest.warns(DataWarning, match="bandwidth = "):
+        load_data(src)
+
+
+@pytest.mark.parametrize("fc,freq", [(20e9, FREQ / 1e3), (20e9 / 1e3, FREQ), (20.0, FREQ)],
+                         ids=["band-khz", "fc-khz", "fc-ghz"])
+def test_fc_and_band_in_different_units(tmp_path, fc, freq):
+    src = _save(tmp_path / "in.npz", _freq_domain(frequency=freq, fc=fc))
+    unit = "GHz" if fc == 20.0 else "kHz"
+    with pytest.raises(InputError, match=f"looks like {unit} numbers"):
+        load_data(src)
+
+
+@pytest.mark.parametrize("domain", ["time", "freq"])
+def test_control_hz_loads_quietly(tmp_path, domain, recwarn):
+    """The inputs above in the right units load without a warning, so each
+    refusal and warning comes from the one unit spoiled."""
+    src = _save(tmp_path / "in.npz", _time_domain() if domain == "time" else _freq_domain())
+    data = load_data(src)
+    assert data.waveform.fc == pytest.approx(20e9)
+    assert not [w for w in recwarn if issubclass(w.category, DataWarning)]
