@@ -16,7 +16,8 @@ overwritten   an input file's SHA-256 changed
 outside-read  the marker planted in a file outside the input appears in the
               output or stdout, or a run whose data live only outside the input
               (HDF5 external storage, external link, virtual dataset) exited 0
-hang          killed at the wall-clock limit
+hang          killed at the wall-clock limit (--timeout, or 4 x the slowest
+              clean run of the command where that is longer)
 memory        killed at the memory cap (the process group's summed RSS)
 traceback     'Traceback' on stderr, or an exit status other than 0/1/2/130
 garbage       exit 0 on an input with a few corrupted samples whose result
@@ -1053,7 +1054,11 @@ def classify(case, res, hashes, ref):
 
 
 def run_case(case, ref, timeout, mem_cap):
+    """Run one case; the wall-clock limit is ``timeout`` or 4 x the slowest
+    clean run of the command (a batch starts a Dask cluster), the larger."""
     hashes = {p: sha(p) for p in case.inputs if os.path.isfile(p)}
+    walls = [v["wall"] for (_, c), v in ref["clean"].items() if c == case.command]
+    timeout = max([timeout, *(4 * w for w in walls)])
     res = run_cli(case.argv, case.dir, timeout, mem_cap, case.sigint)
     outcome, flags = classify(case, res, hashes, ref)
     rec = asdict(case)
