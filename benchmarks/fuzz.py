@@ -213,14 +213,14 @@ def _group_rss(pgid):
 
 
 def run_cli(argv, cwd, timeout, mem_cap, sigint_at=None):
-    """``python -m rpm_cl.cli argv`` in its own session; returns exit status
+    """``python -m rpm_cl argv`` in its own session; returns exit status
     (negative: signal), wall time, peak RSS (the larger of wait4's ru_maxrss
     and the polled group sum), stdout/stderr, and whether it was killed."""
     env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1")
     out, err = Path(cwd) / ".stdout", Path(cwd) / ".stderr"
     with open(out, "wb") as fo, open(err, "wb") as fe:
         t0 = time.perf_counter()
-        p = subprocess.Popen([sys.executable, "-m", "rpm_cl.cli", *argv], cwd=cwd, env=env,
+        p = subprocess.Popen([sys.executable, "-m", "rpm_cl", *argv], cwd=cwd, env=env,
                              stdin=subprocess.DEVNULL, stdout=fo, stderr=fe,
                              start_new_session=True)
     peak, killed, sent, status, ru = 0, None, False, None, None

@@ -991,6 +991,31 @@ def _user_error(exc: Exception) -> bool:
     return isinstance(exc, (CLIError, InputError, NoOpenCLError))
 
 
+_SIGINT_SEEN = []
+
+
+def _on_sigint(signum, frame):
+    """SIGINT on the command line: KeyboardInterrupt, remembered (an import
+    interrupted inside a C extension can turn it into an ImportError)."""
+    _SIGINT_SEEN.append(True)
+    raise KeyboardInterrupt
+
+
+def _end_interrupted(argv_given: bool) -> int:
+    print("rpm-cl: interrupted", file=sys.stderr)
+    if argv_given:
+        return 130
+    # the command line: end here.  An interrupt that lands in code run by
+    # exec() (SciPy's and NumPy's imports use it) marks the interpreter as
+    # killed by SIGINT however it is caught, and Python would then exit by
+    # SIGINT after this line; the handlers have cleaned up by now.
+    import os
+
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(130)
+
+
 def main(argv=None) -> int:
     """Entry point of the ``rpm-cl`` command; returns the exit code.
 
@@ -1001,6 +1026,7 @@ def main(argv=None) -> int:
     import threading
 
     args = None
+    argv_given = argv is not None
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("rpm-cl: %(message)s"))
     # only where SIGTERM would kill us anyway (not when a supervisor set it
@@ -1009,6 +1035,11 @@ def main(argv=None) -> int:
             and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
     if term:
         signal.signal(signal.SIGTERM, _on_sigterm)
+    sigint = (not argv_given and threading.current_thread() is threading.main_thread()
+              and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    if sigint:
+        _SIGINT_SEEN.clear()
+        signal.signal(signal.SIGINT, _on_sigint)
     try:
         argv = _bind_negative_values(list(sys.argv[1:] if argv is None else argv))
         args = build_parser().parse_args(argv)
@@ -1029,8 +1060,7 @@ def main(argv=None) -> int:
                 _load_config(args)
             return args.func(args)
     except KeyboardInterrupt:
-        print("rpm-cl: interrupted", file=sys.stderr)
-        return 130
+        return _end_interrupted(argv_given)
     except _Terminated:
         print("rpm-cl: terminated", file=sys.stderr)
         return 143
@@ -1040,11 +1070,15 @@ def main(argv=None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except MemoryError:
+        if _SIGINT_SEEN:
+            return _end_interrupted(argv_given)
         line = _declared_too_large(args) if args is not None else None
         print(f"rpm-cl: error: {line or 'out of memory; lower the problem size or the RPM chunk size'}",
               file=sys.stderr)
         return 2
     except Exception as exc:
+        if _SIGINT_SEEN:   # an interrupted import's ImportError, and the like
+            return _end_interrupted(argv_given)
         if _user_error(exc):  # one line, whatever a library put in the message
             print(f"rpm-cl: error: {' '.join(str(exc).split())}", file=sys.stderr)
             return 2
@@ -1057,6 +1091,8 @@ def main(argv=None) -> int:
         log.removeHandler(handler)
         if term:
             signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        if sigint:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

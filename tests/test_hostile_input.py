@@ -204,7 +204,7 @@ def test_cli_refuses_in_one_line(tmp_path):
     fifo = tmp_path / "in.npz"
     os.mkfifo(fifo)
     for cmd in (["image", str(fifo), "-o", str(tmp_path / "o.npz")], ["view", str(fifo)]):
-        res = subprocess.run([sys.executable, "-m", "rpm_cl.cli", *cmd], capture_output=True,
+        res = subprocess.run([sys.executable, "-m", "rpm_cl", *cmd], capture_output=True,
                              text=True, timeout=60, check=False)
         assert res.returncode == 2
         lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
