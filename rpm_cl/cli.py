@@ -280,8 +280,11 @@ def cmd_image(args) -> int:
     if verbose:
         stages.update({f"rpm.{k}": v for k, v in engine.kernel_times.items()})
     log.info("stage timings (ms): %s", ", ".join(f"{k} {1e3 * v:.1f}" for k, v in stages.items()))
+    dropped = "".join(f", {n} {why}" for why, n in (
+        ("double-bounce points dropped", result.dropped.get("multipath", 0)),
+        ("points beyond the antennas' reach dropped", result.dropped.get("reach", 0))) if n)
     print(f"{args.method}: {len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} "
-          f"clusters -> {len(result.image.points)} points, "
+          f"clusters -> {len(result.image.points)} points{dropped}, "
           f"{1e3 * result.timings['total']:.1f} ms; wrote {args.output}")
     if data.truth is not None:
         s = summary(result.rps, result.image, data.truth)

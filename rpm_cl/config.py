@@ -76,6 +76,8 @@ _EXTRA_DOCS = {
     "multipath": "phase-rpm: points of clusters that a double bounce between two other "
                  "objects explains (rpm_cl.multipath) are dropped ('drop'), or kept with a "
                  "'multipath' column in the result ('flag').",
+    "reach_deg": "phase-rpm: points seen from their main RP's antenna farther than this "
+                 "from boresight are dropped, deg (0 < reach_deg <= 90; 90 keeps all).",
 }
 
 

@@ -505,10 +505,8 @@ def _preflight(src, key: str, n_axes: int, with_truth: bool, max_memory) -> None
                 got, dtype = src.shape_dtype(name)
                 other += _nbytes(got, dtype)
     samples = int(np.prod(core[:-1], dtype=object))
-    if key == "spectrum":   # range-compressed onto next_fast_len(16 nf) gates
-        from scipy.fft import next_fast_len
-
-        samples *= next_fast_len(RANGE_OVERSAMPLE * max(int(core[-1]), 1))
+    if key == "spectrum":   # range-compressed onto next_fast_len(16 nf) gates, ~16 nf
+        samples *= RANGE_OVERSAMPLE * max(int(core[-1]), 1)
     else:
         samples *= int(core[-1])
     check_budget(run_bytes(samples, other), memory_limit(max_memory),

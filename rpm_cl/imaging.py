@@ -35,6 +35,13 @@ SIGMA_R_DEFAULT = 0.05
 #: antenna of +-63 deg beam, tan 63.4 deg = 2): a GPR line of metres must
 #: not weigh antennas a scan length apart as neighbours.
 SIGMA_X_PER_RANGE = 2.0
+#: phase-rpm: a point seen from its main RP's antenna more than this far
+#: from boresight (the array's normal), deg, lies beyond the antenna's reach
+#: and is dropped.  Noise-free, the paper's scenes and the human body put
+#: every point within 60 deg (the body's within 45); on the sparse scene at
+#: 20 dB every point beyond 60 deg was more than 50 mm from the targets
+#: (``python benchmarks/reach.py``).  Real antennas' beams are narrower.
+REACH_DEG_DEFAULT = 70.0
 #: k-space window period for planar arrays, rad/m: the measured best on the
 #: paper's 3-D scene (0.8-1.2 k-space resolution cells of its 11 x 17 array;
 #: see rpm_cl.scene._human_body).  Linear arrays: WINDOW_LINEAR_PER_KC.
@@ -212,10 +219,13 @@ class ImagingParams:
     medium: Medium = field(default_factory=Medium)
     rp_threshold_db: float = RP_THRESHOLD_DB_DEFAULT
     multipath: Literal["drop", "flag"] = "drop"
+    reach_deg: float = REACH_DEG_DEFAULT
 
     def __post_init__(self):
         if not (np.isfinite(self.rp_threshold_db) and self.rp_threshold_db < 0):
             raise InputError(f"rp_threshold_db must be < 0, got {self.rp_threshold_db}")
+        if not (np.isfinite(self.reach_deg) and 0 < self.reach_deg <= 90):
+            raise InputError(f"reach_deg must be in (0, 90] degrees, got {self.reach_deg}")
         if self.multipath not in ("drop", "flag"):
             raise InputError(f"multipath must be 'drop' or 'flag', got {self.multipath!r}")
 
@@ -392,6 +402,7 @@ class ImageResult:
     rps: RangePoints
     image: Image
     timings: dict
+    dropped: dict = field(default_factory=dict)
 
 
 def _prepare(rps: RangePoints, params: RPMParams):
@@ -623,11 +634,15 @@ def _phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     t2 = time.perf_counter()
     image = _rpm(rps, params, engine)
     t3 = time.perf_counter()
+    n_rpm = len(image.points)
     image = _multipath(data, rps, image, params.multipath, params.medium)
+    n_single = len(image.points)
+    image = in_reach(data.array, rps, image, params.reach_deg)
     t4 = time.perf_counter()
     return ImageResult("phase-rpm", rps, image,
                        {"decompose": t1 - t0, "range_points": t2 - t1, "rpm": t3 - t2,
-                        "multipath": t4 - t3, "total": t4 - t0})
+                        "multipath": t4 - t3, "total": t4 - t0},
+                       {"multipath": n_rpm - n_single, "reach": n_single - len(image.points)})
 
 
 def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
@@ -662,6 +677,30 @@ def _multipath(data: RadarData, rps: RangePoints, image: Image, mode: str,
     keep = ~flags
     return Image(image.points[keep], image.cluster[keep], image.score[keep],
                  image.rp_index[keep])
+
+
+def reach_angles(array, rps: RangePoints, image: Image) -> np.ndarray:
+    """Each point's angle from boresight (the array's normal, +y) seen from
+    the antenna of its main RP, deg, shape (M,)."""
+    pos = array.positions()[np.asarray(rps.antenna)[image.rp_index]]
+    p = image.points
+    lateral = (np.abs(p[:, 0] - pos[:, 0]) if p.shape[1] == 2
+               else np.hypot(p[:, 0] - pos[:, 0], p[:, 2] - pos[:, 2]))
+    return np.degrees(np.arctan2(lateral, p[:, 1]))
+
+
+def in_reach(array, rps: RangePoints, image: Image, reach_deg: float) -> Image:
+    """The image without the points beyond ``reach_deg`` from their main
+    antenna's boresight (:func:`reach_angles`; ``ImageResult.dropped``
+    counts them)."""
+    if reach_deg >= 90 or image.points.shape[0] == 0:
+        return image
+    keep = reach_angles(array, rps, image) <= reach_deg
+    if keep.all():
+        return image
+    return Image(image.points[keep], image.cluster[keep], image.score[keep],
+                 image.rp_index[keep],
+                 None if image.multipath is None else image.multipath[keep])
 
 
 def _mf_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
