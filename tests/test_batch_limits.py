@@ -81,13 +81,16 @@ def _local_cluster():
 
 @pytest.fixture(scope="module")
 def frames_dir(tmp_path_factory):
-    """Three noisy paper-2d frames, and two more named for the hooks."""
+    """Folder ``time``: two noisy paper-2d frames and ``stall``; folder
+    ``memory``: one and ``bloat`` (one limit each, so that a slow machine
+    cannot stop the bloated frame by its time instead)."""
     d = tmp_path_factory.mktemp("frames")
-    for seed in SEEDS:
-        data = simulate_preset("paper-2d", 20.0, seed, noise="receiver")[0]
-        save_npz(d / f"scan{seed}.npz", data)
-    save_npz(d / "stall.npz", data)
-    save_npz(d / "bloat.npz", data)
+    for sub, seeds, hooked in (("time", SEEDS[:2], "stall"), ("memory", SEEDS[2:], "bloat")):
+        (d / sub).mkdir()
+        for seed in seeds:
+            data = simulate_preset("paper-2d", 20.0, seed, noise="receiver")[0]
+            save_npz(d / sub / f"scan{seed}.npz", data)
+        save_npz(d / sub / f"{hooked}.npz", data)
     return d
 
 
@@ -100,26 +103,30 @@ def test_frames_over_their_limits_fail_and_the_rest_are_done(frames_dir, tmp_pat
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
     reached = tmp_path / "reached"
     reached.mkdir()
-    out = tmp_path / "out"
-    config = BatchConfig(das_grid="-0.3:0.3:0.02,0.2:0.6:0.02", das_reuse="plan",
-                         frame_timeout=TIMEOUT_S, frame_memory=MEMORY)
+    grid = "-0.3:0.3:0.02,0.2:0.6:0.02"
+    timed = BatchConfig(das_grid=grid, das_reuse="plan", frame_timeout=TIMEOUT_S)
+    sized = BatchConfig(das_grid=grid, das_reuse="plan", frame_timeout=float("inf"),
+                        frame_memory=MEMORY)
     t0 = time.perf_counter()
     with _local_cluster() as cluster, Client(cluster) as c:
         c.register_plugin(_Hooks(reached), name="limit-hooks")
-        s = run_batch(frames_dir, out, config, client=c)
-    wall = time.perf_counter() - t0
+        s_time = run_batch(frames_dir / "time", tmp_path / "time", timed, client=c)
+        wall = time.perf_counter() - t0
+        s_mem = run_batch(frames_dir / "memory", tmp_path / "memory", sized, client=c)
     # the hooks ran: the stalled frame had written its DAS image and begun its result
     assert sorted(os.listdir(reached)) == ["bloat.npz", "stall.npz"]
-    assert s.done == 3
-    failed = {f["frame"]: f["error"] for f in s.failed}
-    assert failed == {"stall": limit_reason("time", TIMEOUT_S),
-                      "bloat": failed["bloat"]}
-    assert failed["bloat"].startswith(limit_reason("memory", MEMORY)[:-1])
-    assert "1 GB per-frame memory limit" in failed["bloat"]
+    assert (s_time.done, s_mem.done) == (2, 1)
+    assert [(f["frame"], f["error"]) for f in s_time.failed] == [
+        ("stall", limit_reason("time", TIMEOUT_S))]
+    assert [f["frame"] for f in s_mem.failed] == ["bloat"]
+    assert s_mem.failed[0]["error"].startswith(limit_reason("memory", MEMORY)[:-1])
+    assert "1 GB per-frame memory limit" in s_mem.failed[0]["error"]
     assert wall < 40  # the stall (60 s) was cut short
-    left = sorted(os.listdir(out))
-    assert left == ["scan11.npz", "scan11_das.npz", "scan12.npz", "scan12_das.npz",
-                    "scan13.npz", "scan13_das.npz", "summary.json"]
+    # nothing of the stopped frames is left (hidden temporary files and markers included)
+    assert sorted(os.listdir(tmp_path / "time")) == [
+        "scan11.npz", "scan11_das.npz", "scan12.npz", "scan12_das.npz", "summary.json"]
+    assert sorted(os.listdir(tmp_path / "memory")) == [
+        "scan13.npz", "scan13_das.npz", "summary.json"]
 
 
 def test_watchdog_stops_a_process_that_holds_the_gil(tmp_path):
@@ -165,7 +172,7 @@ def test_config_refuses_limits_that_are_not_positive(field, value):
 @pytest.mark.parametrize("flag, value", [("--frame-timeout", "0"), ("--frame-timeout", "soon"),
                                          ("--frame-memory", "-2G"), ("--frame-memory", "lots")])
 def test_bad_limit_flags_are_one_line(flag, value, frames_dir, tmp_path, capsys):
-    code = main(["batch", str(frames_dir), "-o", str(tmp_path / "out"), flag, value])
+    code = main(["batch", str(frames_dir / "time"), "-o", str(tmp_path / "out"), flag, value])
     err = capsys.readouterr().err.strip()
     assert code == 2 and flag.lstrip("-").replace("-", " ") in err and "\n" not in err
     assert not (tmp_path / "out").exists()
@@ -181,8 +188,8 @@ def test_limit_flags_reach_the_config(monkeypatch, frames_dir, tmp_path):
         raise InputError("stop here")
 
     monkeypatch.setattr(rpm_cl.batch, "run_batch", fake_run)
-    main(["batch", str(frames_dir), "-o", str(tmp_path / "o"), "--frame-timeout", "2m",
+    main(["batch", str(frames_dir / "time"), "-o", str(tmp_path / "o"), "--frame-timeout", "2m",
           "--frame-memory", "1.5GiB"])
     assert (seen["config"].frame_timeout, seen["config"].frame_memory) == (120.0, 1.5 * 2**30)
-    main(["batch", str(frames_dir), "-o", str(tmp_path / "o"), "--frame-timeout", "none"])
+    main(["batch", str(frames_dir / "time"), "-o", str(tmp_path / "o"), "--frame-timeout", "none"])
     assert seen["config"].frame_timeout == float("inf") and seen["config"].frame_memory is None
