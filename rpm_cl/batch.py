@@ -24,7 +24,14 @@ Failures lose nothing:
 - a frame whose worker process dies is rescheduled by the Dask scheduler on
   another (or the restarted) worker, up to
   ``distributed.scheduler.allowed-failures`` times (default 3), after which it
-  is recorded as failed.
+  is recorded as failed;
+- a frame that runs longer than ``frame_timeout`` or takes the worker's
+  resident memory above ``frame_memory`` (:class:`BatchConfig`) is stopped by
+  killing its worker process (:mod:`rpm_cl.watchdog`), recorded as failed with
+  the limit it exceeded, and its partial outputs are removed; the nanny
+  restarts the worker and the other frames go on.  Workers without a nanny
+  (``dask worker --no-nanny``) are not killed: there the limits are not
+  enforced.
 
 Exit status of the CLI: 0 when every frame is done or skipped, 1 when some
 frames failed (the summary names them), 2 for a user error (one line).
@@ -59,6 +66,14 @@ NPZ_SUFFIXES = (".npz",)
 H5_SUFFIXES = (".h5", ".hdf5")
 #: DAS variants of a batch (see :class:`BatchConfig`).
 DAS_REUSE = ("auto", "plan", "direct")
+#: Default wall-time limit of one frame, s: far above any sound frame's
+#: (tens of ms to seconds), low enough that a stuck one costs an hour at most.
+DEFAULT_FRAME_TIMEOUT = 3600.0
+#: Default memory limit of one frame, as a fraction of its worker's Dask
+#: ``memory_limit`` (the embedded cluster: the machine's RAM shared equally
+#: among the workers; without one, the machine's RAM): below Dask's own
+#: ``terminate`` fraction (0.95), which kills without saying why.
+DEFAULT_FRAME_MEMORY_FRACTION = 0.8
 
 
 class FrameSource(NamedTuple):
@@ -98,6 +113,16 @@ class BatchConfig:
         back-projection, or (``auto``) whichever of the two was faster on the
         worker's first frame of that geometry (the tables are built there and
         dropped if the kernel wins).
+    frame_timeout : float
+        Wall-clock limit of one frame on its worker, s (``inf``: none); from
+        its worker's OpenCL setup done to its outputs written.
+    frame_memory : float or None
+        Limit of the worker process's resident memory (RSS) while it runs a
+        frame, bytes (``inf``: none; None:
+        :data:`DEFAULT_FRAME_MEMORY_FRACTION` of the worker's memory limit).
+        It includes what the worker holds between frames (the interpreter,
+        Dask, the OpenCL runtime and programs, the DAS reuse tables: about
+        0.25 GB without DAS).
     """
 
     method: str | None = None
@@ -107,6 +132,8 @@ class BatchConfig:
     das_grid: str | None = None
     memory_budget: float = 2e9
     das_reuse: str = "auto"
+    frame_timeout: float = DEFAULT_FRAME_TIMEOUT
+    frame_memory: float | None = None
 
     def __post_init__(self):
         from .imaging import DEFAULT_METHOD, METHODS, ImagingParams, RPMParams
@@ -142,6 +169,10 @@ class BatchConfig:
         if self.das_reuse not in DAS_REUSE:
             raise InputError(f"das_reuse must be one of {', '.join(DAS_REUSE)}, "
                              f"got {self.das_reuse!r}")
+        if not float(self.frame_timeout) > 0:  # NaN fails too
+            raise InputError(f"frame_timeout must be > 0 s, got {self.frame_timeout}")
+        if self.frame_memory is not None and not float(self.frame_memory) > 0:
+            raise InputError(f"frame_memory must be > 0 bytes, got {self.frame_memory}")
 
     def grid(self):
         """The DAS :class:`rpm_cl.das.Grid`, or None."""
@@ -243,9 +274,33 @@ class _WorkerEngine(_WorkerPlugin):
         self._lock = threading.Lock()
         self._built = None
         self._plan = None  # (geometry key, "plan" | "direct", DASPlan or None)
+        self._watchdog = None
+        # killing a worker without a nanny would not restart it (or, in-process, end the client)
+        self._can_kill = worker is not None and getattr(worker, "nanny", None) is not None
+        limit = getattr(getattr(worker, "memory_manager", None), "memory_limit", None)
+        if not limit:
+            import psutil
+
+            limit = psutil.virtual_memory().total
+        self.default_frame_memory = DEFAULT_FRAME_MEMORY_FRACTION * limit
 
     def teardown(self, worker=None):
         self._built = self._plan = None
+        if self._watchdog is not None:
+            self._watchdog.close()
+            self._watchdog = None
+
+    def watchdog(self):
+        """This worker's :class:`rpm_cl.watchdog.Watchdog` (started on the
+        first call, restarted if it died), or None on a worker without a nanny."""
+        if not self._can_kill:
+            return None
+        with self._lock:
+            if self._watchdog is None or not self._watchdog.alive():
+                from .watchdog import Watchdog
+
+                self._watchdog = Watchdog()
+            return self._watchdog
 
     def get(self):
         """(env, DeviceRPM, DeviceDAS or None, seconds spent building now)."""
@@ -330,11 +385,42 @@ def _error_line(exc: BaseException) -> str:
     return text if isinstance(exc, InputError) else f"{type(exc).__name__}: {text}".rstrip(": ")
 
 
+def _marker(out_dir: str, src: FrameSource) -> str:
+    """The file where the watchdog leaves the reason it stopped ``src``."""
+    return os.path.join(out_dir, f".{src.name}.limit")
+
+
+def _limit_failure(out_dir: str, src: FrameSource, config: BatchConfig) -> str | None:
+    """The reason ``src`` was stopped by a limit (its marker), or None; the
+    frame's outputs and temporary files are removed.  The marker stays until
+    the end of the batch, so that a frame computed again (its result was lost
+    with a worker) is reported failed again rather than run again."""
+    import glob
+
+    from .data import temp_prefix
+
+    try:
+        with open(_marker(out_dir, src), encoding="utf-8") as fh:
+            reason = fh.read().strip()
+    except FileNotFoundError:
+        return None
+    for path in _outputs(out_dir, src, config):
+        partial = glob.glob(os.path.join(glob.escape(out_dir),
+                                         glob.escape(temp_prefix(path)) + "*"))
+        for p in [path, *partial]:
+            if os.path.exists(p):
+                os.remove(p)
+    return reason
+
+
 def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
-    """Task run on a worker: image one frame and write its outputs.
+    """Task run on a worker: image one frame and write its outputs, under the
+    frame's limits (see :class:`BatchConfig`).
 
     Returns a record (never raises for the frame's own errors): ``status``
-    "done" with ``timings`` (s) or "failed" with ``error`` (one line).
+    "done" with ``timings`` (s) or "failed" with ``error`` (one line).  A
+    frame that its worker's watchdog stopped comes back here (the scheduler
+    resubmits it) and is reported failed with the watchdog's reason.
     """
     from distributed import get_worker
 
@@ -345,10 +431,18 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
     t_start = time.perf_counter()
     worker = get_worker()
     rec = {"frame": src.name, "input": src.path, "index": src.frame, "worker": worker.address}
+    reason = _limit_failure(out_dir, src, config)
+    if reason is not None:
+        return {**rec, "status": "failed", "error": reason}
+    engine = worker.plugins[PLUGIN_NAME]
+    watchdog = engine.watchdog()
     try:
-        engine = worker.plugins[PLUGIN_NAME]
         env, rpm, das, setup_s = engine.get()
         rec.update(device=env.name, setup_s=setup_s)
+        if watchdog is not None:
+            memory = config.frame_memory
+            watchdog.arm(_marker(out_dir, src), config.frame_timeout,
+                         engine.default_frame_memory if memory is None else memory)
         t0 = time.perf_counter()
         data = _load_frame(src.path, src.frame)
         timings = {"load": time.perf_counter() - t0}
@@ -388,6 +482,9 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
         rec.update(status="done", timings=timings, points=len(result.image.points))
     except Exception as exc:  # noqa: BLE001 - the frame's failure is recorded; the batch goes on
         rec.update(status="failed", error=_error_line(exc))
+    finally:
+        if watchdog is not None:
+            watchdog.disarm()
     return rec
 
 
@@ -538,6 +635,9 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
     todo = [s for s in sources
             if not all(os.path.isfile(p) for p in _outputs(out_dir, s, config))]
     skipped = len(sources) - len(todo)
+    for s in sources:  # a run stopped while a limit's report was on its way
+        if os.path.exists(_marker(out_dir, s)):
+            os.remove(_marker(out_dir, s))
     cluster = None
     own = client is None and bool(todo)  # nothing to do: no cluster started
     if own:
@@ -555,13 +655,19 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
             futures = client.map(_image_frame, todo, out_dir=out_dir, config=config,
                                  pure=False, retries=1)
             by_key = {f.key: s for f, s in zip(futures, todo)}
-            for fut in as_completed(futures):
+            pending = as_completed(futures)
+            del futures
+            for fut in pending:
                 try:
                     rec = fut.result()
                 except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: recorded
                     s = by_key[fut.key]
+                    reason = _limit_failure(out_dir, s, config)
                     rec = {"frame": s.name, "input": s.path, "index": s.frame,
-                           "status": "failed", "error": _error_line(exc)}
+                           "status": "failed", "error": reason or _error_line(exc)}
+                # released at once: a result left on a worker that a limit then kills
+                # would be computed again
+                fut.release()
                 records.append(rec)
                 if progress is not None:
                     progress(rec)
@@ -573,6 +679,9 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
             client.close()
             if cluster is not None:
                 cluster.close()
+    for s in todo:  # the limits' reports, read into the records
+        if os.path.exists(_marker(out_dir, s)):
+            os.remove(_marker(out_dir, s))
     done = [r for r in records if r["status"] == "done"]
     failed = sorted(({k: r[k] for k in ("frame", "input", "error")}
                      for r in records if r["status"] != "done"), key=lambda r: r["frame"])

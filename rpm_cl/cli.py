@@ -146,6 +146,39 @@ def _picture_size(text):
 _positive_int = _int_at_least(1, "")
 
 
+def _frame_timeout(text):
+    """argparse type: seconds (``90``, ``90s``, ``10m``, ``1h``) > 0, or
+    ``none`` (inf)."""
+    from dask.utils import parse_timedelta
+
+    if text.strip().lower() == "none":
+        return float("inf")
+    try:
+        v = float(parse_timedelta(text.strip(), default="seconds"))
+    except (ValueError, KeyError, TypeError):
+        v = float("nan")
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError("frame timeout must be a time > 0 (e.g. 90, 90s, 10m, "
+                                         f"1h) or none, got {text!r}")
+    return v
+
+
+def _frame_memory(text):
+    """argparse type: bytes (``2G``, ``500MB``, ``1.5GiB``) > 0, or ``none`` (inf)."""
+    from dask.utils import parse_bytes
+
+    if text.strip().lower() == "none":
+        return float("inf")
+    try:
+        v = float(parse_bytes(text.strip()))
+    except (ValueError, KeyError, TypeError):
+        v = float("nan")
+    if not (math.isfinite(v) and v > 0):
+        raise argparse.ArgumentTypeError("frame memory must be a size > 0 (e.g. 2G, 500MB, "
+                                         f"1.5GiB) or none, got {text!r}")
+    return v
+
+
 # --------------------------------------------------------------------------
 def cmd_info(args) -> int:
     from .cl import choose_device, list_devices
@@ -575,7 +608,8 @@ def cmd_batch(args) -> int:
     values = merge(args.cfg_file, flag_values(args))
     overrides = tuple((k, v) for k, v in values.items() if k[0] != "engine")
     config = BatchConfig(args.method, overrides, args.device, args.precision, args.das_grid,
-                         args.memory_budget * 1e9, args.das_reuse)
+                         args.memory_budget * 1e9, args.das_reuse, args.frame_timeout,
+                         args.frame_memory)
 
     def progress(rec):
         if args.verbose:
@@ -595,6 +629,7 @@ def cmd_batch(args) -> int:
 
 # --------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
+    from .batch import DEFAULT_FRAME_MEMORY_FRACTION, DEFAULT_FRAME_TIMEOUT
     from .bench import SCENES
     from .formats import RANGE_WINDOWS
     from .imaging import DEFAULT_METHOD, METHODS
@@ -778,6 +813,16 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--das-reuse", choices=("auto", "plan", "direct"), default="auto",
                     help="DAS per frame from reuse tables built once per worker, by the direct "
                     "kernel, or whichever was faster on the first frame (default auto)")
+    sp.add_argument("--frame-timeout", type=_frame_timeout, metavar="SECONDS",
+                    default=DEFAULT_FRAME_TIMEOUT,
+                    help="wall-time limit of one frame (90, 90s, 10m, 1h, or none; default "
+                    f"{DEFAULT_FRAME_TIMEOUT:g} s); a frame over it is stopped and reported failed")
+    sp.add_argument("--frame-memory", type=_frame_memory, metavar="BYTES",
+                    help="limit of a worker's resident memory while it runs a frame (2G, 500MB, "
+                    "1.5GiB, or none; default "
+                    f"{100 * DEFAULT_FRAME_MEMORY_FRACTION:g} %% of the worker's Dask memory limit, "
+                    "i.e. of RAM / workers on the embedded cluster); a frame over it is stopped "
+                    "and reported failed")
     device_opts(sp)
     param_opts(sp)
     sp.set_defaults(func=cmd_batch)

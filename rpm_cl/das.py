@@ -591,14 +591,14 @@ def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = 
     import tempfile
     import zipfile
 
-    from .data import _usual_mode, output_path
+    from .data import _usual_mode, output_path, temp_prefix
 
     path, folder = output_path(path)
     check_disk(path, folder, grid, dtype)
     tmps = []
     try:
         for suffix in (".npy", ".npz"):
-            fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=suffix, dir=folder)
+            fd, tmp = tempfile.mkstemp(prefix=temp_prefix(path), suffix=suffix, dir=folder)
             os.close(fd)
             tmps.append(tmp)
         tmp_npy, tmp_zip = tmps

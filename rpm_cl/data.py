@@ -52,6 +52,7 @@ __all__ = [
     "refuse_overwrite",
     "save_npz",
     "scale_hint",
+    "temp_prefix",
     "unit_hint",
 ]
 
@@ -533,6 +534,12 @@ def _usual_mode(path) -> None:
     os.chmod(path, 0o666 & ~umask)
 
 
+def temp_prefix(path) -> str:
+    """Prefix of the temporary files written on the way to ``path``
+    (``.tmp-<name>-``): hidden, and telling whose they are."""
+    return f".tmp-{os.path.basename(os.fspath(path))}-"
+
+
 def output_path(path):
     """Check an output path before anything is computed or written.
 
@@ -570,8 +577,8 @@ def _atomic_file(path, write, ext: str | None = None) -> None:
     """
     path, folder = output_path(path)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=ext or os.path.splitext(path)[1],
-                                   dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=temp_prefix(path),
+                                   suffix=ext or os.path.splitext(path)[1], dir=folder)
     except OSError as exc:
         raise InputError(f"{path}: cannot write ({exc.strerror})") from None
     os.close(fd)
