@@ -42,12 +42,13 @@ from __future__ import annotations
 import os
 import threading
 import time
+import warnings
 from dataclasses import asdict, dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-from .data import InputError, RadarData
+from .data import DataWarning, InputError, RadarData
 
 __all__ = [
     "PLUGIN_NAME",
@@ -418,7 +419,8 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
     frame's limits (see :class:`BatchConfig`).
 
     Returns a record (never raises for the frame's own errors): ``status``
-    "done" with ``timings`` (s) or "failed" with ``error`` (one line).  A
+    "done" with ``timings`` (s) or "failed" with ``error`` (one line), and
+    ``warnings``, the frame's DataWarnings (one line each).  A
     frame that its worker's watchdog stopped comes back here (the scheduler
     resubmits it) and is reported failed with the watchdog's reason.
     """
@@ -436,6 +438,11 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
         return {**rec, "status": "failed", "error": reason}
     engine = worker.plugins[PLUGIN_NAME]
     watchdog = engine.watchdog()
+    # the frame's DataWarnings come back with its record, for the driver to
+    # print (a worker's own stderr is no place for them); one thread per worker
+    catcher = warnings.catch_warnings(record=True)
+    caught = catcher.__enter__()
+    warnings.simplefilter("always", DataWarning)
     try:
         env, rpm, das, setup_s = engine.get()
         rec.update(device=env.name, setup_s=setup_s)
@@ -483,8 +490,11 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
     except Exception as exc:  # noqa: BLE001 - the frame's failure is recorded; the batch goes on
         rec.update(status="failed", error=_error_line(exc))
     finally:
+        catcher.__exit__(None, None, None)
         if watchdog is not None:
             watchdog.disarm()
+    rec["warnings"] = [" ".join(str(w.message).split()) for w in caught
+                       if issubclass(w.category, DataWarning)]
     return rec
 
 

@@ -611,7 +611,11 @@ def cmd_batch(args) -> int:
                          args.memory_budget * 1e9, args.das_reuse, args.frame_timeout,
                          args.frame_memory)
 
+    from .data import DataWarning
+
     def progress(rec):
+        for line in rec.get("warnings", ()):
+            warnings.warn(f"frame {rec['frame']}: {line}", DataWarning, stacklevel=1)
         if args.verbose:
             what = "done" if rec["status"] == "done" else f"FAILED: {rec['error']}"
             print(f"  {rec['frame']}: {what}", file=sys.stderr)

@@ -266,3 +266,24 @@ def test_peak_window_wider_than_the_map_gives_the_same_maxima():
         want = want[(want[:, -1] > 0) & (want[:, -1] < 39)]
         np.testing.assert_array_equal(idx, want)
         np.testing.assert_array_equal(vals, det[tuple(want.T)])
+
+
+def test_range_axis_in_cm_numbers_warned(tmp_path, arrays):
+    """range x 100 keeps its gates finer than the resolution, so nothing
+    refused it: the echoes' width (about 0.7 resolutions, rpm_cl.data.echo_width)
+    says it, 100 times too wide."""
+    from rpm_cl.data import ECHO_WIDTH_MAX, DataWarning, echo_width
+
+    path = tmp_path / "cm.npz"
+    np.savez(path, **dict(arrays, range=arrays["range"] * 100))
+    with pytest.warns(DataWarning, match="is range in cm numbers"):
+        load_data(path)
+    data = simulate_preset("paper-2d")[0]
+    ratio = echo_width(data) / data.waveform.range_resolution
+    assert 0.3 < ratio < ECHO_WIDTH_MAX / 10     # an echo: about 0.7 resolutions
+    rng = np.random.default_rng(5)
+    noise = rng.standard_normal((21, 600)) + 1j * rng.standard_normal((21, 600))
+    from rpm_cl.data import RadarData
+
+    white = RadarData(noise, data.array, data.range, data.waveform)
+    assert echo_width(white) < 2 * data.dr      # white noise: a gate or so

@@ -239,7 +239,7 @@ def test_frequencies_in_khz_numbers_warned_or_refused(tmp_path):
 def test_x_in_mm_warned(tmp_path, domain):
     make = _time_domain if domain == "time" else _freq_domain
     src = _save(tmp_path / "in.npz", make(x=X * 1e3))
-    with pytest.warns(DataWarning, match="is x in mm\\? give x in m"):
+    with pytest.warns(DataWarning, match="is x in mm or cm\\? give x in m"):
         load_data(src)
 
 

@@ -24,7 +24,7 @@ def _warned_error(capsys, argv):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and err[0].startswith("rpm-cl: warning: the antenna pitch 5000 m"), err
-    assert "is x in mm? give x in m" in err[0] and err[1].startswith("rpm-cl: error: "), err
+    assert "is x in mm or cm? give x in m" in err[0] and err[1].startswith("rpm-cl: error: "), err
     return err[1]
 
 

@@ -153,7 +153,7 @@ def test_x_in_millimetres_warned_in_both_domains(tmp_path, capsys):
     spec = _file(tmp_path, "f.npz", x=ARRAY.x * 1e3)
     td = _time_domain(tmp_path, x=simulate_preset("paper-2d")[0].array.x * 1e3)
     for path in (spec, td):
-        with pytest.warns(DataWarning, match=r"is x in mm\? give x in m"):
+        with pytest.warns(DataWarning, match=r"is x in mm or cm\? give x in m"):
             load_data(path)
     assert main(["params", str(td)]) == 0
     err = capsys.readouterr().err.strip().splitlines()
