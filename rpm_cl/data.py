@@ -337,15 +337,14 @@ class Truth:
 
 
 #: A range resolution ``c / 2B`` more than BANDWIDTH_SPAN_WARN times the
-#: range axis's span is warned about (the whole axis within a fifth of one
-#: resolution cell: no echo can be told from another in range), more than
-#: BANDWIDTH_SPAN_MAX times refused as a bandwidth in the wrong unit: the
-#: searches sized by the resolution then cost what the data do not (5000
-#: axes ran 22 s in 3.5 GB where the clean run takes 1.5 s; 19 axes, as
-#: long as the clean run).  The frequency domain compares a given bandwidth
-#: with its band by the same ratios.
-BANDWIDTH_SPAN_WARN = 5.0
-BANDWIDTH_SPAN_MAX = 20.0
+#: range axis's span is warned about as a bandwidth in kHz numbers (the whole
+#: axis within 1 % of one resolution cell), more than BANDWIDTH_SPAN_MAX
+#: times refused as one in MHz or GHz numbers (as fc's are).  The searches
+#: sized by the resolution are bounded by the axis, so such data cost what
+#: the clean data do.  The frequency domain compares a given bandwidth with
+#: its band by the same ratios.
+BANDWIDTH_SPAN_WARN = 100.0
+BANDWIDTH_SPAN_MAX = 1e4
 
 
 def _bandwidth_line(bw: float, span: float, ratio: float) -> str:
@@ -503,8 +502,11 @@ def echo_width(data: RadarData) -> float:
     the antennas) first falls to half its peak: about 0.6 range resolutions
     for echoes, a gate or so for white noise; 0 for all-zero data."""
     s = data.signal.reshape(-1, data.range.size)
+    top = float(np.max(np.abs(s))) if s.size else 0.0
+    if not top > 0:
+        return 0.0
     n = data.range.size
-    spec = np.fft.fft(s, 2 * n, axis=-1)
+    spec = np.fft.fft(s / top, 2 * n, axis=-1)   # relative: squares stay in range
     acf = np.abs(np.fft.ifft(np.sum(np.abs(spec) ** 2, axis=0))[:n])
     if not acf[0] > 0:
         return 0.0

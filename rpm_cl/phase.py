@@ -279,6 +279,17 @@ LEVEL_SPAN = 0.5
 LEVEL_FIT = 0.05
 
 
+def _grid(start: float, stop: float, step: float, lo: float, hi: float) -> np.ndarray:
+    """The values of ``np.arange(start, stop, step)`` within ``[lo, hi]``,
+    the same numbers, without forming the rest."""
+    n = max(0, int(np.ceil((stop - start) / step)))
+    k0 = min(n, max(0, int(np.floor((lo - start) / step))))
+    k1 = min(n, max(k0, int(np.ceil((hi - start) / step)) + 1))
+    delta = (start + step) - start   # as np.arange fills: start + i * delta
+    g = start + np.arange(k0, k1) * delta
+    return g[(g >= lo) & (g <= hi)]
+
+
 def _coherent_level(data: RadarData, antenna: np.ndarray, grid: np.ndarray,
                     r_fit: np.ndarray) -> float:
     """The shift of a track's ranges that maximises the coherent sum of the
@@ -311,12 +322,20 @@ def _coherent_level(data: RadarData, antenna: np.ndarray, grid: np.ndarray,
         v = ((1 - f) * sig[rows, g0] + f * sig[rows, g0 + 1]) * inside
         return np.abs(np.sum(weights[:, None] * v, axis=0))   # no BLAS: its threads spin
 
-    # coarse over the span, then fine (a quarter gate) around the coarse peak
+    # coarse over the span, then fine (a quarter gate) around the coarse peak;
+    # only shifts that keep some of the track on the range axis (elsewhere
+    # the sum is 0), so that a resolution far beyond the axis costs no more
+    lo_c = data.range[0] - r_fit.max() - data.dr
+    hi_c = data.range[-1] - r_fit.min() + data.dr
     half = LEVEL_FIT * res
-    coarse = np.arange(-LEVEL_SPAN * res, LEVEL_SPAN * res + half / 8, half / 4)
+    coarse = _grid(-LEVEL_SPAN * res, LEVEL_SPAN * res + half / 8, half / 4, lo_c, hi_c)
+    if coarse.size == 0:
+        return 0.0
     top = coarse[int(np.argmax(profile(coarse)))]
     step = min(0.25 * data.dr, half / 8)
-    c = top + np.arange(-2 * half, 2 * half + step / 2, step)
+    c = top + _grid(-2 * half, 2 * half + step / 2, step, lo_c - top, hi_c - top)
+    if c.size == 0:
+        return 0.0
     prof = profile(c)
     j = int(np.argmax(prof))
     if not prof[j] > 0:
