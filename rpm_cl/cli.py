@@ -121,17 +121,6 @@ _metres = _bounded_float(-1e4, 1e4, "must be a length in m within +-1e4")
 _frame = _int_at_least(0, "frame ")
 
 
-def _memory_size(text) -> int:
-    """argparse type: a size in bytes (rpm_cl.guard.parse_bytes)."""
-    from .data import InputError
-    from .guard import parse_bytes
-
-    try:
-        return parse_bytes(text)
-    except InputError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
 def _picture_size(text):
     """argparse type: 'WxH' pixels, each 100..10000."""
     try:
@@ -146,37 +135,49 @@ def _picture_size(text):
 _positive_int = _int_at_least(1, "")
 
 
-def _frame_timeout(text):
-    """argparse type: seconds (``90``, ``90s``, ``10m``, ``1h``) > 0, or
-    ``none`` (inf)."""
+def _positive_quantity(parse, what: str, examples: str, none_ok: bool):
+    """argparse type: ``parse(text)`` as a float > 0, or with ``none_ok``
+    ``none`` (inf); else one line naming ``what`` and ``examples``."""
+    def convert(text):
+        from .data import InputError
+
+        if none_ok and text.strip().lower() == "none":
+            return float("inf")
+        try:
+            v = float(parse(text.strip()))
+        except (ValueError, KeyError, TypeError, InputError):
+            v = float("nan")
+        if not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(f"{what} > 0 (e.g. {examples})"
+                                             f"{' or none' if none_ok else ''}, got {text!r}")
+        return v
+    return convert
+
+
+def _dask_time(text):
     from dask.utils import parse_timedelta
 
-    if text.strip().lower() == "none":
-        return float("inf")
-    try:
-        v = float(parse_timedelta(text.strip(), default="seconds"))
-    except (ValueError, KeyError, TypeError):
-        v = float("nan")
-    if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError("frame timeout must be a time > 0 (e.g. 90, 90s, 10m, "
-                                         f"1h) or none, got {text!r}")
-    return v
+    return parse_timedelta(text, default="seconds")
 
 
-def _frame_memory(text):
-    """argparse type: bytes (``2G``, ``500MB``, ``1.5GiB``) > 0, or ``none`` (inf)."""
+def _dask_bytes(text):
     from dask.utils import parse_bytes
 
-    if text.strip().lower() == "none":
-        return float("inf")
-    try:
-        v = float(parse_bytes(text.strip()))
-    except (ValueError, KeyError, TypeError):
-        v = float("nan")
-    if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError("frame memory must be a size > 0 (e.g. 2G, 500MB, "
-                                         f"1.5GiB) or none, got {text!r}")
-    return v
+    return parse_bytes(text)
+
+
+def _guard_bytes(text):
+    from .guard import parse_bytes
+
+    return parse_bytes(text)
+
+
+_frame_timeout = _positive_quantity(_dask_time, "frame timeout must be a time",
+                                    "90, 90s, 10m, 1h", True)
+_frame_memory = _positive_quantity(_dask_bytes, "frame memory must be a size",
+                                   "2G, 500MB, 1.5GiB", True)
+_memory_size = _positive_quantity(_guard_bytes, "a memory size must be a number of bytes",
+                                  "8G, 512M", False)
 
 
 # --------------------------------------------------------------------------

@@ -63,6 +63,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .data import C0, InputError, _finite_scalar, _uniform_axis, refuse_overwrite
+from .guard import h5_inside
 
 __all__ = [
     "MU0",
@@ -281,12 +282,7 @@ def _dataset(f, path: str, what: str):
     ds = _get(f, path, what)
     if not isinstance(ds, _h5py().Dataset):
         raise InputError(f"{f.filename}: {path!r} is not a dataset")
-    if ds.external:
-        raise InputError(f"{f.filename}: {path!r} keeps its data in external files; only data "
-                         f"stored in the file are read")
-    if ds.is_virtual:
-        raise InputError(f"{f.filename}: {path!r} is a virtual dataset; only data stored in the "
-                         f"file are read")
+    h5_inside(f, ds, f"{f.filename}: {path!r}")
     if ds.dtype.kind not in "fiu":
         raise InputError(f"{f.filename}: {path!r} must hold real numbers, got dtype {ds.dtype}")
     return ds

@@ -25,7 +25,7 @@ import stat
 from .data import InputError
 
 __all__ = ["BOMB_MIN_BYTES", "BOMB_RATIO", "RUN_BASE_BYTES", "RUN_BYTES_PER_SAMPLE",
-           "check_declared", "h5_dataset", "h5_has", "memory_limit", "parse_bytes",
+           "check_declared", "h5_dataset", "h5_has", "h5_inside", "memory_limit", "parse_bytes",
            "regular_file", "run_bytes"]
 
 #: Share of the machine's memory a run may take when no limit is given: a
@@ -175,16 +175,23 @@ def h5_dataset(f, key: str):
         raise InputError(f"{key} cannot be opened ({' '.join(str(exc).split())})") from None
     if not isinstance(obj, h5py.Dataset):
         raise InputError(f"{key} must be a dataset at the file root, not a group")
-    if os.path.realpath(obj.file.filename) != os.path.realpath(f.filename):
-        raise InputError(f"{key} leads to another file ({obj.file.filename}); only data "
-                         f"inside the input is read")
-    if obj.is_virtual:
-        raise InputError(f"{key} is a virtual dataset (its data lives in other files); only "
-                         f"data inside the input is read")
-    if obj.external:
-        raise InputError(f"{key} keeps its data in external files; only data inside the "
-                         f"input is read")
+    h5_inside(f, obj, key)
     return obj
+
+
+def h5_inside(f, ds, name: str) -> None:
+    """Refuse the dataset ``ds`` of the open file ``f`` (named ``name`` in
+    the message) unless its data live in ``f``: not reached through a link
+    into another file, not virtual, no external raw storage."""
+    if os.path.realpath(ds.file.filename) != os.path.realpath(f.filename):
+        raise InputError(f"{name} leads to another file ({ds.file.filename}); only data "
+                         f"inside the input is read")
+    if ds.is_virtual:
+        raise InputError(f"{name} is a virtual dataset (its data lives in other files); only "
+                         f"data inside the input is read")
+    if ds.external:
+        raise InputError(f"{name} keeps its data in external files; only data inside the "
+                         f"input is read")
 
 
 def h5_stored(ds) -> int:

@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .data import Array, InputError, Waveform, _finite_scalar, _uniform_axis
+from .guard import h5_inside
 
 __all__ = [
     "DATA_NAMES",
@@ -265,11 +266,7 @@ class _H5Source:
             cls = _matlab_class(ds)
             raise InputError(f"{key} is a group{f' (a MATLAB {cls})' if cls else ''}, not an "
                              f"array; name one of its members as {key}/NAME")
-        if ds.external:
-            raise InputError(f"{key} keeps its data in external files; only data stored in the "
-                             f"file are read")
-        if ds.is_virtual:
-            raise InputError(f"{key} is a virtual dataset; only data stored in the file are read")
+        h5_inside(self.f, ds, key)
         if self.matlab:
             cls = _matlab_class(ds)
             if cls is not None and cls not in _MATLAB_NUMERIC:
