@@ -130,6 +130,11 @@ def convert(inputs, fmt: str | None = None, **options) -> tuple:
     missing = [k for k in spec.required if k not in given]
     if missing:
         raise InputError(f"{fmt} input needs {', '.join(_flag(k) for k in missing)}")
+    from .guard import regular_file
+
+    extra = [given[k] for k in ("background", "sidecar") if isinstance(given.get(k), (str, os.PathLike))]
+    for p in inputs + extra:
+        regular_file(p)   # a FIFO would block the reader, /dev/zero never end
     return fmt, _READ[fmt](inputs, given)
 
 

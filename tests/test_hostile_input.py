@@ -287,3 +287,14 @@ def test_range_axis_in_cm_numbers_warned(tmp_path, arrays):
 
     white = RadarData(noise, data.array, data.range, data.waveform)
     assert echo_width(white) < 2 * data.dr      # white noise: a gate or so
+
+
+def test_convert_refuses_special_files(tmp_path):
+    """`rpm-cl convert` reads its inputs through the same door: a FIFO is
+    refused at once (the readers would block on it)."""
+    from rpm_cl.readers import convert
+
+    fifo = tmp_path / "line.dzt"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match="regular file, this is a FIFO"):
+        convert(fifo)
