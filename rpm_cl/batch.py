@@ -49,6 +49,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .data import DataWarning, InputError, RadarData
+from .watchdog import DEFAULT_FRAME_MEMORY_FRACTION, DEFAULT_FRAME_TIMEOUT
 
 __all__ = [
     "PLUGIN_NAME",
@@ -67,14 +68,6 @@ NPZ_SUFFIXES = (".npz",)
 H5_SUFFIXES = (".h5", ".hdf5")
 #: DAS variants of a batch (see :class:`BatchConfig`).
 DAS_REUSE = ("auto", "plan", "direct")
-#: Default wall-time limit of one frame, s: far above any sound frame's
-#: (tens of ms to seconds), low enough that a stuck one costs an hour at most.
-DEFAULT_FRAME_TIMEOUT = 3600.0
-#: Default memory limit of one frame, as a fraction of its worker's Dask
-#: ``memory_limit`` (the embedded cluster: the machine's RAM shared equally
-#: among the workers; without one, the machine's RAM): below Dask's own
-#: ``terminate`` fraction (0.95), which kills without saying why.
-DEFAULT_FRAME_MEMORY_FRACTION = 0.8
 
 
 class FrameSource(NamedTuple):

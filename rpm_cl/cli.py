@@ -634,13 +634,13 @@ def cmd_batch(args) -> int:
 
 # --------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
-    from .batch import DEFAULT_FRAME_MEMORY_FRACTION, DEFAULT_FRAME_TIMEOUT
     from .bench import SCENES
     from .formats import RANGE_WINDOWS
     from .imaging import DEFAULT_METHOD, METHODS
     from .reproduce import CASES
     from .scene import PRESETS
     from .simulate import NOISE_MODELS
+    from .watchdog import DEFAULT_FRAME_MEMORY_FRACTION, DEFAULT_FRAME_TIMEOUT
 
     p = _Parser(prog="rpm-cl", description="OpenCL k-space range points migration imaging")
     p.add_argument("--version", action="version", version=f"rpm-cl {__version__}")

@@ -30,8 +30,17 @@ import sys
 import threading
 import time
 
-__all__ = ["POLL_S", "Watchdog", "limit_reason", "main"]
+__all__ = ["DEFAULT_FRAME_MEMORY_FRACTION", "DEFAULT_FRAME_TIMEOUT", "POLL_S", "Watchdog",
+           "limit_reason", "main"]
 
+#: Default wall-time limit of one frame, s: far above any sound frame's
+#: (tens of ms to seconds), low enough that a stuck one costs an hour at most.
+DEFAULT_FRAME_TIMEOUT = 3600.0
+#: Default memory limit of one frame, as a fraction of its worker's Dask
+#: ``memory_limit`` (the embedded cluster: the machine's RAM shared equally
+#: among the workers; without one, the machine's RAM): below Dask's own
+#: ``terminate`` fraction (0.95), which kills without saying why.
+DEFAULT_FRAME_MEMORY_FRACTION = 0.8
 #: Seconds between two looks at the worker's clock and memory.
 POLL_S = 0.05
 
