@@ -76,6 +76,14 @@ _EXTRA_DOCS = {
     "multipath": "phase-rpm: points of clusters that a double bounce between two other "
                  "objects explains (rpm_cl.multipath) are dropped ('drop'), or kept with a "
                  "'multipath' column in the result ('flag').",
+    "background": "Before imaging (rpm_cl.preprocess): subtract the mean or median range "
+                  "profile over the antennas per gate ('none', 'mean', 'median').",
+    "time_zero": "Before imaging: this range becomes 0 (the antenna's own pulse, or the "
+                 "surface echo of a ground-coupled antenna), m; earlier gates are dropped.",
+    "gain_db_per_m": "Before imaging: amplitudes times 10^(g R / 20), a gain of g dB per "
+                     "metre of range after time_zero.",
+    "max_range": "Before imaging: gates beyond this range (after time_zero) are dropped, "
+                 "m; None keeps all.",
     "reach_deg": "phase-rpm: points seen from their main RP's antenna farther than this "
                  "from boresight are dropped, deg (0 < reach_deg <= 90; 90 keeps all).",
 }

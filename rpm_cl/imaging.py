@@ -220,8 +220,15 @@ class ImagingParams:
     rp_threshold_db: float = RP_THRESHOLD_DB_DEFAULT
     multipath: Literal["drop", "flag"] = "drop"
     reach_deg: float = REACH_DEG_DEFAULT
+    background: Literal["none", "mean", "median"] = "none"
+    time_zero: float = 0.0
+    gain_db_per_m: float = 0.0
+    max_range: float | None = None
 
     def __post_init__(self):
+        from .preprocess import check
+
+        check(self.background, self.time_zero, self.gain_db_per_m, self.max_range)
         if not (np.isfinite(self.rp_threshold_db) and self.rp_threshold_db < 0):
             raise InputError(f"rp_threshold_db must be < 0, got {self.rp_threshold_db}")
         if not (np.isfinite(self.reach_deg) and 0 < self.reach_deg <= 90):
@@ -293,6 +300,7 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     if unknown:
         raise InputError(f"unknown imaging parameter {unknown[0]!r}")
     medium = Medium(**{k: v for k, v in ov.items() if k in medium_names})
+    data = _preprocessed(data, **{k: v for k, v in ov.items() if k in _PREPROCESS})
     seen = seen_data(data, medium)   # what the decomposition and RPM see
     r_echo = _strongest_range(seen)
     if arr.planar:
@@ -736,6 +744,16 @@ METHODS = {"kspace-rpm": _kspace_rpm, "phase-rpm": _phase_rpm, "mf-rpm": _mf_rpm
 DEFAULT_METHOD = "phase-rpm"
 
 
+#: The ImagingParams fields of :mod:`rpm_cl.preprocess`.
+_PREPROCESS = ("background", "time_zero", "gain_db_per_m", "max_range")
+
+
+def _preprocessed(data: RadarData, **settings) -> RadarData:
+    from .preprocess import preprocess
+
+    return preprocess(data, **settings)
+
+
 def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> ImageResult:
     """Run the method called ``name`` (a key of :data:`METHODS`).
 
@@ -763,6 +781,7 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
         fn = METHODS[name]
     except KeyError:
         raise InputError(f"unknown method {name!r}; choose from {', '.join(METHODS)}") from None
+    data = _preprocessed(data, **{k: getattr(params, k) for k in _PREPROCESS})
     if name in ("kspace-rpm", "phase-rpm"):
         _check_sidelobes(data, params.kspace.peak_threshold_db)
     medium = params.medium

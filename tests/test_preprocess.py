@@ -1,0 +1,87 @@
+"""GPR-style steps before imaging (rpm_cl/preprocess.py)."""
+
+import numpy as np
+import pytest
+
+from rpm_cl.data import Array, InputError, RadarData, Waveform
+from rpm_cl.imaging import ImagingParams, default_params, run_method
+from rpm_cl.preprocess import preprocess
+from rpm_cl.rpm import reference
+from rpm_cl.scene import PointTarget, Scene
+from rpm_cl.simulate import simulate, synthesize
+
+X = (np.arange(31) - 15) * 5e-3
+AXIS = np.arange(0.0, 1.2, 2.5e-3)
+WF = Waveform(20e9, 2e9)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    """A point target 0.45 m away and, at every antenna alike, a coupling
+    echo at 30 mm four times as strong as the target's."""
+    data = simulate(Scene((PointTarget((0.01, 0.45)),)), Array(X), WF, AXIS)
+    peak = np.abs(data.signal).max()
+    n = X.size
+    leak = synthesize(np.arange(n), np.full(n, 0.03), np.full(n, 4 * peak), n, WF, AXIS)
+    return data, RadarData(data.signal + leak, data.array, data.range, data.waveform)
+
+
+def test_all_off_is_the_data_itself(scene):
+    assert preprocess(scene[1]) is scene[1]
+
+
+def test_background_removal_takes_what_every_antenna_sees(scene):
+    """The mean profile of a coupling echo common to all antennas is that
+    echo: removed to rounding; the target's echo, which walks across the
+    array, keeps most of its energy."""
+    clean, leaky = scene
+    out = preprocess(leaky, background="mean")
+    gate = np.argmin(np.abs(AXIS - 0.03))
+    assert np.abs(out.signal[:, gate]).max() < 1e-3 * np.abs(leaky.signal[:, gate]).max()
+    tgt = np.argmin(np.abs(AXIS - 0.45))
+    kept = np.abs(out.signal[:, tgt - 40:tgt + 40]) ** 2
+    assert kept.sum() > 0.5 * (np.abs(clean.signal[:, tgt - 40:tgt + 40]) ** 2).sum()
+    med = preprocess(leaky, background="median")
+    assert np.abs(med.signal[:, gate]).max() < 1e-3 * np.abs(leaky.signal[:, gate]).max()
+
+
+def test_background_removal_images_the_target_alone(scene):
+    """Without it the coupling echo, the strongest in the data, makes points
+    at 30 mm; with it every point lies on the target."""
+    _, leaky = scene
+    for background, near in (("none", True), ("mean", False)):
+        p = default_params(leaky, background=background)
+        pts = run_method("phase-rpm", leaky, p, reference).image.points
+        d = np.hypot(pts[:, 0] - 0.01, pts[:, 1] - 0.45)
+        assert (pts[:, 1] < 0.1).any() == near
+        if not near:
+            assert len(pts) and np.all(d < 0.01)
+
+
+def test_time_zero_gain_and_region(scene):
+    clean, _ = scene
+    out = preprocess(clean, time_zero=0.1, max_range=0.5)
+    assert out.range[0] >= 0 and out.range[0] < out.dr and out.range[-1] <= 0.5
+    # the echo keeps its place in the data, its range moves by time_zero
+    r0 = clean.range[np.argmax(np.abs(clean.signal[15]))]
+    r1 = out.range[np.argmax(np.abs(out.signal[15]))]
+    assert r1 == pytest.approx(r0 - 0.1, abs=clean.dr)
+    g = preprocess(clean, gain_db_per_m=20.0)
+    np.testing.assert_allclose(np.abs(g.signal), np.abs(clean.signal) * 10 ** clean.range,
+                               rtol=1e-6)
+
+
+@pytest.mark.parametrize("kw, words", [
+    ({"background": "mode"}, "background must be"),
+    ({"time_zero": -0.1}, "time_zero must be"),
+    ({"gain_db_per_m": np.inf}, "gain_db_per_m"),
+    ({"max_range": 0.0}, "max_range must be"),
+])
+def test_settings_refused(kw, words):
+    with pytest.raises(InputError, match=words):
+        ImagingParams(**kw)
+
+
+def test_nothing_left_refused(scene):
+    with pytest.raises(InputError, match="fewer than 2 range gates"):
+        preprocess(scene[0], time_zero=5.0, max_range=6.0)
