@@ -656,6 +656,13 @@ def _frequency_axis(values) -> np.ndarray:
 #: so, mirrored, in the first quarter of the conjugate's): noise alone puts a
 #: quarter there, a scene in the near part of the range almost none.
 CONJUGATE_FAR_SHARE = 0.5
+#: An echo (a local maximum of the compressed power summed over the
+#: antennas, at least WRAP_LEVEL of the largest and WRAP_ABOVE_MEDIAN times
+#: the median over the axis, so not noise) in the last WRAP_EDGE of the
+#: unambiguous range is warned about as possibly wrapped from beyond.
+WRAP_EDGE = 0.05
+WRAP_LEVEL = 0.01
+WRAP_ABOVE_MEDIAN = 10.0
 
 
 def _check_conjugated(signal, rng) -> None:
@@ -678,6 +685,20 @@ def _check_conjugated(signal, rng) -> None:
                       f"lies beyond {0.75 * r_u:.3g} m, in the last quarter of the unambiguous "
                       f"range {r_u:.3g} m (an echo recorded as exp(+j 4 pi f R / c) lands at "
                       f"{r_u:.3g} m - R); if so, load it with conjugate=True (--conjugate)",
+                      DataWarning, stacklevel=2)
+        return
+    # an echo near the end of the axis may be one from beyond it, wrapped
+    edge = rng >= (1.0 - WRAP_EDGE) * r_u
+    inner = power[1:-1]
+    peak = np.zeros(rng.size, bool)
+    peak[1:-1] = (inner >= power[:-2]) & (inner >= power[2:])
+    strong = (peak & edge & (power >= WRAP_LEVEL * power.max())
+              & (power >= WRAP_ABOVE_MEDIAN * np.median(power)))
+    if strong.any():
+        r = float(rng[np.flatnonzero(strong)[0]])
+        warnings.warn(f"an echo at {r:.3g} m lies within {WRAP_EDGE:.0%} of the unambiguous "
+                      f"range c/(2 df) = {r_u:.3g} m: it may be a target beyond it, wrapped "
+                      f"(at {r:.3g} + {r_u:.3g} m); a finer frequency step widens the range",
                       DataWarning, stacklevel=2)
 
 

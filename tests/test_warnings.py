@@ -204,3 +204,16 @@ def test_rect_window_warns_and_hann_is_silent(tmp_path, capsys):
         assert main(["image", str(path), "-o", str(tmp_path / "o.npz"), "--range-window",
                      w]) == 0
         assert capsys.readouterr().err == "", w
+
+
+def test_echo_near_the_unambiguous_range_warned(tmp_path):
+    """df = 25 MHz: the range axis ends at 6 m.  A target 5.8 m away (within
+    5 % of it) may as well be one at 11.8 m, wrapped: warned, naming both;
+    the three targets at 0.6-1 m are not.  (A far echo alone, most of the
+    power in the last quarter, reads as a conjugated spectrum instead.)"""
+    far = Scene(SCENE.targets + (PointTarget((0.0, 5.8), 3.0),))
+    spec = _file(tmp_path, "far.npz", spectrum=_spectrum(scene=far))
+    with pytest.warns(DataWarning, match=r"an echo at 5\.8\d* m lies within 5% of the "
+                                         r"unambiguous range c/\(2 df\) = 6 m"):
+        load_data(spec)
+    _silent(load_data, _file(tmp_path, "near.npz"))
