@@ -488,6 +488,9 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
             watchdog.disarm()
     rec["warnings"] = [" ".join(str(w.message).split()) for w in caught
                        if issubclass(w.category, DataWarning)]
+    for w in caught:   # the others go where they went without the capture
+        if not issubclass(w.category, DataWarning):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return rec
 
 

@@ -320,10 +320,20 @@ def cmd_image(args) -> int:
     print(f"{args.method}: {len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} "
           f"clusters -> {len(result.image.points)} points{dropped}, "
           f"{1e3 * result.timings['total']:.1f} ms; wrote {args.output}")
-    if data.truth is not None:
-        s = summary(result.rps, result.image, data.truth)
+    truth = _preprocessed_truth(data, params)
+    if truth is not None:
+        s = summary(result.rps, result.image, truth)
         print(_accuracy_line(s))
     return 0
+
+
+def _preprocessed_truth(data, params):
+    """The truth as the method saw it: a time zero moves its RP ranges."""
+    if data.truth is None or not params.time_zero:
+        return data.truth
+    from .imaging import _PREPROCESS, _preprocessed
+
+    return _preprocessed(data, **{k: getattr(params, k) for k in _PREPROCESS}).truth
 
 
 def cmd_params(args) -> int:
@@ -1090,8 +1100,8 @@ def main(argv=None) -> int:
         signal.signal(signal.SIGTERM, _on_sigterm)
     sigint = (not argv_given and threading.current_thread() is threading.main_thread()
               and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    _SIGINT_SEEN.clear()   # a call's own interrupts only
     if sigint:
-        _SIGINT_SEEN.clear()
         signal.signal(signal.SIGINT, _on_sigint)
     try:
         argv = _bind_negative_values(list(sys.argv[1:] if argv is None else argv))

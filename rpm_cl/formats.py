@@ -79,12 +79,14 @@ from .data import (
     drop_spikes,
     output_path,
     scale_hint,
+    temp_prefix,
     unit_hint,
 )
 from .guard import (
     check_budget,
     check_declared,
     fmt_bytes,
+    h5_chunks_bounded,
     h5_dataset,
     h5_has,
     h5_stored,
@@ -126,6 +128,9 @@ RANGE_WINDOWS = {"rect": "boxcar", "hann": "hann", "hamming": "hamming",
 RANGE_OVERSAMPLE = 16
 
 _H5_EXT = (".h5", ".hdf5")
+#: Longest ``.npy`` header read, bytes (NumPy's own limit is 10 000; a v2
+#: header may declare up to 4 GB, which NumPy reads before checking).
+NPY_HEADER_MAX = 1 << 16
 #: ``truth_scene`` (a JSON description) is read only up to this size, bytes.
 TEXT_MAX_BYTES = 1 << 20
 TEXT_MAX_ITEMS = 1
@@ -180,7 +185,11 @@ class _NpzSource:
     def __init__(self, path: str):
         self.path = path
         self.zf = zipfile.ZipFile(path)
-        self.names = {n[:-4]: n for n in self.zf.namelist() if n.endswith(".npy")}
+        # as numpy.load names them: ``k.npy`` is ``k``, and a member named
+        # ``k`` itself wins (np.load reads that one, e.g. in `rpm-cl view`)
+        names = self.zf.namelist()
+        self.names = {n[:-4]: n for n in names if n.endswith(".npy")}
+        self.names.update({n: n for n in names if not n.endswith(".npy")})
 
     def keys(self):
         return set(self.names)
@@ -189,6 +198,16 @@ class _NpzSource:
         return key in self.names
 
     def _header(self, fh):
+        """The ``.npy`` header of ``fh`` (shape, fortran, dtype), its length
+        checked before NumPy reads it (a v2 header may declare 4 GB)."""
+        magic = fh.read(8)
+        if len(magic) < 8 or magic[:6] != b"\x93NUMPY":
+            raise ValueError("not a .npy member (no NumPy magic)")
+        size = fh.read(2 if magic[6] == 1 else 4)
+        n = int.from_bytes(size, "little") if len(size) in (2, 4) else -1
+        if not 0 < n <= NPY_HEADER_MAX:
+            raise ValueError(f"header length {n} bytes, beyond {NPY_HEADER_MAX}")
+        fh.seek(0)
         version = np.lib.format.read_magic(fh)
         if version == (1, 0):
             return np.lib.format.read_array_header_1_0(fh)
@@ -232,9 +251,10 @@ class _NpzSource:
     def read_frame(self, key, i):
         with self.zf.open(self.names[key]) as fh:
             shape, fortran, dtype = self._checked_header(key, fh)
-            if fortran:
-                fh.seek(0)
-                return np.lib.format.read_array(fh, allow_pickle=False)[i]
+            if fortran:   # a frame is no contiguous run of bytes: the whole stack
+                raise InputError(f"{key} is a Fortran-ordered stack; its frames cannot be "
+                                 f"read one at a time: save it C-ordered "
+                                 f"(np.ascontiguousarray)")
             n = int(np.prod(shape[1:])) * dtype.itemsize
             fh.seek(fh.tell() + i * n)
             buf = fh.read(n)
@@ -259,6 +279,7 @@ class _H5Source:
     def __init__(self, path: str):
         self.path = path
         self.f = _h5py().File(path, "r")
+        self._bounded = set()
 
     def keys(self):
         return set(self.f.keys())
@@ -275,6 +296,9 @@ class _H5Source:
         if dtype.kind in "biufc":
             check_declared(key, int(np.prod(shape, dtype=object)) * dtype.itemsize,
                            h5_stored(ds))
+            if key not in self._bounded:   # each dataset's chunks inflated once
+                h5_chunks_bounded(ds, key)
+                self._bounded.add(key)
         return shape, dtype
 
     def stored(self, key):
@@ -1058,8 +1082,8 @@ def _slab_rows(shape, itemsize: int, target: int = 64 << 20) -> int:
     return max(1, min(shape[0], target // max(1, per)))
 
 
-def _fill_memmap(folder: str, grid, fill, dtype, tmps: list):
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npy", dir=folder)
+def _fill_memmap(path: str, folder: str, grid, fill, dtype, tmps: list):
+    fd, tmp = tempfile.mkstemp(prefix=temp_prefix(path), suffix=".npy", dir=folder)
     os.close(fd)
     tmps.append(tmp)
     out = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=grid.shape)
@@ -1075,7 +1099,7 @@ def _atomic_volume(path, folder, grid, fill, dtype, write) -> None:
     tmps = []
 
     def to_file(tmp):
-        write(tmp, _fill_memmap(folder, grid, fill, dtype, tmps))
+        write(tmp, _fill_memmap(path, folder, grid, fill, dtype, tmps))
 
     try:
         _atomic_file(path, to_file)

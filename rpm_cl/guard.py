@@ -22,10 +22,13 @@ from __future__ import annotations
 import os
 import stat
 
+import numpy as np
+
 from .data import InputError
 
 __all__ = ["BOMB_MIN_BYTES", "BOMB_RATIO", "RUN_BASE_BYTES", "RUN_BYTES_PER_SAMPLE",
-           "check_declared", "h5_dataset", "h5_has", "h5_inside", "memory_limit", "parse_bytes",
+           "check_declared", "h5_chunks_bounded", "h5_dataset", "h5_has", "h5_inside",
+           "h5_resolve", "memory_limit", "parse_bytes",
            "regular_file", "run_bytes"]
 
 #: Share of the machine's memory a run may take when no limit is given: a
@@ -154,29 +157,111 @@ def h5_has(f, key: str) -> bool:
         return False
 
 
-def h5_dataset(f, key: str):
-    """The dataset ``key`` at the root of ``f``, if its data lives in ``f``.
+#: Most soft links followed on the way to one dataset (a loop ends here).
+H5_LINK_HOPS = 16
+
+
+def h5_resolve(f, path: str, name: str):
+    """The object at ``path`` in the open file ``f``, reached one link at a
+    time so that no link leads out of the file.
+
+    h5py follows a chain of links by itself, and a soft link to a path
+    through an external link opens another file (a FIFO there blocks) before
+    the object could be looked at; here every step is seen first.
 
     Raises
     ------
     InputError
-        ``key`` is an external link, a group, a virtual dataset or one whose
-        raw data is stored in external files.
+        No such object, an external link anywhere on the way, or more than
+        :data:`H5_LINK_HOPS` soft links.
     """
     import h5py
 
-    link = f.get(key, getlink=True)
-    if isinstance(link, h5py.ExternalLink):
-        raise InputError(f"{key} is an external link (to {link.filename}:{link.path}); only "
-                         f"data inside the input is read")
-    try:
-        obj = f[key]
-    except (KeyError, OSError, RuntimeError, ValueError) as exc:
-        raise InputError(f"{key} cannot be opened ({' '.join(str(exc).split())})") from None
+    parts = [p for p in path.split("/") if p]
+    node, hops = f["/"], 0
+    while parts:
+        part = parts.pop(0)
+        try:
+            link = node.get(part, getlink=True)
+        except (KeyError, ValueError, OSError, RuntimeError):
+            link = None
+        if link is None:
+            raise InputError(f"{name}: no such object ({path})")
+        if isinstance(link, h5py.ExternalLink):
+            raise InputError(f"{name} leads through an external link (to {link.filename}:"
+                             f"{link.path}); only data inside the input is read")
+        if isinstance(link, h5py.SoftLink):
+            hops += 1
+            if hops > H5_LINK_HOPS:
+                raise InputError(f"{name}: more than {H5_LINK_HOPS} soft links (a loop?)")
+            target = [p for p in link.path.split("/") if p]
+            if link.path.startswith("/"):
+                node = f["/"]
+            parts = target + parts
+            continue
+        try:
+            node = node[part]
+        except (KeyError, ValueError, OSError, RuntimeError) as exc:
+            raise InputError(f"{name} cannot be opened ({' '.join(str(exc).split())})") from None
+        if parts and not isinstance(node, h5py.Group):
+            raise InputError(f"{name}: {part} is not a group ({path})")
+    return node
+
+
+def h5_dataset(f, key: str):
+    """The dataset ``key`` at the root of ``f``, if its data lives in ``f``
+    (:func:`h5_resolve`, :func:`h5_inside`).
+
+    Raises
+    ------
+    InputError
+        ``key`` leads through an external link, is a group, a virtual
+        dataset or one whose raw data is stored in external files, or a
+        compressed chunk of it inflates beyond its size.
+    """
+    import h5py
+
+    obj = h5_resolve(f, key, key)
     if not isinstance(obj, h5py.Dataset):
         raise InputError(f"{key} must be a dataset at the file root, not a group")
     h5_inside(f, obj, key)
     return obj
+
+
+def h5_chunks_bounded(ds, name: str) -> None:
+    """Refuse a deflate-compressed dataset one of whose chunks inflates to
+    more than a chunk's bytes.
+
+    HDF5's deflate filter grows its output buffer until the stream ends, so
+    a chunk of a dataset that declares kilobytes can inflate to gigabytes
+    before HDF5 keeps the chunk's share; each chunk is inflated here first,
+    at most one chunk's bytes (the data's whole size, which the caller has
+    budgeted, at most once)."""
+    import zlib
+
+    if ds.chunks is None or "gzip" not in (ds.compression or ""):
+        return
+    raw = int(np.prod(ds.chunks)) * ds.dtype.itemsize
+    ident = ds.id
+    try:
+        n = ident.get_num_chunks()
+    except Exception:  # noqa: BLE001 - an HDF5 too old to list chunks: nothing to check by
+        return
+    for i in range(n):
+        try:
+            offset = ident.get_chunk_info(i).chunk_offset
+            _, buf = ident.read_direct_chunk(offset)
+        except Exception as exc:  # noqa: BLE001 - a corrupt chunk index
+            raise InputError(f"{name}: a chunk cannot be read ({' '.join(str(exc).split())})") \
+                from None
+        d = zlib.decompressobj()
+        try:
+            d.decompress(buf, raw + 1)
+        except zlib.error:
+            continue   # not a plain deflate stream first (other filters): HDF5 judges it
+        if d.unconsumed_tail or not (d.eof or len(buf) == 0):
+            raise InputError(f"{name}: a compressed chunk inflates beyond the chunk's "
+                             f"{raw} bytes (a compression bomb or a corrupt file); refused")
 
 
 def h5_inside(f, ds, name: str) -> None:

@@ -13,7 +13,8 @@ order, on the range-compressed data (:class:`rpm_cl.data.RadarData`):
    ringing) goes, a target's range walk across the scan stays;
 3. **gain** (``gain_db_per_m``): amplitudes times ``10^(g R' / 20)``, a
    linear-in-range gain in dB per metre, for echoes that a lossy medium
-   weakens with depth;
+   weakens with depth (scaled so that no factor exceeds 1: only amplitude
+   ratios matter to the imagers);
 4. **region of interest** (``max_range``, m): gates beyond it dropped (a
    radar's feed and cable echoes far beyond the scene make clusters of
    their own).
@@ -46,9 +47,8 @@ def check(background: str, time_zero: float, gain_db_per_m: float,
         raise InputError(f"time_zero must be a range >= 0 m, got {time_zero}")
     if not (np.isfinite(gain_db_per_m) and abs(gain_db_per_m) <= 1000):
         raise InputError(f"gain_db_per_m must be within +-1000 dB/m, got {gain_db_per_m}")
-    if max_range is not None and not (np.isfinite(max_range) and max_range > time_zero):
-        raise InputError(f"max_range must be a range beyond time_zero ({time_zero:g} m), got "
-                         f"{max_range}")
+    if max_range is not None and not (np.isfinite(max_range) and max_range > 0):
+        raise InputError(f"max_range must be a range > 0 m (after time_zero), got {max_range}")
 
 
 def preprocess(data: RadarData, background: str = "none", time_zero: float = 0.0,
@@ -95,7 +95,10 @@ def preprocess(data: RadarData, background: str = "none", time_zero: float = 0.0
     elif background == "median":
         flat -= np.median(flat.real, axis=0) + 1j * np.median(flat.imag, axis=0)
     if gain_db_per_m:
-        s *= (10.0 ** (gain_db_per_m * rng / 20.0)).astype(s.real.dtype)
+        # relative to the gate it raises most, so no factor exceeds 1 (the
+        # imagers normalise amplitudes; a large gain cannot overflow)
+        ref = rng[-1] if gain_db_per_m > 0 else rng[0]
+        s *= (10.0 ** (gain_db_per_m * (rng - ref) / 20.0)).astype(s.real.dtype)
     truth = data.truth
     if truth is not None and truth.has_rps and time_zero:
         truth = replace(truth, rp_range=truth.rp_range - time_zero)

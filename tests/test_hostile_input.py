@@ -298,3 +298,90 @@ def test_convert_refuses_special_files(tmp_path):
     os.mkfifo(fifo)
     with pytest.raises(InputError, match="regular file, this is a FIFO"):
         convert(fifo)
+
+
+def test_h5_deflate_chunk_inflating_past_its_size_refused(tmp_path, arrays):
+    """A signal declaring 21 x 600 complex128 (200 kB) whose one deflated
+    chunk inflates to 64 MB: HDF5's filter grows its buffer to the whole
+    stream, so the chunk is inflated here first, at most a chunk's bytes."""
+    import zlib
+
+    path = tmp_path / "gz.h5"
+    with h5py.File(path, "w") as f:
+        for k, v in arrays.items():
+            if k != "signal":
+                f[k] = v
+        d = f.create_dataset("signal", (21, 600), np.complex128, chunks=(21, 600),
+                             compression="gzip")
+        c = zlib.compressobj(1)
+        payload = b"".join(c.compress(bytes(1 << 22)) for _ in range(16)) + c.flush()
+        d.id.write_direct_chunk((0, 0), payload)
+    _refused(path, "inflates beyond the chunk")
+    ok = _h5(tmp_path / "ok.h5", arrays)   # an honest compressed file reads
+    with h5py.File(ok, "a") as f:
+        del f["signal"]
+        f.create_dataset("signal", data=arrays["signal"], chunks=(7, 200), compression="gzip",
+                         shuffle=True, fletcher32=True)
+    np.testing.assert_array_equal(load_data(ok).signal, arrays["signal"])
+
+
+def test_h5_soft_link_through_an_external_link_never_opens_it(tmp_path, arrays):
+    """A soft link whose path runs through an external link to a FIFO: h5py
+    would open the FIFO (and block) following the chain; each link is looked
+    at first."""
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    path = _h5(tmp_path / "soft.h5", arrays, skip=("signal",))
+    with h5py.File(path, "a") as f:
+        f["ext"] = h5py.ExternalLink(str(fifo), "/")
+        f["signal"] = h5py.SoftLink("/ext/signal")
+    _refused(path, "leads through an external link")
+    loop = _h5(tmp_path / "loop.h5", arrays, skip=("signal",))
+    with h5py.File(loop, "a") as f:
+        f["a"] = h5py.SoftLink("/b")
+        f["b"] = h5py.SoftLink("/a")
+        f["signal"] = h5py.SoftLink("/a")
+    _refused(loop, "soft links")
+    inner = _h5(tmp_path / "inner.h5", arrays, skip=("signal",))
+    with h5py.File(inner, "a") as f:
+        f["g/s"] = arrays["signal"]
+        f["signal"] = h5py.SoftLink("/g/s")   # a soft link inside the file is followed
+    assert load_data(inner).signal.shape == (21, 600)
+
+
+def test_npy_header_length_checked_before_numpy_reads_it(tmp_path, arrays):
+    """A v2 header declaring 400 MB of header text: NumPy reads it all before
+    its own limit; refused from the length field."""
+    import struct
+
+    path = tmp_path / "hdr.npz"
+    np.savez(path, **{k: v for k, v in arrays.items() if k != "signal"})
+    with zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED) as zf, \
+            zf.open("signal.npy", "w") as fh:
+        fh.write(b"\x93NUMPY\x02\x00" + struct.pack("<I", 400_000_000))
+        fh.write(b" " * (1 << 20))
+    _refused(path, "corrupt .npy header .*header length 400000000")
+
+
+def test_bare_member_checked_as_numpy_load_reads_it(tmp_path):
+    """np.load reads a member named 'points' before 'points.npy': the checks
+    look at the same one (a lying bare member is refused, not inflated)."""
+    import io
+
+    path = tmp_path / "res.npz"
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
+        for name, v in (("points.npy", np.zeros((2, 3))), ("cluster.npy", np.zeros(2, int)),
+                        ("rp_x.npy", np.zeros(2))):
+            b = io.BytesIO()
+            np.save(b, v)
+            zf.writestr(name, b.getvalue())
+        zf.writestr("points", b"not an array at all")
+    with pytest.raises(InputError, match="points: corrupt .npy header"):
+        check_members(path, ("points", "cluster", "rp_x"))
+
+
+def test_fortran_ordered_stack_refused_frame_by_frame(tmp_path, arrays):
+    stack = np.asfortranarray(np.stack([arrays["signal"]] * 3))
+    path = tmp_path / "fort.npz"
+    np.savez(path, **dict(arrays, signal=stack))
+    _refused(path, "Fortran-ordered stack", frame=1)

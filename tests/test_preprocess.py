@@ -66,9 +66,13 @@ def test_time_zero_gain_and_region(scene):
     r0 = clean.range[np.argmax(np.abs(clean.signal[15]))]
     r1 = out.range[np.argmax(np.abs(out.signal[15]))]
     assert r1 == pytest.approx(r0 - 0.1, abs=clean.dr)
-    g = preprocess(clean, gain_db_per_m=20.0)
-    np.testing.assert_allclose(np.abs(g.signal), np.abs(clean.signal) * 10 ** clean.range,
+    g = preprocess(clean, gain_db_per_m=20.0)   # x 10 per metre, 1 at the last gate
+    np.testing.assert_allclose(np.abs(g.signal),
+                               np.abs(clean.signal) * 10 ** (clean.range - clean.range[-1]),
                                rtol=1e-6)
+    # a gain no float holds as an absolute factor (1000 dB/m over 1.2 m)
+    big = preprocess(clean, gain_db_per_m=1000.0)
+    assert np.all(np.isfinite(big.signal)) and np.abs(big.signal).max() > 0
 
 
 @pytest.mark.parametrize("kw, words", [
@@ -76,10 +80,16 @@ def test_time_zero_gain_and_region(scene):
     ({"time_zero": -0.1}, "time_zero must be"),
     ({"gain_db_per_m": np.inf}, "gain_db_per_m"),
     ({"max_range": 0.0}, "max_range must be"),
+    ({"max_range": np.nan}, "max_range must be"),
 ])
 def test_settings_refused(kw, words):
     with pytest.raises(InputError, match=words):
         ImagingParams(**kw)
+
+
+def test_max_range_counts_from_time_zero(scene):
+    out = preprocess(scene[0], time_zero=0.5, max_range=0.2)
+    assert out.range[-1] <= 0.2 and out.range[-1] > 0.2 - 2 * out.dr
 
 
 def test_nothing_left_refused(scene):
