@@ -121,7 +121,7 @@ def _householder_qr(a: np.ndarray):
         ``H_j = I - 2 v_j v_j^H``.
     """
     r = np.array(a, np.complex128)
-    m, n = r.shape
+    n = r.shape[1]
     vs = []
     for j in range(n):
         x = r[j:, j]

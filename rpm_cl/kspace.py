@@ -106,12 +106,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import fft as sfft
-from scipy import ndimage
 
 from .blas import one_blas_thread
 from .data import InputError, RadarData
+from .lazy import lazy
 from .nearfield import decompose_near_field, near_field_wanted
+
+sfft = lazy("scipy.fft")
+ndimage = lazy("scipy.ndimage")
 
 __all__ = ["Cluster", "Decomposition", "KSpaceParams", "decompose", "kspace_spectrum"]
 

@@ -14,7 +14,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .data import InputError, Truth
 
@@ -84,6 +83,8 @@ def err_rpm(points, truth: Truth) -> np.ndarray:
     points = np.asarray(points, np.float64)
     if points.size == 0:
         return np.zeros(0)
+    from scipy.spatial import cKDTree  # on first use: 0.5 s of import (rpm_cl.lazy)
+
     d, _ = cKDTree(truth.boundary).query(points)
     return d
 
@@ -114,7 +115,7 @@ def summary(rps, image, truth: Truth) -> dict:
     e_p = err_rpm(image.points, truth)
     within = (cumulative(err_range(rps.antenna, rps.range, truth), 0.010)[0]
               if truth.has_rps else None)
-    out = {"rp_total": int(len(rps.range)), "rp_within_10mm": within,
+    out = {"rp_total": len(rps.range), "rp_within_10mm": within,
            "rpm_total": int(e_p.size)}
     for mm in (10, 50, 100):
         out[f"rpm_within_{mm}mm"] = cumulative(e_p, mm / 1000.0)[0]

@@ -168,7 +168,6 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from .blas import one_blas_thread
 from .data import InputError
@@ -1037,6 +1036,8 @@ def _decompose_near_field(data, params, spectrum, env):
     lb = np.column_stack([th0[:, 0] - 0.2 * du, th0[:, 1] - f / 6, -inf]).ravel()
     ub = np.column_stack([th0[:, 0] + 0.2 * du, th0[:, 1] + f / 6, inf]).ravel()
     fit = _Polish(x, k0, t, s_c)
+    from scipy.optimize import least_squares
+
     sol = least_squares(fit.fun, th0.ravel(), jac=fit.jac, bounds=(lb, ub),
                         x_scale=np.tile([0.1 * du, 1e-3, 0.1], len(th0)),
                         max_nfev=POLISH_MAX_NFEV)

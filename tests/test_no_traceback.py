@@ -178,6 +178,19 @@ def test_cli_import_is_light():
     assert out.stdout.strip() == "[]"
 
 
+def test_parser_imports_no_scipy():
+    """Every command builds the whole parser (the imaging parameters are its
+    flags) before it can refuse a bad input: SciPy's 0.5-0.9 s of imports
+    wait for the first computation (rpm_cl.lazy), so that a refusal takes
+    about half a second."""
+    code = ("import sys; from rpm_cl.cli import build_parser; build_parser(); "
+            "print(sorted(m for m in sys.modules if m == 'scipy' or m.startswith('scipy.')))")
+    out = subprocess.run([sys.executable, "-c", code], check=False, capture_output=True,
+                         text=True, env=_env(), timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
+
+
 @pytest.mark.parametrize("delay", [0.15, 0.3, 0.5, 0.8, 1.2])
 def test_ctrl_c_during_start_up(tmp_path, delay):
     """SIGINT ``delay`` s after Python's own start-up (site, measured from
