@@ -533,7 +533,7 @@ def _preflight(src, key: str, n_axes: int, with_truth: bool, max_memory) -> None
         samples *= RANGE_OVERSAMPLE * max(int(core[-1]), 1)
     else:
         samples *= int(core[-1])
-    check_budget(run_bytes(samples, other), memory_limit(max_memory),
+    check_budget(run_bytes(samples, other, n_axes - 1), memory_limit(max_memory),
                  f"{key} {shape}")
 
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from .data import InputError
 
-__all__ = ["BOMB_MIN_BYTES", "BOMB_RATIO", "RUN_BASE_BYTES", "RUN_BYTES_PER_SAMPLE",
+__all__ = ["BOMB_MIN_BYTES", "BOMB_RATIO", "RUN_BASE_BYTES",
            "check_declared", "h5_chunks_bounded", "h5_dataset", "h5_has", "h5_inside",
            "h5_resolve", "memory_limit", "parse_bytes",
            "regular_file", "run_bytes"]
@@ -34,10 +34,16 @@ __all__ = ["BOMB_MIN_BYTES", "BOMB_RATIO", "RUN_BASE_BYTES", "RUN_BYTES_PER_SAMP
 #: Share of the machine's memory a run may take when no limit is given: a
 #: run holds a few copies of its data at once and the machine is shared.
 MEMORY_SHARE = 0.5
-#: Working memory of a run per complex sample of its range profiles, bytes:
-#: sixteen complex128 copies (the input, its range compression, the k-space
-#: decomposition's FFTs and windows, the back-projection's inputs).
-RUN_BYTES_PER_SAMPLE = 256
+#: Working memory of a run, in complex128 copies of its range profiles:
+#: SPECTRUM_COPIES of the k-space spectrum, zero-padded PAD times along each
+#: array axis (the decomposition's default ``KSpaceParams.pad``), and
+#: DATA_COPIES of the profiles themselves (the input, its range compression,
+#: windows, the back-projection's inputs).  A 187 x 144 planar scan of 300
+#: gates peaked at 6.3 GB, 49 copies of its 129 MB of profiles; this counts
+#: 52 there and 16 for a linear array.
+SPECTRUM_COPIES = 3
+DATA_COPIES = 4
+PAD = 4
 #: Fixed memory of a run, bytes: the interpreter, NumPy/SciPy and the OpenCL
 #: runtime (a small run peaks at 230-280 MB resident).
 RUN_BASE_BYTES = 512 << 20
@@ -124,11 +130,14 @@ def memory_limit(limit=None) -> int:
     return parse_bytes(limit)
 
 
-def run_bytes(samples: int, other_bytes: int = 0) -> int:
-    """Memory a run on ``samples`` complex range-profile samples takes, bytes
-    (:data:`RUN_BASE_BYTES` + :data:`RUN_BYTES_PER_SAMPLE` a sample), plus
+def run_bytes(samples: int, other_bytes: int = 0, array_axes: int = 1) -> int:
+    """Memory a run on ``samples`` complex range-profile samples of an array
+    with ``array_axes`` axes (1 linear, 2 planar) takes, bytes:
+    :data:`RUN_BASE_BYTES`, 16 bytes a sample times
+    ``SPECTRUM_COPIES * PAD ** array_axes + DATA_COPIES``, and
     ``other_bytes`` read beside them (axes, truth)."""
-    return RUN_BASE_BYTES + RUN_BYTES_PER_SAMPLE * int(samples) + int(other_bytes)
+    copies = SPECTRUM_COPIES * PAD ** int(array_axes) + DATA_COPIES
+    return RUN_BASE_BYTES + 16 * copies * int(samples) + int(other_bytes)
 
 
 def check_budget(need: int, limit: int, what: str) -> None:
