@@ -31,9 +31,10 @@ garbage       exit 0 on an input with a few corrupted samples whose result
 leftover      an interrupted run left a temporary file beside its output
 slow-refusal  refused after more than 2 s, or with a peak RSS above 4 x the
               input's bytes on disk + the base (the largest RSS of refusing
-              three tiny bad files: 10 bytes, an empty zip, an empty HDF5 file;
-              measured per command at the start, + 15 % for the modules a
-              refusal's path imports)
+              three tiny bad files: 10 bytes, an empty zip, an empty HDF5 file,
+              and a clean input with an out-of-range --config value, refused
+              once the engine is loaded; measured per command at the start,
+              + 15 % for the modules a refusal's path imports)
 slow-accept   exit 0 on a few-corrupted-samples input taking more than 2 x the
               median clean time of the same base and command, same run
 bad-refusal   exit 2 but not exactly one line on stderr besides warnings
@@ -194,6 +195,27 @@ def npz_bomb(path, arrays, key, shape, dtype, inflate):
 
 # ----------------------------------------------------------------- running
 
+def _group_hwm(pgid):
+    """Summed peak RSS (VmHWM, bytes) of the processes in group ``pgid``:
+    the peak of each process's own memory since its exec (wait4's
+    ru_maxrss would also count the harness's memory the child shared
+    between fork and exec)."""
+    total = 0
+    for name in os.listdir("/proc"):
+        if not name.isdigit():
+            continue
+        try:
+            if os.getpgid(int(name)) != pgid:
+                continue
+            with open(f"/proc/{name}/status") as f:
+                hwm = next((line for line in f if line.startswith("VmHWM:")), None)
+        except (OSError, ProcessLookupError):
+            continue
+        if hwm:
+            total += int(hwm.split()[1]) * 1024
+    return total
+
+
 def _group_rss(pgid):
     """Summed RSS (bytes) of the processes in process group ``pgid``."""
     total = 0
@@ -214,8 +236,8 @@ def _group_rss(pgid):
 
 def run_cli(argv, cwd, timeout, mem_cap, sigint_at=None):
     """``python -m rpm_cl argv`` in its own session; returns exit status
-    (negative: signal), wall time, peak RSS (the larger of wait4's ru_maxrss
-    and the polled group sum), stdout/stderr, and whether it was killed."""
+    (negative: signal), wall time, peak RSS (the group's summed VmHWM and
+    RSS, polled every 0.05 s), stdout/stderr, and whether it was killed."""
     env = dict(os.environ, MPLBACKEND="Agg", PYTHONUNBUFFERED="1")
     out, err = Path(cwd) / ".stdout", Path(cwd) / ".stderr"
     with open(out, "wb") as fo, open(err, "wb") as fe:
@@ -223,14 +245,14 @@ def run_cli(argv, cwd, timeout, mem_cap, sigint_at=None):
         p = subprocess.Popen([sys.executable, "-m", "rpm_cl", *argv], cwd=cwd, env=env,
                              stdin=subprocess.DEVNULL, stdout=fo, stderr=fe,
                              start_new_session=True)
-    peak, killed, sent, status, ru = 0, None, False, None, None
+    peak, killed, sent, status = 0, None, False, None
     while True:
-        pid, status, ru = os.wait4(p.pid, os.WNOHANG)
+        pid, status, _ = os.wait4(p.pid, os.WNOHANG)
         if pid:
             break
         now = time.perf_counter() - t0
         rss = _group_rss(p.pid)
-        peak = max(peak, rss)
+        peak = max(peak, rss, _group_hwm(p.pid))
         if sigint_at is not None and not sent and now >= sigint_at:
             _signal_group(p.pid, signal.SIGINT)
             sent = True
@@ -240,14 +262,13 @@ def run_cli(argv, cwd, timeout, mem_cap, sigint_at=None):
             killed = "memory"
         if killed:
             _signal_group(p.pid, signal.SIGKILL)
-            _, status, ru = os.wait4(p.pid, 0)
+            _, status, _ = os.wait4(p.pid, 0)
             break
-        time.sleep(0.1)
+        time.sleep(0.05)
     wall = time.perf_counter() - t0
     _signal_group(p.pid, signal.SIGKILL)        # workers left behind by the run
     rc = os.waitstatus_to_exitcode(status)
     p.returncode = rc
-    peak = max(peak, ru.ru_maxrss * 1024)
 
     def text(path):
         with open(path, "rb") as f:
@@ -1089,9 +1110,16 @@ def references(root, bases, timeout, mem_cap, repeats, commands, jobs):
              "das": ["das", "{}", "-o", str(rdir / "t.npz"), "--grid", GRID],
              "params": ["params", "{}"], "view": ["view", "{}", "--png", str(rdir / "t.png")],
              "batch": ["batch", "{}", "-o", str(rdir / "tb"), "--workers", "1"]}
+    # and a trivially bad request on a clean input, refused once the engine
+    # is loaded: an out-of-range parameter (view takes none)
+    bad_cfg = rdir / "bad.toml"
+    bad_cfg.write_text("[engine]\nprecision = \"float16\"\n")
     for cmd in commands:
         runs = [run_cli([a.format(t) for a in argvs[cmd]], rdir, timeout, mem_cap)
                 for t in tinies]
+        if cmd != "view":
+            runs.append(run_cli([a.format(bases.dir / RADAR[0]) for a in argvs[cmd]]
+                                + ["--config", str(bad_cfg)], rdir, timeout, mem_cap))
         ref["base_rss"][cmd] = BASE_SLACK * max(r["rss"] for r in runs)
         ref["base_wall"][cmd] = min(r["wall"] for r in runs)
     jobs_list = []
