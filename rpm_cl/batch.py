@@ -579,12 +579,25 @@ def _connect(workers: int, scheduler: str | None):
     from distributed import Client, LocalCluster
 
     if scheduler is None:
-        import warnings
+        import signal
+        import threading
 
-        with warnings.catch_warnings():  # "Port 8787 is already in use": another port is taken
-            warnings.filterwarnings("ignore", message="Port .* is already in use")
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None)
+        # the worker processes start with SIGINT ignored (an ignored signal
+        # stays ignored across exec, and Python then leaves it so): a
+        # terminal's Ctrl-C reaches the whole process group, and the driver,
+        # not each worker, ends the batch (workers caught in their start-up
+        # printed tracebacks).  The driver ignores it only while the cluster
+        # starts.
+        main = threading.current_thread() is threading.main_thread()
+        old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            with warnings.catch_warnings():  # "Port 8787 is already in use": another port is taken
+                warnings.filterwarnings("ignore", message="Port .* is already in use")
+                cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                       dashboard_address=None)
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, old)
         return Client(cluster), cluster
     try:
         return Client(scheduler, timeout="10s"), None

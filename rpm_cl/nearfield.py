@@ -464,6 +464,14 @@ def _explained_pairs(qm, qn, sp, algebra=None):
 DEGENERATE_DET = 1e-24
 
 
+def least_squares(*args, **kwargs):
+    """:func:`scipy.optimize.least_squares`, imported at the first call
+    (SciPy's optimize costs 0.2 s of import; :mod:`rpm_cl.lazy`)."""
+    from scipy.optimize import least_squares as solve
+
+    return solve(*args, **kwargs)
+
+
 def _pair_algebra(c, x, pm, pn, em):
     """Joint explained energy of every pair from its products (float64
     NumPy reference of the ``pair_energy`` kernel, kernels/nearfield.cl).
@@ -1036,8 +1044,6 @@ def _decompose_near_field(data, params, spectrum, env):
     lb = np.column_stack([th0[:, 0] - 0.2 * du, th0[:, 1] - f / 6, -inf]).ravel()
     ub = np.column_stack([th0[:, 0] + 0.2 * du, th0[:, 1] + f / 6, inf]).ravel()
     fit = _Polish(x, k0, t, s_c)
-    from scipy.optimize import least_squares
-
     sol = least_squares(fit.fun, th0.ravel(), jac=fit.jac, bounds=(lb, ub),
                         x_scale=np.tile([0.1 * du, 1e-3, 0.1], len(th0)),
                         max_nfev=POLISH_MAX_NFEV)
