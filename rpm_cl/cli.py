@@ -160,13 +160,7 @@ def _dask_time(text):
     return parse_timedelta(text, default="seconds")
 
 
-def _dask_bytes(text):
-    from dask.utils import parse_bytes
-
-    return parse_bytes(text)
-
-
-def _guard_bytes(text):
+def _bytes(text):
     from .guard import parse_bytes
 
     return parse_bytes(text)
@@ -174,10 +168,10 @@ def _guard_bytes(text):
 
 _frame_timeout = _positive_quantity(_dask_time, "frame timeout must be a time",
                                     "90, 90s, 10m, 1h", True)
-_frame_memory = _positive_quantity(_dask_bytes, "frame memory must be a size",
+_frame_memory = _positive_quantity(_bytes, "frame memory must be a size",
                                    "2G, 500MB, 1.5GiB", True)
-_memory_size = _positive_quantity(_guard_bytes, "a memory size must be a number of bytes",
-                                  "8G, 512M", False)
+_memory_size = _positive_quantity(_bytes, "a memory size must be a number of bytes",
+                                  "8G, 512MB, 1.5GiB", False)
 
 
 # --------------------------------------------------------------------------

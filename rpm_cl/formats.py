@@ -239,9 +239,6 @@ class _NpzSource:
             shape, _, dtype = self._checked_header(key, fh)
         return shape, np.dtype(dtype)
 
-    def stored(self, key):
-        return self.zf.getinfo(self.names[key]).compress_size
-
     def read(self, key):
         with self.zf.open(self.names[key]) as fh:
             self._checked_header(key, fh)
@@ -300,9 +297,6 @@ class _H5Source:
                 h5_chunks_bounded(ds, key)
                 self._bounded.add(key)
         return shape, dtype
-
-    def stored(self, key):
-        return h5_stored(self._ds(key))
 
     def read(self, key):
         self.shape_dtype(key)

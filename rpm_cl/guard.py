@@ -20,6 +20,7 @@ Every input file is treated as hostile until its headers say otherwise:
 from __future__ import annotations
 
 import os
+import re
 import stat
 
 import numpy as np
@@ -90,25 +91,30 @@ def fmt_bytes(n: float) -> str:
     return f"{int(n)} bytes"
 
 
+#: Units of :func:`parse_bytes`: decimal (k, M, G, T, optionally with B) and
+#: binary (KiB, MiB, GiB, TiB), case-insensitive; no unit means bytes.
+_BYTE_UNITS = {"": 1, "b": 1, "k": 1e3, "kb": 1e3, "m": 1e6, "mb": 1e6, "g": 1e9, "gb": 1e9,
+               "t": 1e12, "tb": 1e12, "kib": 2 ** 10, "mib": 2 ** 20, "gib": 2 ** 30,
+               "tib": 2 ** 40}
+
+
 def parse_bytes(text) -> int:
-    """A size in bytes from ``8e9``, ``8G``, ``512M``, ``64k`` (decimal units).
+    """A size in bytes from a number (``8e9``) or a number with a unit
+    (``8G``, ``512MB``, ``1.5GiB``; :data:`_BYTE_UNITS`).
 
     Raises
     ------
     InputError
         Not a positive size.
     """
-    s = str(text).strip()
-    scale = {"k": 1e3, "m": 1e6, "g": 1e9, "t": 1e12}.get(s[-1:].lower(), 1.0)
-    body = s[:-1] if scale != 1.0 else s
-    body = body[:-1] if scale != 1.0 and body[-1:].lower() == "b" else body
+    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*([A-Za-z]*)\s*", str(text))
     try:
-        value = float(body) * scale
-    except ValueError:
+        value = float(m.group(1)) * _BYTE_UNITS[m.group(2).lower()]
+    except (AttributeError, KeyError, ValueError):
         value = float("nan")
     if not (value >= 1 and value < 1e18):
-        raise InputError(f"a memory size must be a positive number of bytes (e.g. 8G, 512M), "
-                         f"got {text!r}")
+        raise InputError(f"a memory size must be a positive number of bytes (e.g. 8G, 512MB, "
+                         f"1.5GiB), got {text!r}")
     return int(value)
 
 

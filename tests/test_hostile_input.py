@@ -185,7 +185,11 @@ def test_memory_limit_sources(monkeypatch):
     monkeypatch.setenv("RPM_CL_MAX_MEMORY", "3G")
     assert guard.memory_limit() == 3 * 10**9
     assert guard.memory_limit("512M") == 512 * 10**6
-    for bad in ("0", "-1G", "abc", "nan", ""):
+    # the units --frame-memory takes too (one parser for both flags)
+    assert guard.parse_bytes("3GB") == 3 * 10**9
+    assert guard.parse_bytes("1.5GiB") == 3 * 2**29
+    assert guard.parse_bytes(8e9) == 8 * 10**9
+    for bad in ("0", "-1G", "abc", "nan", "", "5XB"):
         with pytest.raises(InputError, match="memory size"):
             guard.parse_bytes(bad)
 
