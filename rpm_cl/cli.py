@@ -286,6 +286,7 @@ def cmd_image(args) -> int:
     from .formats import RESULT_EXTENSIONS, check_output, load_data, save_result
     from .imaging import run_method
     from .metrics import summary
+    from .preprocess import shift_truth
 
     check_output(args.output, RESULT_EXTENSIONS, "result")
     data = load_data(args.input, frame=args.frame, range_window=args.range_window,
@@ -314,20 +315,11 @@ def cmd_image(args) -> int:
     print(f"{args.method}: {len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} "
           f"clusters -> {len(result.image.points)} points{dropped}, "
           f"{1e3 * result.timings['total']:.1f} ms; wrote {args.output}")
-    truth = _preprocessed_truth(data, params)
+    truth = shift_truth(data.truth, params.time_zero)   # as the method measured ranges
     if truth is not None:
         s = summary(result.rps, result.image, truth)
         print(_accuracy_line(s))
     return 0
-
-
-def _preprocessed_truth(data, params):
-    """The truth as the method saw it: a time zero moves its RP ranges."""
-    if data.truth is None or not params.time_zero:
-        return data.truth
-    from .imaging import _PREPROCESS, _preprocessed
-
-    return _preprocessed(data, **{k: getattr(params, k) for k in _PREPROCESS}).truth
 
 
 def cmd_params(args) -> int:
@@ -997,46 +989,23 @@ def _refuse_overwriting_inputs(args) -> None:
             refuse_overwrite(v, reads)
 
 
-def _oversized_member(path: str) -> str | None:
-    """The first ``.npy`` member of the ``.npz`` ``path`` whose header
-    declares more bytes than the member holds, as one line; else None."""
-    import zipfile
-
-    import numpy as np
-
-    with zipfile.ZipFile(path) as zf:
-        for info in zf.infolist():
-            if not info.filename.endswith(".npy"):
-                continue
-            with zf.open(info) as fh:
-                version = np.lib.format.read_magic(fh)
-                read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                        else np.lib.format.read_array_header_2_0)
-                shape, _, dtype = read(fh)
-                held = info.file_size - fh.tell()
-            declared = math.prod(int(n) for n in shape) * dtype.itemsize
-            if declared > held:
-                return (f"{path}: the header of {info.filename} declares {dtype} "
-                        f"{tuple(shape)}, {declared:.3g} bytes, where the member holds "
-                        f"{held}: the header is corrupt")
-    return None
-
-
 def _declared_too_large(args) -> str | None:
-    """After a MemoryError: a corrupt ``.npy`` header (one that declares an
-    array larger than its member) in an ``.npz`` the command reads, as one
-    line; None where there is none (the problem is too large)."""
-    import zipfile
+    """After a MemoryError: a member of an ``.npz`` or HDF5 file the command
+    reads whose header declares more than the file holds for it
+    (:func:`rpm_cl.formats.check_members`), as one line; None where there is
+    none (the problem is too large)."""
+    from .data import InputError
+    from .formats import check_members
 
     for name in _READS:
         v = getattr(args, name, None)
         for path in [v] if isinstance(v, str) else list(v or []):
             try:
-                line = _oversized_member(path) if zipfile.is_zipfile(path) else None
-            except Exception:  # noqa: BLE001 - unreadable: the plain out-of-memory line
-                line = None
-            if line:
-                return line
+                check_members(path, budget=False)
+            except InputError as exc:
+                return str(exc)
+            except Exception:  # noqa: BLE001, S110 - unreadable: the plain out-of-memory line
+                pass
     return None
 
 

@@ -337,7 +337,7 @@ def _open(path) -> tuple[str, object]:
     return path, src
 
 
-def check_members(path, keys, *, budget: bool = True, max_memory=None) -> dict:
+def check_members(path, keys=None, *, budget: bool = True, max_memory=None) -> dict:
     """Check the members ``keys`` of an ``.npz`` or HDF5 file from their
     headers, before a reader of that file reads them.
 
@@ -351,8 +351,9 @@ def check_members(path, keys, *, budget: bool = True, max_memory=None) -> dict:
     path : str or path-like
         A regular ``.npz`` / ``.h5`` / ``.hdf5`` file (any other extension is
         read as an ``.npz``).
-    keys : iterable of str
-        The members the reader uses; absent ones are skipped.
+    keys : iterable of str, optional
+        The members the reader uses; absent ones are skipped.  None: every
+        member.
 
     Returns
     -------
@@ -372,7 +373,9 @@ def check_members(path, keys, *, budget: bool = True, max_memory=None) -> dict:
         raise InputError(f"{path}: not a readable {'HDF5' if h5 else '.npz'} file "
                          f"({_oneline(exc)})") from None
     try:
-        found = _guarded(path, lambda: {k: src.shape_dtype(k) for k in keys if k in src})
+        found = _guarded(path, lambda: {k: src.shape_dtype(k)
+                                        for k in (src.keys() if keys is None else keys)
+                                        if k in src})
     finally:
         src.close()
     if budget:

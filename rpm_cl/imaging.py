@@ -24,6 +24,8 @@ import numpy as np
 from .data import InputError, RadarData
 from .kspace import KSpaceParams, decompose
 from .medium import Medium, seen_data
+from .preprocess import check as check_preprocess
+from .preprocess import preprocess
 from .rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
 from .rpm.neighbours import neighbour_lists
 from .rpm.reference import MS_DENSITY_T
@@ -226,9 +228,7 @@ class ImagingParams:
     max_range: float | None = None
 
     def __post_init__(self):
-        from .preprocess import check
-
-        check(self.background, self.time_zero, self.gain_db_per_m, self.max_range)
+        check_preprocess(self.background, self.time_zero, self.gain_db_per_m, self.max_range)
         if not (np.isfinite(self.rp_threshold_db) and self.rp_threshold_db < 0):
             raise InputError(f"rp_threshold_db must be < 0, got {self.rp_threshold_db}")
         if not (np.isfinite(self.reach_deg) and 0 < self.reach_deg <= 90):
@@ -300,7 +300,7 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     if unknown:
         raise InputError(f"unknown imaging parameter {unknown[0]!r}")
     medium = Medium(**{k: v for k, v in ov.items() if k in medium_names})
-    data = _preprocessed(data, **{k: v for k, v in ov.items() if k in _PREPROCESS})
+    data = preprocess(data, **{k: v for k, v in ov.items() if k in _PREPROCESS})
     seen = seen_data(data, medium)   # what the decomposition and RPM see
     r_echo = _strongest_range(seen)
     if arr.planar:
@@ -400,6 +400,11 @@ class Image:
     score: np.ndarray
     rp_index: np.ndarray
     multipath: np.ndarray | None = None
+
+    def keep(self, mask: np.ndarray) -> Image:
+        """The points where ``mask`` (bool, shape (M,)) holds, every column alike."""
+        return Image(self.points[mask], self.cluster[mask], self.score[mask],
+                     self.rp_index[mask], None if self.multipath is None else self.multipath[mask])
 
 
 @dataclass(frozen=True)
@@ -682,9 +687,7 @@ def _multipath(data: RadarData, rps: RangePoints, image: Image, mode: str,
                            medium if medium is not None and medium.half_space else None)
     if mode == "flag":
         return replace(image, multipath=flags)
-    keep = ~flags
-    return Image(image.points[keep], image.cluster[keep], image.score[keep],
-                 image.rp_index[keep])
+    return image.keep(~flags)
 
 
 def reach_angles(array, rps: RangePoints, image: Image) -> np.ndarray:
@@ -704,11 +707,7 @@ def in_reach(array, rps: RangePoints, image: Image, reach_deg: float) -> Image:
     if reach_deg >= 90 or image.points.shape[0] == 0:
         return image
     keep = reach_angles(array, rps, image) <= reach_deg
-    if keep.all():
-        return image
-    return Image(image.points[keep], image.cluster[keep], image.score[keep],
-                 image.rp_index[keep],
-                 None if image.multipath is None else image.multipath[keep])
+    return image if keep.all() else image.keep(keep)
 
 
 def _mf_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
@@ -748,12 +747,6 @@ DEFAULT_METHOD = "phase-rpm"
 _PREPROCESS = ("background", "time_zero", "gain_db_per_m", "max_range")
 
 
-def _preprocessed(data: RadarData, **settings) -> RadarData:
-    from .preprocess import preprocess
-
-    return preprocess(data, **settings)
-
-
 def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> ImageResult:
     """Run the method called ``name`` (a key of :data:`METHODS`).
 
@@ -781,7 +774,7 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
         fn = METHODS[name]
     except KeyError:
         raise InputError(f"unknown method {name!r}; choose from {', '.join(METHODS)}") from None
-    data = _preprocessed(data, **{k: getattr(params, k) for k in _PREPROCESS})
+    data = preprocess(data, **{k: getattr(params, k) for k in _PREPROCESS})
     if name in ("kspace-rpm", "phase-rpm"):
         _check_sidelobes(data, params.kspace.peak_threshold_db)
     medium = params.medium

@@ -31,7 +31,7 @@ import numpy as np
 
 from .data import InputError, RadarData
 
-__all__ = ["BACKGROUNDS", "preprocess"]
+__all__ = ["BACKGROUNDS", "preprocess", "shift_truth"]
 
 #: Background removals: none, the mean profile, the median profile.
 BACKGROUNDS = ("none", "mean", "median")
@@ -99,7 +99,12 @@ def preprocess(data: RadarData, background: str = "none", time_zero: float = 0.0
         # imagers normalise amplitudes; a large gain cannot overflow)
         ref = rng[-1] if gain_db_per_m > 0 else rng[0]
         s *= (10.0 ** (gain_db_per_m * (rng - ref) / 20.0)).astype(s.real.dtype)
-    truth = data.truth
-    if truth is not None and truth.has_rps and time_zero:
-        truth = replace(truth, rp_range=truth.rp_range - time_zero)
-    return replace(data, signal=s, range=rng, truth=truth)
+    return replace(data, signal=s, range=rng, truth=shift_truth(data.truth, time_zero))
+
+
+def shift_truth(truth, time_zero: float):
+    """``truth`` (:class:`rpm_cl.data.Truth` or None) with its RP ranges
+    measured from ``time_zero``, m, as :func:`preprocess` measures ranges."""
+    if truth is None or not truth.has_rps or not time_zero:
+        return truth
+    return replace(truth, rp_range=truth.rp_range - time_zero)

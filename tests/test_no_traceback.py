@@ -155,6 +155,23 @@ def test_corrupt_header_is_not_out_of_memory(tmp_path, capsys):
     assert "signal" in err and "header is corrupt" in err, err
 
 
+def test_memory_error_names_a_corrupt_member(tmp_path):
+    """Where a MemoryError escapes a reader, main() looks at the inputs'
+    headers (rpm_cl.formats.check_members): a member declaring more than it
+    holds is named, sound inputs leave the plain out-of-memory line."""
+    import argparse
+
+    from rpm_cl import cli
+
+    bad = _with_header_shape(tmp_path / "bad.npz", _time_domain(), "signal",
+                             (21, 12_000_000_000_000))
+    line = cli._declared_too_large(argparse.Namespace(input=bad))
+    assert line is not None and "signal" in line and "header is corrupt" in line
+    good = tmp_path / "good.npz"
+    np.savez(good, **_time_domain())
+    assert cli._declared_too_large(argparse.Namespace(input=str(good))) is None
+
+
 # --- Ctrl-C during start-up -----------------------------------------------------
 _CHILD = ("import sys; sys.stderr.write('up\\n'); sys.stderr.flush(); "
           "from rpm_cl.cli import main; sys.exit(main())")
