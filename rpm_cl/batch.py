@@ -384,6 +384,13 @@ def _marker(out_dir: str, src: FrameSource) -> str:
     return os.path.join(out_dir, f".{src.name}.limit")
 
 
+def _clear_markers(out_dir: str, sources) -> None:
+    """Remove the limit markers (:func:`_marker`) of ``sources``."""
+    for s in sources:
+        if os.path.exists(_marker(out_dir, s)):
+            os.remove(_marker(out_dir, s))
+
+
 def _limit_failure(out_dir: str, src: FrameSource, config: BatchConfig) -> str | None:
     """The reason ``src`` was stopped by a limit (its marker), or None; the
     frame's outputs and temporary files are removed.  The marker stays until
@@ -433,59 +440,57 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
     watchdog = engine.watchdog()
     # the frame's DataWarnings come back with its record, for the driver to
     # print (a worker's own stderr is no place for them); one thread per worker
-    catcher = warnings.catch_warnings(record=True)
-    caught = catcher.__enter__()
-    warnings.simplefilter("always", DataWarning)
-    try:
-        env, rpm, das, setup_s = engine.get()
-        rec.update(device=env.name, setup_s=setup_s)
-        if watchdog is not None:
-            memory = config.frame_memory
-            watchdog.arm(_marker(out_dir, src), config.frame_timeout,
-                         engine.default_frame_memory if memory is None else memory)
-        t0 = time.perf_counter()
-        data = _load_frame(src.path, src.frame)
-        timings = {"load": time.perf_counter() - t0}
-        params = resolve(data, dict(config.overrides))
-        grid = config.grid()
-        if grid is not None and grid.dim != data.array.dim:
-            raise InputError(f"{src.path}: --das-grid has {grid.dim} axes; this array needs "
-                             f"{data.array.dim}")
-        result = run_method(config.method, data, params, rpm)
-        timings.update({k: v for k, v in result.timings.items() if k != "total"})
-        meta = {"version": __version__, "device": env.name, "precision": config.precision,
-                "input": src.path, "frame": src.frame, "params": asdict(params)}
-        if data.truth is not None and data.truth.scene not in ("", "{}"):
-            import json
-
-            meta["scene"] = json.loads(data.truth.scene)
-        if grid is not None:
-            from .das import write_image
-
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", DataWarning)
+        try:
+            env, rpm, das, setup_s = engine.get()
+            rec.update(device=env.name, setup_s=setup_s)
+            if watchdog is not None:
+                memory = config.frame_memory
+                watchdog.arm(_marker(out_dir, src), config.frame_timeout,
+                             engine.default_frame_memory if memory is None else memory)
             t0 = time.perf_counter()
-            img, mode = engine.das_image(das, data, grid, params.medium)
-            timings["das"] = time.perf_counter() - t0
-            rec["das_mode"] = mode
+            data = _load_frame(src.path, src.frame)
+            timings = {"load": time.perf_counter() - t0}
+            params = resolve(data, dict(config.overrides))
+            grid = config.grid()
+            if grid is not None and grid.dim != data.array.dim:
+                raise InputError(f"{src.path}: --das-grid has {grid.dim} axes; this array needs "
+                                 f"{data.array.dim}")
+            result = run_method(config.method, data, params, rpm)
+            timings.update({k: v for k, v in result.timings.items() if k != "total"})
+            meta = {"version": __version__, "device": env.name, "precision": config.precision,
+                    "input": src.path, "frame": src.frame, "params": asdict(params)}
+            if data.truth is not None and data.truth.scene not in ("", "{}"):
+                import json
 
-            def fill(out):
-                out[...] = img
+                meta["scene"] = json.loads(data.truth.scene)
+            if grid is not None:
+                from .das import write_image
 
+                t0 = time.perf_counter()
+                img, mode = engine.das_image(das, data, grid, params.medium)
+                timings["das"] = time.perf_counter() - t0
+                rec["das_mode"] = mode
+
+                def fill(out):
+                    out[...] = img
+
+                t0 = time.perf_counter()
+                write_image(os.path.join(out_dir, f"{src.name}_das.npz"), grid, fill, img.dtype,
+                            {**meta, "method": "das", "das_mode": mode, "grid": config.das_grid})
+                timings["save"] = time.perf_counter() - t0
             t0 = time.perf_counter()
-            write_image(os.path.join(out_dir, f"{src.name}_das.npz"), grid, fill, img.dtype,
-                        {**meta, "method": "das", "das_mode": mode, "grid": config.das_grid})
-            timings["save"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        # written last: its presence marks the frame done (see _outputs)
-        save_result(os.path.join(out_dir, f"{src.name}.npz"), result, meta)
-        timings["save"] = timings.get("save", 0.0) + time.perf_counter() - t0
-        timings["total"] = time.perf_counter() - t_start - setup_s
-        rec.update(status="done", timings=timings, points=len(result.image.points))
-    except Exception as exc:  # noqa: BLE001 - the frame's failure is recorded; the batch goes on
-        rec.update(status="failed", error=_error_line(exc))
-    finally:
-        catcher.__exit__(None, None, None)
-        if watchdog is not None:
-            watchdog.disarm()
+            # written last: its presence marks the frame done (see _outputs)
+            save_result(os.path.join(out_dir, f"{src.name}.npz"), result, meta)
+            timings["save"] = timings.get("save", 0.0) + time.perf_counter() - t0
+            timings["total"] = time.perf_counter() - t_start - setup_s
+            rec.update(status="done", timings=timings, points=len(result.image.points))
+        except Exception as exc:  # noqa: BLE001 - the frame's failure is recorded; the batch goes on
+            rec.update(status="failed", error=_error_line(exc))
+        finally:
+            if watchdog is not None:
+                watchdog.disarm()
     rec["warnings"] = [" ".join(str(w.message).split()) for w in caught
                        if issubclass(w.category, DataWarning)]
     for w in caught:   # the others go where they went without the capture
@@ -654,9 +659,7 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
     todo = [s for s in sources
             if not all(os.path.isfile(p) for p in _outputs(out_dir, s, config))]
     skipped = len(sources) - len(todo)
-    for s in sources:  # a run stopped while a limit's report was on its way
-        if os.path.exists(_marker(out_dir, s)):
-            os.remove(_marker(out_dir, s))
+    _clear_markers(out_dir, sources)   # a run stopped while a limit's report was on its way
     cluster = None
     own = client is None and bool(todo)  # nothing to do: no cluster started
     if own:
@@ -698,9 +701,7 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
             client.close()
             if cluster is not None:
                 cluster.close()
-    for s in todo:  # the limits' reports, read into the records
-        if os.path.exists(_marker(out_dir, s)):
-            os.remove(_marker(out_dir, s))
+    _clear_markers(out_dir, todo)   # the limits' reports, read into the records
     done = [r for r in records if r["status"] == "done"]
     failed = sorted(({k: r[k] for k in ("frame", "input", "error")}
                      for r in records if r["status"] != "done"), key=lambda r: r["frame"])
