@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .data import C0, InputError, RadarData
+from .guard import fmt_bytes
 
 __all__ = ["GRID_COORD_MAX", "MEMORY_BUDGET_DEFAULT", "DASPlan", "DeviceDAS", "Grid",
            "check_disk", "check_float32_range", "das_adjoint", "das_numpy", "image_points",
@@ -540,14 +541,6 @@ def image_points(image: np.ndarray, grid: Grid, threshold_db: float = -10.0,
     return pts
 
 
-def _size_text(n: float) -> str:
-    """Bytes as a short text: '3.2 GB', '41 MB', '12 kB'."""
-    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
-        if n >= scale:
-            return f"{n / scale:.3g} {unit}"
-    return f"{n:.0f} B"
-
-
 def check_disk(path: str, folder: str, grid, dtype, copies: float = 2.0) -> None:
     """Refuse, before any work, an image that cannot be written: it needs
     ``copies`` times its size on disk while written (a memory map, then the
@@ -563,8 +556,8 @@ def check_disk(path: str, folder: str, grid, dtype, copies: float = 2.0) -> None
     need = copies * grid.size * np.dtype(dtype).itemsize
     free = _free_bytes(folder)
     if free is not None and 1.1 * need > free:
-        raise InputError(f"{path}: the image needs {_size_text(need)} of disk while written, "
-                         f"{_size_text(free)} free")
+        raise InputError(f"{path}: the image needs {fmt_bytes(need)} of disk while written, "
+                         f"{fmt_bytes(free)} free")
 
 
 def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = None) -> None:

@@ -28,7 +28,7 @@ import numpy as np
 from .data import InputError
 
 __all__ = ["BOMB_MIN_BYTES", "BOMB_RATIO", "RUN_BASE_BYTES",
-           "check_declared", "h5_chunks_bounded", "h5_dataset", "h5_has", "h5_inside",
+           "check_declared", "fmt_bytes", "h5_chunks_bounded", "h5_dataset", "h5_has", "h5_inside",
            "h5_resolve", "memory_limit", "parse_bytes",
            "regular_file", "run_bytes"]
 
@@ -84,11 +84,11 @@ def regular_file(path, what: str = "input") -> str:
 
 
 def fmt_bytes(n: float) -> str:
-    """``n`` bytes as a short decimal figure (``3.3 GB``)."""
+    """``n`` bytes as a short decimal figure: '3.2 GB', '41 MB', '12 kB', '7 B'."""
     for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
         if n >= scale:
             return f"{n / scale:.3g} {unit}"
-    return f"{int(n)} bytes"
+    return f"{n:.0f} B"
 
 
 #: Units of :func:`parse_bytes`: decimal (k, M, G, T, optionally with B) and
