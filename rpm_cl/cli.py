@@ -482,6 +482,7 @@ def cmd_das(args) -> int:
 
     from .das import DeviceDAS, das_numpy, parse_grid
     from .formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
+    from .hyperbola import check_medium
     from .progress import callback
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
@@ -493,6 +494,7 @@ def cmd_das(args) -> int:
         raise CLIError(f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
                        f" array needs {data.array.dim} (x, y{', z' if data.array.planar else ''})")
     medium = _medium(args)
+    check_medium(data, medium)
     budget = args.memory_budget * 1e9
     n_bp = grid.size * data.array.n
     timing = {}
@@ -543,6 +545,7 @@ def cmd_rma(args) -> int:
 
     from .das import Grid
     from .formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
+    from .hyperbola import check_medium
     from .rma import rma_image
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
@@ -552,6 +555,7 @@ def cmd_rma(args) -> int:
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
     medium = _medium(args)
+    check_medium(data, medium)
     t0 = time.perf_counter()
     img, x, y = rma_image(data, upsample_x=args.upsample_x, y_min=args.y_min, y_max=args.y_max,
                           medium=medium)

@@ -22,6 +22,7 @@ from typing import Literal
 import numpy as np
 
 from .data import InputError, RadarData
+from .hyperbola import check_medium
 from .kspace import KSpaceParams, decompose
 from .medium import Medium, seen_data
 from .preprocess import check as check_preprocess
@@ -753,6 +754,9 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
     Warns
     -----
     DataWarning
+        When the echoes' hyperbolas fit another permittivity than
+        ``params.medium`` (:func:`rpm_cl.hyperbola.check_medium`).
+    DataWarning
         ``kspace-rpm`` and ``phase-rpm`` (the k-space decomposition's
         methods) on data whose range sidelobes
         (``data.range_sidelobe_db``, known for a compressed spectrum) reach
@@ -778,6 +782,7 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
     if name in ("kspace-rpm", "phase-rpm"):
         _check_sidelobes(data, params.kspace.peak_threshold_db)
     medium = params.medium
+    check_medium(data, medium)
     # in a medium the method runs on the scene of rpm_cl.medium.seen_data
     # (in air: ``data`` itself)
     result = fn(seen_data(data, medium), params, engine)
