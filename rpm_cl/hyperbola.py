@@ -211,7 +211,7 @@ def fit_eps_r(positions, rps, medium: Medium | None = None) -> tuple[float, int]
     cl = np.asarray(rps.cluster)
     if cl.size == 0:
         return float("nan"), 0
-    ids, start, count = np.unique(cl, return_index=True, return_counts=True)
+    _, start, count = np.unique(cl, return_index=True, return_counts=True)
     order = np.argsort(count)[::-1]
     order = order[count[order] >= MIN_RPS][:MAX_TRACKS]
     pos_all = np.asarray(positions, np.float64)[np.asarray(rps.antenna)]

@@ -9,13 +9,12 @@ import warnings
 
 import numpy as np
 import pytest
+from test_medium import H, X, _ranges, _spectrum_data
 
 from rpm_cl.data import DataWarning
 from rpm_cl.hyperbola import check_medium, fit_eps_r, track_eps_r, tracks
 from rpm_cl.medium import Medium
 from rpm_cl.rangepoints import RangePoints
-
-from test_medium import H, X, _ranges, _spectrum_data
 
 #: two point targets whose echoes lie more than two Hann range resolutions of
 #: 1-3 GHz (0.15 m) apart at every antenna, in air and in any material:
