@@ -1171,7 +1171,7 @@ def write_volume(path, grid, fill, dtype=np.complex64, meta: dict | None = None)
     meta : dict, optional
         Stored as JSON (``meta``).
     """
-    from .das import check_disk, write_image
+    from .images import check_disk, write_image
 
     path = os.fspath(path)
     ext = _need_ext(path, VOLUME_EXTENSIONS, "image")

@@ -172,6 +172,7 @@ import numpy as np
 from .blas import one_blas_thread
 from .data import InputError
 from .nearfield_cl import device_for
+from .types import Cluster, Decomposition
 
 __all__ = ["decompose_near_field", "near_field_wanted"]
 
@@ -1016,8 +1017,6 @@ def decompose_near_field(data, params, spectrum, env=None):
 
 
 def _decompose_near_field(data, params, spectrum, env):
-    from .kspace import Cluster, Decomposition
-
     mag, k_axes = spectrum
     if data.array.planar or data.array.n < 4:
         raise InputError("the near-field decomposition needs a linear array of at least 4 antennas")

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .data import InputError, RadarData
-from .kspace import Decomposition
+from .types import Decomposition
 
 __all__ = ["RangePoints", "profile_peaks", "rps_from_decomposition", "rps_from_profiles"]
 
