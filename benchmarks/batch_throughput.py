@@ -8,7 +8,7 @@ Usage::
         [--workers 1 2] [--scene paper-2d --scene human-body] [--das]
 
 For each scene, K frames are simulated with different noise seeds (S/N 20 dB)
-into a temporary folder, then imaged by :func:`rpm_cl.batch.run_batch` on an
+into a temporary folder, then imaged by :func:`rpm_cl.cli.batch.run_batch` on an
 embedded LocalCluster of 1 and 2 workers (cluster start not counted; worker
 setup, i.e. context and program build, counted in frames/s since every batch
 pays it once per worker).  Columns:
@@ -34,8 +34,8 @@ import time
 
 import numpy as np
 
-from rpm_cl.batch import BatchConfig, run_batch
-from rpm_cl.data import save_npz
+from rpm_cl.cli.batch import BatchConfig, run_batch
+from rpm_cl.io.data import save_npz
 from rpm_cl.simulate import simulate_preset
 
 # DAS grids of --das: the 2-D image and the human body's y = 1 m section (3 mm)
@@ -46,7 +46,7 @@ _COLD = r"""
 import json, sys, time
 t0 = time.perf_counter()
 from rpm_cl.cl import create_env
-from rpm_cl.data import load_npz
+from rpm_cl.io.data import load_npz
 from rpm_cl.imaging import default_params, run_method, save_result
 from rpm_cl.rpm import DeviceRPM
 t1 = time.perf_counter()

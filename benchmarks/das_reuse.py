@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
+from rpm_cl.baselines.das import DASPlan, DeviceDAS, das_numpy, parse_grid
 from rpm_cl.cl import create_env
-from rpm_cl.das import DASPlan, DeviceDAS, das_numpy, parse_grid
-from rpm_cl.data import InputError
+from rpm_cl.io.data import InputError
 from rpm_cl.simulate import simulate_preset
 
 SECTION = "-1:1:0.003,1.0:1.0:0.003,0:2:0.003"

@@ -10,7 +10,7 @@ Writes ``tests/data/gprmax_halfspace/``:
   surface's own reflection, leaving the rods' echoes);
 - ``scene.json``: the geometry (rod centres and radii, the surface, the
   permittivity, the antenna height), the scan positions, the waveform and the
-  FDTD settings and run times; ``rpm_cl.gprmax.read_sidecar`` reads it.
+  FDTD settings and run times; ``rpm_cl.io.gprmax.read_sidecar`` reads it.
 
 The model
 ---------

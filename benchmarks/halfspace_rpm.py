@@ -1,7 +1,7 @@
 """RPM, DAS and RMA above a dielectric half-space: the error of each approximation
 against the exact (Fermat) geometry, and the gprMax half-space fixture.
 
-Part 1, geometry (``rpm_cl.halfspace``): range points with the exact
+Part 1, geometry (``rpm_cl.rpm.halfspace``): range points with the exact
 refracted ranges of point targets (optionally with Gaussian range noise),
 imaged by the half-space RPM with its steps switched on one by one:
 
@@ -41,9 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
+from rpm_cl.extract.rangepoints import RangePoints
 from rpm_cl.imaging import RPMParams, rpm_image
-from rpm_cl.medium import Medium, one_way
-from rpm_cl.rangepoints import RangePoints
+from rpm_cl.io.medium import Medium, one_way
 
 DATA = Path(__file__).resolve().parent.parent / "tests" / "data" / "gprmax_halfspace"
 EPS, H = 6.0, 0.08
@@ -84,7 +84,7 @@ def row(label, points, tg):
 
 
 def part_geometry(engine, noise, seed):
-    from rpm_cl.halfspace import halfspace_rpm
+    from rpm_cl.rpm.halfspace import halfspace_rpm
 
     rng = np.random.default_rng(seed)
     print("Part 1: exact refracted RPs (eps_r 6, antennas 0.08 m above the surface); "
@@ -112,12 +112,12 @@ def part_geometry(engine, noise, seed):
 def part_fixture(engine, das_grid="0.2:0.75:0.002,0.08:0.42:0.002"):
     import tempfile
 
-    import rpm_cl.medium as M
-    from rpm_cl import gprmax as G
-    from rpm_cl.das import das_numpy, parse_grid
-    from rpm_cl.formats import load_data
+    import rpm_cl.io.medium as M
+    from rpm_cl.baselines.das import das_numpy, parse_grid
+    from rpm_cl.baselines.rma import image_peaks
     from rpm_cl.imaging import METHODS, default_params, run_method
-    from rpm_cl.rma import image_peaks
+    from rpm_cl.io import gprmax as G
+    from rpm_cl.io.formats import load_data
 
     scene = json.loads((DATA / "scene.json").read_text())
     ys = scene["scan"]["y"]

@@ -28,10 +28,10 @@ def main():
     code = r"""
 import numpy as np
 from rpm_cl.cl import create_env
-from rpm_cl.das import DeviceDAS, Grid
+from rpm_cl.baselines.das import DeviceDAS, Grid
 from rpm_cl.imaging import default_params, run_method
 from rpm_cl.rpm import DeviceRPM
-from rpm_cl.scene import get_preset
+from rpm_cl.simulate.scene import get_preset
 from rpm_cl.simulate import simulate
 env = create_env()
 for name in ("paper-2d", "human-body"):

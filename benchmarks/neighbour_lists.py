@@ -20,9 +20,9 @@ import time
 import numpy as np
 from pareto import body_on_array  # benchmarks/pareto.py, beside this script
 
+from rpm_cl.extract.kspace import decompose
+from rpm_cl.extract.rangepoints import rps_from_decomposition
 from rpm_cl.imaging import _prepare
-from rpm_cl.kspace import decompose
-from rpm_cl.rangepoints import rps_from_decomposition
 from rpm_cl.rpm import neighbours
 
 

@@ -21,8 +21,8 @@ import numpy as np
 
 from rpm_cl.imaging import default_params, run_method
 from rpm_cl.metrics import summary
-from rpm_cl.scene import get_preset
 from rpm_cl.simulate import simulate
+from rpm_cl.simulate.scene import get_preset
 
 
 def main():

@@ -30,12 +30,12 @@ import numpy as np
 from exhaustive_3d import TIE_REL, exhaustive_image, exhaustive_ties, same_or_tied
 
 from rpm_cl.cl import create_env
-from rpm_cl.data import Array
 from rpm_cl.imaging import default_params, timed_run
+from rpm_cl.io.data import Array
 from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
-from rpm_cl.scene import HUMAN_BODY_ARRAY_Z, get_preset
 from rpm_cl.simulate import simulate, simulate_preset
+from rpm_cl.simulate.scene import HUMAN_BODY_ARRAY_Z, get_preset
 
 #: The default's row: list (meanshift_neighbours on the body), mean-shift
 #: steps, pair_cutoff, window (rad/m), precision; checked against the defaults.

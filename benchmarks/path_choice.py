@@ -8,7 +8,7 @@ For one point target and one 50 mm circle at 0.8 m, 0 to 65 degrees off
 broadside, S/N 20 dB (seed 0), images each scene through both decompositions
 (``near_field=True`` and ``False``) and prints the RPs found, RP <= 10 mm and
 RPM <= 50 mm, with the path the default (``near_field=None``,
-:func:`rpm_cl.nearfield.near_field_wanted`) takes and the aperture in range
+:func:`rpm_cl.extract.nearfield.near_field_wanted`) takes and the aperture in range
 resolutions.  The near-field model holds while the aperture is at most about
 one range resolution; beyond, the plane-wave path's range-walk alignment
 separates the aliases.
@@ -20,13 +20,13 @@ from dataclasses import replace
 import numpy as np
 
 from rpm_cl.cl import create_env
-from rpm_cl.data import Array, Waveform
+from rpm_cl.extract.nearfield import near_field_wanted
 from rpm_cl.imaging import default_params, run_method
+from rpm_cl.io.data import Array, Waveform
 from rpm_cl.metrics import summary
-from rpm_cl.nearfield import near_field_wanted
 from rpm_cl.rpm import DeviceRPM
-from rpm_cl.scene import Ellipsoid, PointTarget, Scene
 from rpm_cl.simulate import simulate
+from rpm_cl.simulate.scene import Ellipsoid, PointTarget, Scene
 
 
 def figures(data, near_field, engine):

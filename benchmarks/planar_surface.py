@@ -22,10 +22,10 @@ import numpy as np
 
 
 def _make(path):
-    from rpm_cl.data import Array, Waveform
-    from rpm_cl.formats import save_data
-    from rpm_cl.scene import Ellipsoid, Scene
+    from rpm_cl.io.data import Array, Waveform
+    from rpm_cl.io.formats import save_data
     from rpm_cl.simulate import simulate
+    from rpm_cl.simulate.scene import Ellipsoid, Scene
 
     x = (np.arange(187) - 93) * 3e-3
     z = (np.arange(144) - 71.5) * 3e-3

@@ -2,7 +2,7 @@
 
 No real capture can be downloaded here, so each file is built byte by byte
 to its documented layout (the layouts are in the readers' docstrings:
-``rpm_cl/mapped.py``, ``rpm_cl/dzt.py``, ``rpm_cl/dca1000.py``), with one
+``rpm_cl/io/mapped.py``, ``rpm_cl/io/dzt.py``, ``rpm_cl/io/dca1000.py``), with one
 point target at a known place, so that the tests know where its echo must
 land:
 
@@ -108,7 +108,7 @@ def write_mat_v73(path, arrays: dict) -> None:
 def dzt_header(samples: int, bits: int, window: float, spm: float, antenna: str,
                channels: int = 1, zero: int | None = None, tag: int = 0x00FF,
                rh_data: int = 1024, sps: float = 64.0, epsr: float = 1.0) -> bytes:
-    """One 1024-byte DZT channel header (``rpm_cl/dzt.py``'s table); the
+    """One 1024-byte DZT channel header (``rpm_cl/io/dzt.py``'s table); the
     binary offset defaults to 0x80 / 0x8000 for 8 / 16 bits, 0 for 32."""
     if zero is None:
         zero = {8: 0x80, 16: 0x8000, 32: 0}[bits]
@@ -182,7 +182,7 @@ def dca_if(real: bool = False) -> np.ndarray:
 
 def dca_values(z: np.ndarray, layout: str) -> np.ndarray:
     """Samples (..., receivers, samples) of whole chirps -> the int16 stream
-    of the layout (``rpm_cl/dca1000.py``)."""
+    of the layout (``rpm_cl/io/dca1000.py``)."""
     z = np.asarray(z)
     rx, n = z.shape[-2:]
     z = z.reshape(-1, rx, n)

@@ -6,7 +6,7 @@ Usage::
                                         [--device SPEC] [--precision float32]
 
 Two parts, k-space RPM with the near-field decomposition (the default on
-this array, ``rpm_cl.nearfield``), all measured in one run:
+this array, ``rpm_cl.extract.nearfield``), all measured in one run:
 
 1. The paper's sparse case (``paper-2d-sparse``: 21 antennas at 20 mm, 600
    range gates, three point targets, 20 GHz, 0.2 GHz): the noise-free
@@ -38,8 +38,8 @@ from rpm_cl.cl import create_env
 from rpm_cl.imaging import default_params, run_method
 from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
-from rpm_cl.scene import PointTarget, Scene, get_preset
 from rpm_cl.simulate import simulate
+from rpm_cl.simulate.scene import PointTarget, Scene, get_preset
 
 KEYS = ("rp_within_10mm", "rp_total", "rpm_within_50mm", "rpm_within_100mm", "rpm_total")
 

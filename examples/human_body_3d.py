@@ -14,8 +14,8 @@ from scipy.spatial import cKDTree
 from rpm_cl.cl import create_env
 from rpm_cl.imaging import default_params, run_method
 from rpm_cl.rpm import DeviceRPM
-from rpm_cl.scene import HUMAN_BODY_PARTS, Scene, boundary_samples, get_preset
 from rpm_cl.simulate import simulate
+from rpm_cl.simulate.scene import HUMAN_BODY_PARTS, Scene, boundary_samples, get_preset
 
 
 def main(quick=False, snr_db=20.0, seed=0, png=None):
@@ -48,7 +48,7 @@ def main(quick=False, snr_db=20.0, seed=0, png=None):
         import tempfile
 
         from rpm_cl.imaging import save_result
-        from rpm_cl.view import view
+        from rpm_cl.viz.view import view
 
         with tempfile.TemporaryDirectory() as tmp:
             out = os.path.join(tmp, "body.npz")

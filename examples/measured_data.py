@@ -15,8 +15,8 @@ import sys
 
 import numpy as np
 
-from rpm_cl.cl import create_env
 from rpm_cl import load_data
+from rpm_cl.cl import create_env
 from rpm_cl.imaging import default_params, run_method, save_result
 from rpm_cl.rpm import DeviceRPM
 

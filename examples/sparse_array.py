@@ -10,11 +10,11 @@ import sys
 
 import numpy as np
 
+from rpm_cl.baselines.das import DeviceDAS, Grid
+from rpm_cl.baselines.rma import image_peaks, rma_image
 from rpm_cl.cl import create_env
-from rpm_cl.das import DeviceDAS, Grid
 from rpm_cl.imaging import default_params, run_method
 from rpm_cl.metrics import summary
-from rpm_cl.rma import image_peaks, rma_image
 from rpm_cl.rpm import DeviceRPM
 from rpm_cl.simulate import simulate_preset
 
@@ -54,7 +54,7 @@ def main(quick=False, png=None):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from rpm_cl.figures import Comparison, draw_compare
+        from rpm_cl.viz.figures import Comparison, draw_compare
 
         fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
         c = Comparison(rpm.image.points, rpm.image.cluster, grid, das, data.truth.boundary,

@@ -39,7 +39,7 @@
  * operators, conversions and swizzles, and VSQRT (simd.h), which is the AVX
  * instruction on x86 and sqrt elsewhere.
  *
- * NumPy reference: rpm_cl.das.das_numpy (float64).
+ * NumPy reference: rpm_cl.baselines.das.das_numpy (float64).
  */
 #include "real.h"
 #include "simd.h"

@@ -1,4 +1,4 @@
-/* Explained energy of the near-field search's pair scans (rpm_cl.nearfield).
+/* Explained energy of the near-field search's pair scans (rpm_cl.extract.nearfield).
  *
  * Maths. Candidates m (ni of them) and n (nj) each have an orthonormal basis
  * of two projected atoms, Qm and Qn (N x 2).  With C = Qm^H Qn, the
@@ -10,7 +10,7 @@
  * (block elimination of the joint Gram matrix [[I, C], [C^H, I]]).  D =
  * I - C^H C is regularised by 1e-12 of its trace; tr(D^-1 Y) =
  * tr(adj(D) Y) / det(D), and 0 where det(D) <= DEGENERATE_DET (a build
- * option, rpm_cl.nearfield.DEGENERATE_DET: a pair whose atoms span fewer
+ * option, rpm_cl.extract.nearfield.DEGENERATE_DET: a pair whose atoms span fewer
  * than four dimensions, where det and tr are both rounding noise).
  *
  * The host computes the products over the antennas and gates with BLAS:
@@ -20,7 +20,7 @@
  *
  * Work-item mapping: a 2-D range (nj, ni), one work-item per pair (j, i);
  * out (ni, nj) row-major; straight-line code, no loops.
- * NumPy reference: rpm_cl.nearfield._pair_algebra.
+ * NumPy reference: rpm_cl.extract.nearfield._pair_algebra.
  */
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 

@@ -13,16 +13,16 @@ import types as _types
 #: ``import rpm_cl`` (and so the ``rpm-cl`` command's start-up, before its
 #: Ctrl-C handler exists) loads neither NumPy nor OpenCL.
 _WHERE = {
-    "METHODS": "imaging", "Array": "data", "CLEnv": "cl", "DataWarning": "data",
-    "DeviceRPM": "rpm", "Ellipsoid": "scene", "ImagingParams": "imaging",
-    "InputError": "data", "KSpaceParams": "kspace", "Medium": "medium",
-    "NoOpenCLError": "cl", "PointTarget": "scene", "RPMParams": "imaging",
-    "RadarData": "data", "Scene": "scene", "Truth": "data", "Waveform": "data",
-    "create_env": "cl", "decompose": "kspace", "default_params": "imaging",
-    "err_range": "metrics", "err_rpm": "metrics", "frame_count": "formats",
-    "get_preset": "scene", "list_devices": "cl", "load_data": "formats",
-    "load_npz": "data", "range_compress": "formats", "run_method": "imaging",
-    "save_data": "formats", "save_npz": "data", "save_result": "formats",
+    "METHODS": "imaging", "Array": "io.data", "CLEnv": "cl", "DataWarning": "io.data",
+    "DeviceRPM": "rpm", "Ellipsoid": "simulate.scene", "ImagingParams": "imaging",
+    "InputError": "io.data", "KSpaceParams": "extract.kspace", "Medium": "io.medium",
+    "NoOpenCLError": "cl", "PointTarget": "simulate.scene", "RPMParams": "imaging",
+    "RadarData": "io.data", "Scene": "simulate.scene", "Truth": "io.data", "Waveform": "io.data",
+    "create_env": "cl", "decompose": "extract.kspace", "default_params": "imaging",
+    "err_range": "metrics", "err_rpm": "metrics", "frame_count": "io.formats",
+    "get_preset": "simulate.scene", "list_devices": "cl", "load_data": "io.formats",
+    "load_npz": "io.data", "range_compress": "io.formats", "run_method": "imaging",
+    "save_data": "io.formats", "save_npz": "io.data", "save_result": "io.formats",
     "simulate": "simulate", "simulate_preset": "simulate", "summary": "metrics",
 }
 

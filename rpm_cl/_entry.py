@@ -23,7 +23,7 @@ def run() -> int:
     early = signal.getsignal(signal.SIGINT) is signal.default_int_handler
     if early:
         signal.signal(signal.SIGINT, _interrupted)
-    from .cli import main
+    from .cli.commands import main
 
     if early:
         signal.signal(signal.SIGINT, signal.default_int_handler)

@@ -8,9 +8,9 @@ stage timings).  ``--method`` and ``reproduce`` iterate over :data:`METHODS`.
 - ``mf-rpm``: RPs of the plain matched filter (one cluster) -> RPM (the
   conventional RPM input, for comparison).
 - ``capon-rpm``: RPs of the Capon range filter with frequency averaging
-  (:mod:`rpm_cl.capon`, the paper's comparator) -> RPM.
+  (:mod:`rpm_cl.extract.capon`, the paper's comparator) -> RPM.
 - ``phase-rpm``: the k-space decomposition's RPs with their ranges refined by
-  each echo's carrier phase across the array (:mod:`rpm_cl.phase`) -> RPM.
+  each echo's carrier phase across the array (:mod:`rpm_cl.extract.phase`) -> RPM.
 """
 
 from __future__ import annotations
@@ -21,13 +21,13 @@ from typing import Literal
 
 import numpy as np
 
-from .data import InputError, RadarData
-from .hyperbola import check_medium
-from .kspace import KSpaceParams, decompose
-from .medium import Medium, seen_data
-from .preprocess import check as check_preprocess
-from .preprocess import preprocess
-from .rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
+from .extract.hyperbola import check_medium
+from .extract.kspace import KSpaceParams, decompose
+from .extract.preprocess import check as check_preprocess
+from .extract.preprocess import preprocess
+from .extract.rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
+from .io.data import InputError, RadarData
+from .io.medium import Medium, seen_data
 from .rpm.neighbours import neighbour_lists
 from .rpm.reference import MS_DENSITY_T
 
@@ -47,7 +47,7 @@ SIGMA_X_PER_RANGE = 2.0
 REACH_DEG_DEFAULT = 70.0
 #: k-space window period for planar arrays, rad/m: the measured best on the
 #: paper's 3-D scene (0.8-1.2 k-space resolution cells of its 11 x 17 array;
-#: see rpm_cl.scene._human_body).  Linear arrays: WINDOW_LINEAR_PER_KC.
+#: see rpm_cl.simulate.scene._human_body).  Linear arrays: WINDOW_LINEAR_PER_KC.
 WINDOW_PLANAR_DEFAULT = 60.0
 #: k-space window period of linear arrays as a multiple of the carrier
 #: wavenumber k_c (rad/m per rad/m): the paper's 417 rad/m is k_c at its 20
@@ -268,7 +268,7 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
       wavenumber (417 rad/m, the paper's 2-D value, at its 20 GHz),
       :data:`WINDOW_PLANAR_DEFAULT` for planar ones; window_z = window_x.
     - in a medium (``eps_r``, ``antenna_height``): sigma_r and window_x of
-      the scene the RP extraction sees (:func:`rpm_cl.medium.seen_data`:
+      the scene the RP extraction sees (:func:`rpm_cl.io.medium.seen_data`:
       ranges divided by sqrt(eps_r), carrier wavenumber k_c sqrt(eps_r)).
     - everything else: the dataclass defaults.
 
@@ -277,7 +277,7 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     data : RadarData
     overrides : keyword arguments
         Any field of :class:`RPMParams`, :class:`KSpaceParams`,
-        :class:`rpm_cl.medium.Medium` or the plain fields of
+        :class:`rpm_cl.io.medium.Medium` or the plain fields of
         :class:`ImagingParams`, by name (each name is routed to the
         dataclass that has it, so a field added there is accepted here).
         None means "the default" (use :func:`dataclasses.replace` on the
@@ -391,7 +391,7 @@ class Image:
         Index of the main RP in the RangePoints.
     multipath : ndarray of bool, shape (M,), or None
         Points of clusters that a double bounce between two other objects
-        explains (:mod:`rpm_cl.multipath`), kept because
+        explains (:mod:`rpm_cl.rpm.multipath`), kept because
         ``ImagingParams.multipath`` is "flag"; None where not assessed or
         such points were dropped.
     """
@@ -637,7 +637,7 @@ def _kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
 
 
 def _phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
-    from .phase import phase_ranges
+    from .extract.phase import phase_ranges
 
     t0 = time.perf_counter()
     dec = decompose(data, params.kspace, getattr(engine, "env", None))
@@ -661,10 +661,10 @@ def _phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
 
 def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
     """RPM of the method's RPs: :func:`rpm_image`, or above a half-space
-    :func:`rpm_cl.halfspace.halfspace_rpm` of their air-equivalent ranges
+    :func:`rpm_cl.rpm.halfspace.halfspace_rpm` of their air-equivalent ranges
     (the refracted equal-time curves)."""
     if params.medium.half_space:
-        from .halfspace import halfspace_rpm, to_air
+        from .rpm.halfspace import halfspace_rpm, to_air
 
         return halfspace_rpm(to_air(rps, params.medium), params.rpm, engine, params.medium)
     return rpm_image(rps, params.rpm, engine)
@@ -673,15 +673,15 @@ def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
 def _multipath(data: RadarData, rps: RangePoints, image: Image, mode: str,
                medium: Medium | None = None) -> Image:
     """The image without (``"drop"``) or with flags on (``"flag"``) the
-    points of double-bounce clusters (:mod:`rpm_cl.multipath`); above a
+    points of double-bounce clusters (:mod:`rpm_cl.rpm.multipath`); above a
     half-space the double bounces' paths refract (``medium``)."""
     from dataclasses import replace
 
-    from .multipath import flag_multipath
+    from .rpm.multipath import flag_multipath
 
     resolution = data.waveform.range_resolution
     if medium is not None and medium.half_space:   # rps of the paraxial scene: back to air
-        from .halfspace import to_air
+        from .rpm.halfspace import to_air
 
         rps, resolution = to_air(rps, medium), resolution * medium.n
     flags = flag_multipath(data.array.positions(), rps, image, resolution,
@@ -722,7 +722,7 @@ def _mf_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
 
 
 def _capon_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
-    from .capon import CaponParams, rps_from_capon
+    from .extract.capon import CaponParams, rps_from_capon
 
     t0 = time.perf_counter()
     rps = rps_from_capon(data, CaponParams(), params.rp_threshold_db)
@@ -744,7 +744,7 @@ METHODS = {"kspace-rpm": _kspace_rpm, "phase-rpm": _phase_rpm, "mf-rpm": _mf_rpm
 DEFAULT_METHOD = "phase-rpm"
 
 
-#: The ImagingParams fields of :mod:`rpm_cl.preprocess`.
+#: The ImagingParams fields of :mod:`rpm_cl.extract.preprocess`.
 _PREPROCESS = ("background", "time_zero", "gain_db_per_m", "max_range")
 
 
@@ -755,7 +755,7 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
     -----
     DataWarning
         When the echoes' hyperbolas fit another permittivity than
-        ``params.medium`` (:func:`rpm_cl.hyperbola.check_medium`).
+        ``params.medium`` (:func:`rpm_cl.extract.hyperbola.check_medium`).
     DataWarning
         ``kspace-rpm`` and ``phase-rpm`` (the k-space decomposition's
         methods) on data whose range sidelobes
@@ -766,10 +766,10 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
     Notes
     -----
     ``params.medium``: in a homogeneous medium the method images the
-    equivalent air scene (:func:`rpm_cl.medium.in_medium`); above a
+    equivalent air scene (:func:`rpm_cl.io.medium.in_medium`); above a
     half-space it extracts RPs from the paraxial scene
-    (:func:`rpm_cl.medium.paraxial_data`) and images them with
-    :func:`rpm_cl.halfspace.halfspace_rpm`.  Either way the RPs come back
+    (:func:`rpm_cl.io.medium.paraxial_data`) and images them with
+    :func:`rpm_cl.rpm.halfspace.halfspace_rpm`.  Either way the RPs come back
     with the data's own air-equivalent ranges (c tau / 2, as measured, and as
     a file's ``truth_rp_range`` gives them), the image points in true
     metres.
@@ -783,13 +783,13 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
         _check_sidelobes(data, params.kspace.peak_threshold_db)
     medium = params.medium
     check_medium(data, medium)
-    # in a medium the method runs on the scene of rpm_cl.medium.seen_data
+    # in a medium the method runs on the scene of rpm_cl.io.medium.seen_data
     # (in air: ``data`` itself)
     result = fn(seen_data(data, medium), params, engine)
     if not medium.air:   # RPs as measured: air-equivalent ranges
         from dataclasses import replace
 
-        from .halfspace import to_air
+        from .rpm.halfspace import to_air
 
         result = replace(result, rps=to_air(result.rps, medium))
     return result
@@ -804,7 +804,7 @@ def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
     notes, step 2), whose threshold follows their own maximum."""
     import warnings
 
-    from .data import DataWarning
+    from .io.data import DataWarning
 
     sl = data.range_sidelobe_db
     if sl is not None and threshold_db < sl:
@@ -846,8 +846,8 @@ def save_result(path, result: ImageResult, meta: dict | None = None) -> None:
     ``rp_amp``, ``rp_cluster``, ``rp_antenna``, and ``meta`` (a JSON string:
     method, version, device, parameters, stage timings).
     """
-    from .data import atomic_savez
-    from .formats import result_arrays
+    from .io.data import atomic_savez
+    from .io.formats import result_arrays
 
     out = result_arrays(result, meta)
     atomic_savez(path, **out)

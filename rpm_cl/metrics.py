@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .data import InputError, Truth
+from .io.data import InputError, Truth
 
 __all__ = ["cumulative", "echoes_found", "err_range", "err_rpm", "summary"]
 

@@ -76,8 +76,8 @@ def progress(iterable=None, total: int | None = None, desc: str | None = None,
 @contextlib.contextmanager
 def callback(setting, total: int | None = None, desc: str | None = None, unit: str = "it"):
     """A ``f(done, total)`` callback that drives one bar, for the loops that
-    report progress that way (:func:`rpm_cl.das.das_numpy`,
-    :meth:`rpm_cl.das.DeviceDAS.backproject`).
+    report progress that way (:func:`rpm_cl.baselines.das.das_numpy`,
+    :meth:`rpm_cl.baselines.das.DeviceDAS.backproject`).
 
     ``setting`` is a callable (returned unchanged) or one of the settings of
     :func:`progress`; with False the callback is None (nothing is called).

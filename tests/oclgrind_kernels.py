@@ -8,9 +8,9 @@ Prints "OK" after comparing each kernel's output with its NumPy reference.
 import numpy as np
 import pyopencl as cl
 
+from rpm_cl.baselines.das import DeviceDAS, Grid, das_numpy
 from rpm_cl.cl import CLEnv
-from rpm_cl.das import DeviceDAS, Grid, das_numpy
-from rpm_cl.data import Array, RadarData, Waveform
+from rpm_cl.io.data import Array, RadarData, Waveform
 from rpm_cl.rpm import DeviceRPM
 from rpm_cl.rpm import reference as ref
 from rpm_cl.rpm.neighbours import neighbour_lists

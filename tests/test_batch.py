@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
-from rpm_cl.data import InputError, load_npz, save_npz
 from rpm_cl.imaging import DEFAULT_METHOD, default_params, run_method
+from rpm_cl.io.data import InputError, load_npz, save_npz
 from rpm_cl.simulate import simulate_preset
 
 SEEDS = (11, 12, 13)
@@ -88,7 +88,7 @@ def test_cli_batch_equals_single_runs_and_reports_corrupt_frame(frames_dir, tmp_
 
 
 def test_restart_skips_done_frames(frames_dir, tmp_path, client):
-    from rpm_cl.batch import run_batch
+    from rpm_cl.cli.batch import run_batch
 
     out = tmp_path / "out"
     s = run_batch(frames_dir, out, client=client)
@@ -107,7 +107,7 @@ def test_restart_skips_done_frames(frames_dir, tmp_path, client):
 
 
 def test_cli_on_an_existing_scheduler(frames_dir, tmp_path, client, capsys):
-    from rpm_cl.batch import PLUGIN_NAME
+    from rpm_cl.cli.batch import PLUGIN_NAME
 
     out = tmp_path / "out"
     assert main(["batch", str(frames_dir), "-o", str(out), "--scheduler",
@@ -121,8 +121,8 @@ def test_cli_on_an_existing_scheduler(frames_dir, tmp_path, client, capsys):
 
 
 def test_das_per_frame_with_reuse_tables(frames_dir, tmp_path, client, cl_env):
-    from rpm_cl.batch import BatchConfig, run_batch
-    from rpm_cl.das import DeviceDAS, parse_grid
+    from rpm_cl.baselines.das import DeviceDAS, parse_grid
+    from rpm_cl.cli.batch import BatchConfig, run_batch
 
     grid = "-0.3:0.3:0.01,0.3:0.6:0.01"
     data = load_npz(frames_dir / "scan13.npz")
@@ -200,7 +200,7 @@ def test_frame_of_a_dead_worker_is_retried(frames_dir, tmp_path):
     import cloudpickle
     from distributed import Client
 
-    from rpm_cl.batch import run_batch
+    from rpm_cl.cli.batch import run_batch
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
     marker = tmp_path / "killed"
@@ -218,8 +218,8 @@ def test_hdf5_stack_frames(tmp_path, dev32):
     single-frame .h5 beside it gives one result named after the file."""
     import h5py
 
-    from rpm_cl.batch import frame_sources, run_batch
-    from rpm_cl.formats import save_data
+    from rpm_cl.cli.batch import frame_sources, run_batch
+    from rpm_cl.io.formats import save_data
 
     frames = [simulate_preset("paper-2d", 20.0, seed, noise="receiver")[0] for seed in SEEDS]
     inp = tmp_path / "in"
@@ -250,10 +250,10 @@ def test_halfspace_frames(tmp_path, client, dev32):
     back-projection) are those of the single runs."""
     from test_medium import EPS, TARGETS, H, _ranges, _spectrum_data
 
-    from rpm_cl.batch import BatchConfig, run_batch
-    from rpm_cl.das import das_numpy, parse_grid
-    from rpm_cl.formats import load_data, save_data
-    from rpm_cl.medium import Medium
+    from rpm_cl.baselines.das import das_numpy, parse_grid
+    from rpm_cl.cli.batch import BatchConfig, run_batch
+    from rpm_cl.io.formats import load_data, save_data
+    from rpm_cl.io.medium import Medium
 
     frames = tmp_path / "frames"
     frames.mkdir()

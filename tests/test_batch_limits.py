@@ -10,11 +10,11 @@ import time
 import distributed
 import pytest
 
-from rpm_cl.batch import BatchConfig
 from rpm_cl.cli import main
-from rpm_cl.data import InputError, save_npz
+from rpm_cl.cli.batch import BatchConfig
+from rpm_cl.cli.watchdog import Watchdog, limit_reason
+from rpm_cl.io.data import InputError, save_npz
 from rpm_cl.simulate import simulate_preset
-from rpm_cl.watchdog import Watchdog, limit_reason
 
 SEEDS = (11, 12, 13)
 #: The stalled frame's limit, s: far above what a paper-2d frame with its DAS image
@@ -36,9 +36,9 @@ class _Hooks(distributed.WorkerPlugin):
     def setup(self, worker):
         import numpy as np
 
-        import rpm_cl.batch
+        import rpm_cl.cli.batch
         import rpm_cl.imaging
-        from rpm_cl.data import _atomic_file
+        from rpm_cl.io.data import _atomic_file
 
         save = rpm_cl.imaging.save_result
         reached = self.reached
@@ -64,8 +64,8 @@ class _Hooks(distributed.WorkerPlugin):
             return load_frame(path, frame)
 
         rpm_cl.imaging.save_result = hooked
-        load_frame = rpm_cl.batch._load_frame
-        rpm_cl.batch._load_frame = load
+        load_frame = rpm_cl.cli.batch._load_frame
+        rpm_cl.cli.batch._load_frame = load
 
 
 def _local_cluster():
@@ -98,7 +98,7 @@ def test_frames_over_their_limits_fail_and_the_rest_are_done(frames_dir, tmp_pat
     import cloudpickle
     from distributed import Client
 
-    from rpm_cl.batch import run_batch
+    from rpm_cl.cli.batch import run_batch
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests/
     reached = tmp_path / "reached"
@@ -179,7 +179,7 @@ def test_bad_limit_flags_are_one_line(flag, value, frames_dir, tmp_path, capsys)
 
 
 def test_limit_flags_reach_the_config(monkeypatch, frames_dir, tmp_path):
-    import rpm_cl.batch
+    import rpm_cl.cli.batch
 
     seen = {}
 
@@ -187,7 +187,7 @@ def test_limit_flags_reach_the_config(monkeypatch, frames_dir, tmp_path):
         seen["config"] = config
         raise InputError("stop here")
 
-    monkeypatch.setattr(rpm_cl.batch, "run_batch", fake_run)
+    monkeypatch.setattr(rpm_cl.cli.batch, "run_batch", fake_run)
     main(["batch", str(frames_dir / "time"), "-o", str(tmp_path / "o"), "--frame-timeout", "2m",
           "--frame-memory", "1.5GiB"])
     assert (seen["config"].frame_timeout, seen["config"].frame_memory) == (120.0, 1.5 * 2**30)

@@ -36,7 +36,7 @@ def test_eq10_density_is_the_untruncated_reference_density(rng):
     from exhaustive_3d import eq10_density
     from test_spheres import planar_cluster
 
-    from rpm_cl.rangepoints import RangePoints
+    from rpm_cl.extract.rangepoints import RangePoints
     from rpm_cl.rpm import reference as ref
 
     sizes = [12, 9]
@@ -77,8 +77,8 @@ def test_exhaustive_ties_tells_a_tie_from_another_point(rng):
     from exhaustive_3d import TIE_REL, exhaustive_ties, same_or_tied
     from test_spheres import planar_cluster
 
+    from rpm_cl.extract.rangepoints import RangePoints
     from rpm_cl.imaging import RPMParams, rpm_image
-    from rpm_cl.rangepoints import RangePoints
     from rpm_cl.rpm import reference as ref
 
     sizes = [15, 12]

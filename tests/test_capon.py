@@ -1,18 +1,18 @@
-"""Capon range filter with frequency averaging (rpm_cl.capon)."""
+"""Capon range filter with frequency averaging (rpm_cl.extract.capon)."""
 
 import numpy as np
 import pytest
 
-from rpm_cl.capon import (
+from rpm_cl.extract.capon import (
     CaponParams,
     capon_profiles,
     frequency_samples,
     matched_filter_weight,
     rps_from_capon,
 )
-from rpm_cl.data import C0, Array, InputError, RadarData, Waveform
+from rpm_cl.extract.rangepoints import profile_peaks, rps_from_profiles
+from rpm_cl.io.data import C0, Array, InputError, RadarData, Waveform
 from rpm_cl.metrics import cumulative, err_range
-from rpm_cl.rangepoints import profile_peaks, rps_from_profiles
 from rpm_cl.simulate import simulate_preset, synthesize
 
 WF = Waveform(20e9, 3e9)  # 50 mm range resolution

@@ -16,8 +16,8 @@ import sys
 import numpy as np
 import pytest
 
-from rpm_cl import capon
-from rpm_cl.data import C0, Array, RadarData, Waveform
+from rpm_cl.extract import capon
+from rpm_cl.io.data import C0, Array, RadarData, Waveform
 from rpm_cl.metrics import cumulative, err_range
 from rpm_cl.simulate import simulate_preset, synthesize
 
@@ -25,8 +25,8 @@ from rpm_cl.simulate import simulate_preset, synthesize
 # printed exactly (float.hex): "identical" means bit for bit.
 _PRINT_RPS = """
 import json
-from rpm_cl.blas import one_blas_thread
-from rpm_cl.capon import rps_from_capon
+from rpm_cl.extract.blas import one_blas_thread
+from rpm_cl.extract.capon import rps_from_capon
 from rpm_cl.simulate import simulate_preset
 out = []
 for snr, seed in ((None, 0), (20.0, 3)):

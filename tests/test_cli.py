@@ -252,7 +252,7 @@ def test_all_zero_input_is_valid_and_empty(method, planar, tmp_path, capsys):
 
 def test_bad_values_one_line_exit_2(sim_file, tmp_path, capsys):
     """Review findings: each of these once ended in a traceback."""
-    from rpm_cl.data import load_npz
+    from rpm_cl.io.data import load_npz
 
     with np.load(sim_file) as f:
         arrays = {k: f[k] for k in f.files}
@@ -302,7 +302,7 @@ def test_bench_table_and_kernel_profile(capsys, dev32):
     profile's medians consistent with its rate (evals / median score time);
     k-space RPM at the paper's Table I / II noise-free figures or better
     (94 % RP <= 10 mm, 67 % RPM <= 50 mm)."""
-    from rpm_cl.bench import bench_case, kernel_profile
+    from rpm_cl.cli.bench import bench_case, kernel_profile
     from rpm_cl.imaging import METHODS, default_params
     from rpm_cl.simulate import simulate_preset
 
@@ -323,7 +323,7 @@ def test_image_scores_a_truth_with_the_boundary_only(tmp_path, capsys, sim_file)
     """A file with truth_boundary and no truth_rp_* (a surveyed boundary of
     measured data) loads and is scored: Err_RPM as with the full truth,
     Err_range unavailable.  One of the two RP keys alone is refused."""
-    from rpm_cl.formats import load_data
+    from rpm_cl.io.formats import load_data
 
     full = dict(np.load(sim_file))
     part = {k: v for k, v in full.items() if k not in ("truth_rp_antenna", "truth_rp_range")}
@@ -347,11 +347,11 @@ def test_image_scores_a_truth_with_the_boundary_only(tmp_path, capsys, sim_file)
 
 
 def test_boundary_only_truth_round_trips_and_summary(tmp_path):
-    from rpm_cl.data import InputError, Truth, load_npz
-    from rpm_cl.formats import load_data, save_data
+    from rpm_cl.extract.rangepoints import RangePoints
     from rpm_cl.imaging import Image
+    from rpm_cl.io.data import InputError, Truth, load_npz
+    from rpm_cl.io.formats import load_data, save_data
     from rpm_cl.metrics import echoes_found, summary
-    from rpm_cl.rangepoints import RangePoints
     from rpm_cl.simulate import simulate_preset
 
     data = simulate_preset("paper-2d")[0]

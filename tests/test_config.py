@@ -1,4 +1,4 @@
-"""Parameters from TOML and flags (rpm_cl.config, `rpm-cl params`, --config)."""
+"""Parameters from TOML and flags (rpm_cl.cli.config, `rpm-cl params`, --config)."""
 
 import dataclasses
 import json
@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import build_parser, main
-from rpm_cl.config import EngineParams, dump_toml, load_config, resolve, settings
-from rpm_cl.data import InputError, load_npz
+from rpm_cl.cli.config import EngineParams, dump_toml, load_config, resolve, settings
+from rpm_cl.extract.kspace import KSpaceParams
 from rpm_cl.imaging import WINDOW_PLANAR_DEFAULT, ImagingParams, RPMParams, default_params
-from rpm_cl.kspace import KSpaceParams
-from rpm_cl.medium import Medium
+from rpm_cl.io.data import InputError, load_npz
+from rpm_cl.io.medium import Medium
 
 try:
     import tomllib
@@ -37,7 +37,7 @@ def params_toml(capsys, *argv) -> dict:
 
 
 def test_every_dataclass_field_is_a_setting():
-    """Enumerated independently of rpm_cl.config: a field added to any of
+    """Enumerated independently of rpm_cl.cli.config: a field added to any of
     the parameter dataclasses must show up as a TOML key and a flag."""
     have = {(s.section, s.name) for s in settings()}
     want = {("kspace", f.name) for f in dataclasses.fields(KSpaceParams)}
@@ -217,7 +217,7 @@ def test_dump_toml_loads_as_toml_with_every_key(files):
 
 
 def test_type_hints_resolve_to_setting_kinds():
-    """Every field type is one rpm_cl.config can parse (a field of another
+    """Every field type is one rpm_cl.cli.config can parse (a field of another
     type added later fails here, not at a user's command line)."""
     for cls in (KSpaceParams, RPMParams, ImagingParams, EngineParams):
         for name, hint in typing.get_type_hints(cls).items():
@@ -295,10 +295,10 @@ def test_derived_sigma_r_ignores_an_echo_at_zero_range(coupling):
     strongest gate lies within 1.25 mm (half a gate) of the echo's range, and
     the echo ranges across the array differ by 1.5 mm; 10 mm x 2.75 mm / 0.1 m
     = 0.28 mm."""
-    from rpm_cl.data import Array, Waveform
     from rpm_cl.imaging import default_params
-    from rpm_cl.scene import PointTarget, Scene
+    from rpm_cl.io.data import Array, Waveform
     from rpm_cl.simulate import simulate, synthesize
+    from rpm_cl.simulate.scene import PointTarget, Scene
 
     arr = Array((np.arange(21) - 10) * 5e-3)
     axis = np.arange(0.0, 1.0, 2.5e-3)
@@ -317,9 +317,9 @@ def test_derived_sigma_r_of_a_narrow_band_scene_inside_half_a_resolution():
     target, 10 mm x R / L = 14 mm for the 0.32 m aperture, raised to the gate
     spacing (c / (2 df N) = 37 mm, the floor default_params
     documents), not from whatever lies beyond 0.6 m (it was the 1 m clip)."""
-    from rpm_cl.data import C0, Array, RadarData, Waveform
-    from rpm_cl.formats import range_compress
     from rpm_cl.imaging import default_params
+    from rpm_cl.io.data import C0, Array, RadarData, Waveform
+    from rpm_cl.io.formats import range_compress
 
     x = 0.29 + np.arange(41) * 8e-3
     f = np.linspace(3.875e9, 4.125e9, 64)
@@ -339,10 +339,10 @@ def test_derived_sigma_x_of_a_long_scan_is_the_echo_reach():
     not the scan length (3.98 m) that weighed antennas metres apart as
     neighbours.  The paper's 0.1 m aperture (targets at ~0.4 m) keeps
     sigma_x = the aperture, its own choice."""
-    from rpm_cl.data import Array, Waveform
     from rpm_cl.imaging import SIGMA_X_PER_RANGE, default_params
-    from rpm_cl.scene import PointTarget, Scene
+    from rpm_cl.io.data import Array, Waveform
     from rpm_cl.simulate import simulate, simulate_preset
+    from rpm_cl.simulate.scene import PointTarget, Scene
 
     xs = np.arange(200) * 0.02 - 2.0
     scene = Scene(tuple(PointTarget((t, 0.30 + 0.02 * (i % 3)))

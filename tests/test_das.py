@@ -3,10 +3,18 @@
 import numpy as np
 import pytest
 
-from rpm_cl.das import DASPlan, DeviceDAS, Grid, das_adjoint, das_numpy, image_points, parse_grid
-from rpm_cl.data import Array, InputError, RadarData, Waveform
-from rpm_cl.scene import PointTarget, Scene
+from rpm_cl.baselines.das import (
+    DASPlan,
+    DeviceDAS,
+    Grid,
+    das_adjoint,
+    das_numpy,
+    image_points,
+    parse_grid,
+)
+from rpm_cl.io.data import Array, InputError, RadarData, Waveform
 from rpm_cl.simulate import simulate
+from rpm_cl.simulate.scene import PointTarget, Scene
 
 
 @pytest.fixture(scope="module")

@@ -59,7 +59,7 @@ def test_measured_data_hand_made_scan_images_its_targets(tmp_path, monkeypatch):
     for t in range(len(targets)):
         assert np.median(d[near == t, t]) < 0.010, (t, np.median(d[near == t, t]))
     # the result was saved and reads back as a result file
-    from rpm_cl.view import load_result
+    from rpm_cl.viz.view import load_result
 
     assert len(load_result(tmp_path / "r.npz")["points"]) == len(pts)
     # swapping in another file is one argument: image the scan just written

@@ -39,7 +39,7 @@ def test_kspace_centres_are_the_targets_directions(files, tmp_path):
     """A point target at angle theta from broadside has k_x = 2 k_c sin(theta)
     (phase exp(-2j k_c R), R ~ R0 - x sin(theta)); the paper-2d targets are at
     -28, +3 and +25 degrees."""
-    from rpm_cl.figures import figure
+    from rpm_cl.viz.figures import figure
 
     png = tmp_path / "k.png"
     m = figure("kspace", files["paper-2d"], png)
@@ -56,8 +56,8 @@ def test_kspace_centres_are_the_targets_directions(files, tmp_path):
 def test_kspace_drawn_array_is_the_map(files):
     import matplotlib.pyplot as plt
 
-    from rpm_cl.data import load_npz
-    from rpm_cl.figures import draw_kspace, kspace_map
+    from rpm_cl.io.data import load_npz
+    from rpm_cl.viz.figures import draw_kspace, kspace_map
 
     m = kspace_map(load_npz(files["paper-2d"]))
     fig, ax = plt.subplots()
@@ -70,7 +70,7 @@ def test_kspace_drawn_array_is_the_map(files):
 def test_kspace_planar_slices_at_the_strongest_kz(files, tmp_path):
     """Human body: the torso faces the array, so the strongest echo and a
     centre are broadside (k_x ~ 0); the map is the k_z row of the maximum."""
-    from rpm_cl.figures import figure
+    from rpm_cl.viz.figures import figure
 
     png = tmp_path / "kp.png"
     m = figure("kspace", files["human-body"], png)
@@ -80,8 +80,8 @@ def test_kspace_planar_slices_at_the_strongest_kz(files, tmp_path):
 
 
 def test_rps_figure_draws_the_decomposed_and_true_rps(files, tmp_path):
-    from rpm_cl.data import load_npz
-    from rpm_cl.figures import figure
+    from rpm_cl.io.data import load_npz
+    from rpm_cl.viz.figures import figure
 
     png = tmp_path / "r.png"
     s = figure("rps", files["paper-2d"], png)
@@ -97,7 +97,7 @@ def test_rps_figure_draws_the_decomposed_and_true_rps(files, tmp_path):
 
 
 def test_rps_figure_without_truth_and_planar_row(files, tmp_path):
-    from rpm_cl.figures import figure
+    from rpm_cl.viz.figures import figure
 
     with np.load(files["paper-2d"]) as f:
         bare = {k: f[k] for k in ("signal", "x", "range", "fc", "bandwidth")}
@@ -110,10 +110,10 @@ def test_rps_figure_without_truth_and_planar_row(files, tmp_path):
 
 
 def test_compare_figure_rpm_on_targets_and_das_is_das(files, tmp_path, cl_env, dev32):
-    from rpm_cl.das import DeviceDAS, das_numpy
-    from rpm_cl.data import load_npz
-    from rpm_cl.figures import figure
+    from rpm_cl.baselines.das import DeviceDAS, das_numpy
+    from rpm_cl.io.data import load_npz
     from rpm_cl.metrics import err_rpm
+    from rpm_cl.viz.figures import figure
 
     png = tmp_path / "c.png"
     c = figure("compare", files["paper-2d"], png, engine=dev32, das=DeviceDAS(cl_env))
@@ -140,7 +140,7 @@ def test_compare_cli_numpy_backend_and_grid(files, tmp_path, capsys):
 # ---------------------------------------------------------------- DAS view
 def _blob_volume(path, centre, shape=(40, 30, 50)):
     """A 3-D image with one Gaussian blob (complex) at ``centre``, m."""
-    from rpm_cl.das import Grid, write_image
+    from rpm_cl.baselines.das import Grid, write_image
 
     g = Grid(np.linspace(-0.2, 0.2, shape[0]), np.linspace(0.8, 1.1, shape[1]),
              np.linspace(0.5, 1.5, shape[2]))
@@ -155,7 +155,7 @@ def _blob_volume(path, centre, shape=(40, 30, 50)):
 
 
 def test_das_volume_is_memory_mapped_and_reduced_exactly(tmp_path, monkeypatch):
-    import rpm_cl.view as v
+    import rpm_cl.viz.view as v
 
     g = _blob_volume(tmp_path / "v.npz", (0.05, 0.95, 1.1))
     img = v.load_das_image(tmp_path / "v.npz")
@@ -191,7 +191,7 @@ def test_view_das_volume_slices_and_iso_render(tmp_path, capsys, iso):
 
 
 def test_view_das_2d_image_draws_the_image_in_db(files, tmp_path, capsys):
-    from rpm_cl.view import _block_max, load_das_image
+    from rpm_cl.viz.view import _block_max, load_das_image
 
     das = tmp_path / "d.npz"
     assert main(["das", str(files["paper-2d"]), "-o", str(das), "--backend", "numpy",

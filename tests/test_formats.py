@@ -1,4 +1,4 @@
-"""Input and output formats (rpm_cl/formats.py): .npz vs HDF5, stacks,
+"""Input and output formats (rpm_cl/io/formats.py): .npz vs HDF5, stacks,
 frequency-domain spectra against analytic truth, outputs by extension read
 back, bad inputs as one line with exit code 2, interrupted writes."""
 
@@ -9,10 +9,12 @@ import h5py
 import numpy as np
 import pytest
 
-from rpm_cl import formats
 from rpm_cl.cli import main
-from rpm_cl.data import C0, InputError, load_npz
-from rpm_cl.formats import (
+from rpm_cl.extract.rangepoints import RangePoints, profile_peaks
+from rpm_cl.imaging import DEFAULT_METHOD, default_params, run_method
+from rpm_cl.io import formats
+from rpm_cl.io.data import C0, InputError, load_npz
+from rpm_cl.io.formats import (
     RANGE_OVERSAMPLE,
     RANGE_WINDOWS,
     frame_count,
@@ -22,11 +24,9 @@ from rpm_cl.formats import (
     save_result,
     write_volume,
 )
-from rpm_cl.imaging import DEFAULT_METHOD, default_params, run_method
-from rpm_cl.rangepoints import RangePoints, profile_peaks
 from rpm_cl.rpm import reference
-from rpm_cl.scene import get_preset
 from rpm_cl.simulate import echoes, simulate_preset
+from rpm_cl.simulate.scene import get_preset
 
 
 def _contract(data) -> dict:
@@ -339,7 +339,7 @@ def test_result_npz_h5_same_content(result, tmp_path):
                 np.testing.assert_array_equal(r[k], ref[k])
                 np.testing.assert_array_equal(h[k][()], ref[k])
     # and `rpm-cl view` reads the .h5 like the .npz
-    from rpm_cl.view import load_result
+    from rpm_cl.viz.view import load_result
 
     a, b = load_result(tmp_path / "r.npz"), load_result(tmp_path / "r.h5")
     np.testing.assert_array_equal(a["points"], b["points"])
@@ -370,7 +370,7 @@ def test_point_clouds_read_back(dim, result, tmp_path, rng):
 
 
 def _grid(dim):
-    from rpm_cl.das import Grid
+    from rpm_cl.baselines.das import Grid
 
     x, y = -0.2 + 0.01 * np.arange(7), 0.5 + 0.02 * np.arange(5)
     return Grid(x, y, 1.0 + 0.005 * np.arange(3)) if dim == 3 else Grid(x, y)

@@ -1,4 +1,4 @@
-"""gprMax (2-D TM FDTD) output -> the frequency-domain input (rpm_cl.gprmax, `rpm-cl convert`).
+"""gprMax (2-D TM FDTD) output -> the frequency-domain input (rpm_cl.io.gprmax, `rpm-cl convert`).
 
 The fixture (tests/data/gprmax, made by benchmarks/gprmax_fixture.py) is a
 full-wave B-scan of four PEC cylinders and a PEC plate, with its target-free
@@ -13,10 +13,10 @@ import h5py
 import numpy as np
 import pytest
 
-from rpm_cl import gprmax as G
 from rpm_cl.cli import main
-from rpm_cl.data import C0, InputError
-from rpm_cl.formats import load_data, range_compress
+from rpm_cl.io import gprmax as G
+from rpm_cl.io.data import C0, InputError
+from rpm_cl.io.formats import load_data, range_compress
 
 DATA = Path(__file__).parent / "data" / "gprmax"
 TARGETS = DATA / "targets_merged.h5"
@@ -508,8 +508,8 @@ def test_narrow_band_full_wave_beats_the_paper_method_and_das(dev32, cl_env, tmp
     resolution cell c2's is 60 mm off; the paper's method's points slide
     along their circles and cross every object now and then, 20 % of them
     within 50 mm.)"""
-    from rpm_cl.das import DeviceDAS, parse_grid
-    from rpm_cl.reproduce import das_points
+    from rpm_cl.baselines.das import DeviceDAS, parse_grid
+    from rpm_cl.cli.reproduce import das_points
 
     band = (3.875e9, 4.125e9)
     data, pts = _image(band, dev32, tmp_path)

@@ -28,10 +28,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rpm_cl import gprmax as G
-from rpm_cl.data import DataWarning
-from rpm_cl.formats import load_data, range_compress
-from rpm_cl.medium import Medium, one_way
+from rpm_cl.io import gprmax as G
+from rpm_cl.io.data import DataWarning
+from rpm_cl.io.formats import load_data, range_compress
+from rpm_cl.io.medium import Medium, one_way
 
 DATA = Path(__file__).parent / "data" / "gprmax_halfspace"
 TARGETS = DATA / "targets_merged.h5"
@@ -79,7 +79,7 @@ def _to_boundary(points, rods):
 def _peaks_at_rods(image, x, y, rods, tol):
     """For each rod, is one of the strongest len(rods) local maxima of |I|
     (at least 50 mm apart) within ``tol`` of its top (x and depth)?"""
-    from rpm_cl.rma import image_peaks
+    from rpm_cl.baselines.rma import image_peaks
 
     peaks, _ = image_peaks(image, x, y, n_peaks=len(rods), min_separation=0.05)
     tops = np.column_stack([rods[:, 0], rods[:, 1] - rods[:, 2]])
@@ -123,7 +123,7 @@ def test_das_puts_the_rods_at_their_true_positions(data, medium, rods):
     """DAS with the refracted ranges: a peak within 10 mm of every rod's top
     (module notes); without the medium, or with the antennas taken into it
     (no refraction, no air gap), not one rod gets a peak within 20 mm."""
-    from rpm_cl.das import das_numpy, parse_grid
+    from rpm_cl.baselines.das import das_numpy, parse_grid
 
     grid = parse_grid("0.2:0.75:0.002,0.08:0.42:0.002")
     hit, peaks = _peaks_at_rods(das_numpy(data, grid, medium=medium), grid.x, grid.y, rods, 0.010)
@@ -137,7 +137,7 @@ def test_das_puts_the_rods_at_their_true_positions(data, medium, rods):
 def test_rma_puts_the_rods_at_their_true_positions(data, medium, rods):
     """RMA (phase shift through the air gap, Stolt in the material): a peak
     within 10 mm of every rod's top; the homogeneous model's are not."""
-    from rpm_cl.rma import rma_image
+    from rpm_cl.baselines.rma import rma_image
 
     img, x, y = rma_image(data, medium=medium, upsample_x=4, dy=1e-3, y_max=0.42)
     hit, peaks = _peaks_at_rods(img, x, y, rods, 0.010)
@@ -176,7 +176,7 @@ def test_default_rpm_puts_the_rods_at_their_true_positions(data, medium, rods, d
 
 
 def test_sidecar_medium_is_checked(tmp_path, scene):
-    from rpm_cl.data import InputError
+    from rpm_cl.io.data import InputError
 
     for bad, msg in (({"eps_r": 0.5, "surface_y": 0.4}, "eps_r"), ("6", "medium must be"),
                      ({"surface_y": 0.4}, "medium must be"),

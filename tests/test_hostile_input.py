@@ -1,6 +1,6 @@
 """Inputs from strangers: nothing is read before the headers are checked,
 nothing from outside the file, nothing from a file that is not a regular
-file (rpm_cl/guard.py, rpm_cl/formats.py sources)."""
+file (rpm_cl/io/guard.py, rpm_cl/io/formats.py sources)."""
 
 import os
 import subprocess
@@ -12,9 +12,9 @@ import h5py
 import numpy as np
 import pytest
 
-from rpm_cl import formats, guard
-from rpm_cl.data import InputError, data_arrays
-from rpm_cl.formats import check_members, load_data
+from rpm_cl.io import formats, guard
+from rpm_cl.io.data import InputError, data_arrays
+from rpm_cl.io.formats import check_members, load_data
 from rpm_cl.simulate import simulate_preset
 
 
@@ -257,8 +257,7 @@ def test_peak_window_wider_than_the_map_gives_the_same_maxima():
     unclamped filter, so a resolution far beyond the range axis costs no more."""
     from scipy import ndimage
 
-    from rpm_cl import kspace
-
+    from rpm_cl.extract import kspace
     rng = np.random.default_rng(11)
     det = rng.random((9, 40))
     for size in ([3, 5], [9, 81], [30, 500], [10, 2]):
@@ -274,9 +273,9 @@ def test_peak_window_wider_than_the_map_gives_the_same_maxima():
 
 def test_range_axis_in_cm_numbers_warned(tmp_path, arrays):
     """range x 100 keeps its gates finer than the resolution, so nothing
-    refused it: the echoes' width (about 0.7 resolutions, rpm_cl.data.echo_width)
+    refused it: the echoes' width (about 0.7 resolutions, rpm_cl.io.data.echo_width)
     says it, 100 times too wide."""
-    from rpm_cl.data import ECHO_WIDTH_MAX, DataWarning, echo_width
+    from rpm_cl.io.data import ECHO_WIDTH_MAX, DataWarning, echo_width
 
     path = tmp_path / "cm.npz"
     np.savez(path, **dict(arrays, range=arrays["range"] * 100))
@@ -287,7 +286,7 @@ def test_range_axis_in_cm_numbers_warned(tmp_path, arrays):
     assert 0.3 < ratio < ECHO_WIDTH_MAX / 10     # an echo: about 0.7 resolutions
     rng = np.random.default_rng(5)
     noise = rng.standard_normal((21, 600)) + 1j * rng.standard_normal((21, 600))
-    from rpm_cl.data import RadarData
+    from rpm_cl.io.data import RadarData
 
     white = RadarData(noise, data.array, data.range, data.waveform)
     assert echo_width(white) < 2 * data.dr      # white noise: a gate or so
@@ -296,7 +295,7 @@ def test_range_axis_in_cm_numbers_warned(tmp_path, arrays):
 def test_convert_refuses_special_files(tmp_path):
     """`rpm-cl convert` reads its inputs through the same door: a FIFO is
     refused at once (the readers would block on it)."""
-    from rpm_cl.readers import convert
+    from rpm_cl.io.readers import convert
 
     fifo = tmp_path / "line.dzt"
     os.mkfifo(fifo)

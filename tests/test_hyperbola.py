@@ -1,5 +1,5 @@
 """The medium check: hyperbola fits of the echoes' range walks
-(rpm_cl.hyperbola).
+(rpm_cl.extract.hyperbola).
 
 The ranges the tests trust come from the geometry (``n |p - a|``, and
 Fermat's path by a dense search in tests/test_medium.py), not from the fit.
@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from test_medium import H, X, _ranges, _spectrum_data
 
-from rpm_cl.data import DataWarning
-from rpm_cl.hyperbola import check_medium, fit_eps_r, track_eps_r, tracks
-from rpm_cl.medium import Medium
-from rpm_cl.rangepoints import RangePoints
+from rpm_cl.extract.hyperbola import check_medium, fit_eps_r, track_eps_r, tracks
+from rpm_cl.extract.rangepoints import RangePoints
+from rpm_cl.io.data import DataWarning
+from rpm_cl.io.medium import Medium
 
 #: two point targets whose echoes lie more than two Hann range resolutions of
 #: 1-3 GHz (0.15 m) apart at every antenna, in air and in any material:
@@ -131,7 +131,7 @@ def test_cli_warns_once_with_the_fix(tmp_path, capsys):
     """``image``, ``das`` and ``rma`` of a material's data imaged as air:
     one warning line naming --eps-r and the fitted value."""
     from rpm_cl.cli import main
-    from rpm_cl.formats import save_data
+    from rpm_cl.io.formats import save_data
 
     path = tmp_path / "m.npz"
     save_data(path, _homogeneous(6.0))

@@ -11,7 +11,7 @@ three neighbouring antennas.  The tests below fail on that.
 import numpy as np
 from scipy import ndimage
 
-from rpm_cl.kspace import shift_rows
+from rpm_cl.extract.kspace import shift_rows
 
 
 def _coeffs(sig):
@@ -85,10 +85,9 @@ def test_large_array_takes_the_true_alias_for_every_body_part():
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
     from pareto import body_on_array
 
-    from rpm_cl import kspace
-
-    from rpm_cl.scene import get_preset
+    from rpm_cl.extract import kspace
     from rpm_cl.simulate import echoes
+    from rpm_cl.simulate.scene import get_preset
 
     data, params = body_on_array(64, 64, snr=20.0, seed=0)
     dec = kspace.decompose(data, params.kspace)
@@ -125,8 +124,7 @@ def test_focused_detection_finds_one_cluster_per_body_part():
     rad/m) over each other and raised a twelfth maximum at k_x = 0 between
     them, whose points were 46 % more than 50 mm off; the Fresnel-dechirped
     detection has no such maximum."""
-    from rpm_cl import kspace
-
+    from rpm_cl.extract import kspace
     data, params = _body(32)
     dec = kspace.decompose(data, params.kspace)
     assert len(dec.clusters) == 11
@@ -137,8 +135,8 @@ def test_focused_detection_finds_one_cluster_per_body_part():
 def test_dechirp_only_where_the_fresnel_phase_holds():
     """Detection is dechirped at focused gates only while the quartic term of
     the path at the array's corners stays under a quarter cycle."""
-    from rpm_cl import kspace
-    from rpm_cl.data import Array, RadarData, Waveform
+    from rpm_cl.extract import kspace
+    from rpm_cl.io.data import Array, RadarData, Waveform
 
     data, params = _body(64)
     on = kspace._dechirp_gates(data, params.kspace)
@@ -160,11 +158,11 @@ def test_near_target_at_plain_gates_is_kept_beside_a_dechirped_one():
     quarter cycle there).  Dechirping raises the far point's detection peak;
     with one relative threshold over all gates the near point fell under
     -20 dB of it and was lost (1 cluster)."""
-    from rpm_cl import kspace
-    from rpm_cl.data import Array, Waveform
+    from rpm_cl.extract import kspace
     from rpm_cl.imaging import default_params
-    from rpm_cl.scene import PointTarget, Scene
+    from rpm_cl.io.data import Array, Waveform
     from rpm_cl.simulate import simulate
+    from rpm_cl.simulate.scene import PointTarget, Scene
 
     arr = Array((np.arange(64) - 31.5) * 7.5e-3, 1.0 + (np.arange(64) - 31.5) * 7.5e-3)
     # 3-D point echoes fall as amplitude / d^2: 0.5 * 0.8^2 gives half the echo

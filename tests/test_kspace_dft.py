@@ -12,10 +12,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rpm_cl import kspace
+from rpm_cl.extract import kspace
 from rpm_cl.imaging import default_params
-from rpm_cl.scene import get_preset
 from rpm_cl.simulate import simulate
+from rpm_cl.simulate.scene import get_preset
 
 
 @pytest.mark.parametrize("preset,align", [("human-body", None), ("human-body", False),

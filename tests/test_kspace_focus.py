@@ -14,13 +14,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from rpm_cl import kspace
-from rpm_cl.data import Array, Waveform
+from rpm_cl.extract import kspace
+from rpm_cl.extract.rangepoints import rps_from_decomposition
 from rpm_cl.imaging import default_params
+from rpm_cl.io.data import Array, Waveform
 from rpm_cl.metrics import err_range
-from rpm_cl.rangepoints import rps_from_decomposition
-from rpm_cl.scene import Ellipsoid, PointTarget, Scene
 from rpm_cl.simulate import simulate
+from rpm_cl.simulate.scene import Ellipsoid, PointTarget, Scene
 
 
 def test_focus_range_is_the_exact_point_range(rng):

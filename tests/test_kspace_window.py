@@ -18,12 +18,12 @@ twice the k period, ``k + k0`` for ``k - k0``, the support ``|dk| < T``,
 import numpy as np
 import pytest
 
-from rpm_cl.data import Array, Waveform
+from rpm_cl.extract.kspace import _window, decompose
 from rpm_cl.imaging import default_params, run_method
-from rpm_cl.kspace import _window, decompose
+from rpm_cl.io.data import Array, Waveform
 from rpm_cl.rpm import reference
-from rpm_cl.scene import PointTarget, Scene
 from rpm_cl.simulate import simulate
+from rpm_cl.simulate.scene import PointTarget, Scene
 
 PITCH = 5e-3
 K_PERIOD = 2 * np.pi / PITCH      # 1256.6 rad/m

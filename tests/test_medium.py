@@ -1,5 +1,5 @@
 """Imaging in a medium: a homogeneous dielectric and a half-space below antennas
-in air (rpm_cl.medium, rpm_cl.halfspace, and the medium in DAS, RMA and the CLI).
+in air (rpm_cl.io.medium, rpm_cl.rpm.halfspace, and the medium in DAS, RMA and the CLI).
 
 The refracted ranges the tests trust are computed here by a dense search over
 the surface crossing (:func:`_fermat`), independently of rpm_cl's Newton
@@ -11,13 +11,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from rpm_cl.baselines.das import Grid, das_adjoint, das_numpy
+from rpm_cl.baselines.rma import image_peaks, rma_image
 from rpm_cl.cli import main
-from rpm_cl.das import Grid, das_adjoint, das_numpy
-from rpm_cl.data import C0, Array, DataWarning, InputError, RadarData, Waveform
-from rpm_cl.formats import range_compress, range_sidelobe_db, window_bandwidth
-from rpm_cl.halfspace import halfspace_rpm
+from rpm_cl.extract.rangepoints import RangePoints
 from rpm_cl.imaging import RPMParams, default_params, run_method
-from rpm_cl.medium import (
+from rpm_cl.io.data import C0, Array, DataWarning, InputError, RadarData, Waveform
+from rpm_cl.io.formats import range_compress, range_sidelobe_db, window_bandwidth
+from rpm_cl.io.medium import (
     Medium,
     air_ranges,
     crossing,
@@ -27,10 +28,9 @@ from rpm_cl.medium import (
     point_on_ray,
     ray_through,
 )
-from rpm_cl.multipath import double_bounce, ghost_points
-from rpm_cl.rangepoints import RangePoints
-from rpm_cl.rma import image_peaks, rma_image
 from rpm_cl.rpm import reference as ref
+from rpm_cl.rpm.halfspace import halfspace_rpm
+from rpm_cl.rpm.multipath import double_bounce, ghost_points
 
 EPS = 6.0
 N = np.sqrt(EPS)
@@ -126,7 +126,7 @@ def test_medium_validation():
 def test_air_is_bit_identical(p2, dev32):
     """eps_r = 1 (the default, or given) changes nothing: the same objects
     in, the same numbers out."""
-    from rpm_cl.formats import load_data
+    from rpm_cl.io.formats import load_data
 
     data = load_data(p2)
     assert in_medium(data, Medium()) is data and in_medium(data, Medium(1.0, 0.05)) is data
@@ -303,7 +303,7 @@ def test_double_bounce_and_ghosts_in_a_halfspace():
 
 # -------------------------------------------------------------------- CLI
 def test_cli_medium_flags(tmp_path, capsys):
-    from rpm_cl.formats import save_data
+    from rpm_cl.io.formats import save_data
 
     tg = TARGETS[:3]
     data = _spectrum_data(_ranges(tg))

@@ -1,4 +1,4 @@
-"""Double-bounce echoes (rpm_cl.multipath): predicted ranges and ghost points
+"""Double-bounce echoes (rpm_cl.rpm.multipath): predicted ranges and ghost points
 against their formulas, and phase-rpm on data with a double bounce
 synthesised here (rpm_cl.simulate makes none)."""
 
@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from rpm_cl import imaging
-from rpm_cl.data import C0, Array, RadarData, Waveform
-from rpm_cl.formats import range_compress
-from rpm_cl.multipath import double_bounce, ghost_points
+from rpm_cl.io.data import C0, Array, RadarData, Waveform
+from rpm_cl.io.formats import range_compress
+from rpm_cl.rpm.multipath import double_bounce, ghost_points
 
 
 def test_double_bounce_is_the_shortest_path():
@@ -103,7 +103,7 @@ def test_real_targets_are_not_flagged(dev32):
 
 def test_cli_writes_the_flag_column(tmp_path):
     from rpm_cl.cli import main
-    from rpm_cl.formats import save_data
+    from rpm_cl.io.formats import save_data
 
     data, *_ = _two_targets_and_ghost(3, None)
     src = tmp_path / "in.npz"

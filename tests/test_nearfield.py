@@ -3,15 +3,15 @@
 import numpy as np
 import pytest
 
-from rpm_cl import nearfield
-from rpm_cl.data import Array, InputError, RadarData, Waveform
+from rpm_cl.extract import nearfield
+from rpm_cl.extract.kspace import KSpaceParams, decompose
+from rpm_cl.extract.rangepoints import rps_from_decomposition
 from rpm_cl.imaging import default_params, run_method
-from rpm_cl.kspace import KSpaceParams, decompose
+from rpm_cl.io.data import Array, InputError, RadarData, Waveform
 from rpm_cl.metrics import err_range, summary
-from rpm_cl.rangepoints import rps_from_decomposition
 from rpm_cl.rpm import reference
-from rpm_cl.scene import PointTarget, Scene, get_preset
 from rpm_cl.simulate import simulate, simulate_preset
+from rpm_cl.simulate.scene import PointTarget, Scene, get_preset
 
 
 def test_sparse_paper_2d_reaches_the_paper(dev32):

@@ -1,13 +1,13 @@
 """The near-field pair scan's OpenCL kernel (kernels/nearfield.cl,
 ``pair_energy``) against its float64 NumPy reference
-(``rpm_cl.nearfield._pair_algebra``), the reference against a direct
+(``rpm_cl.extract.nearfield._pair_algebra``), the reference against a direct
 least-squares projection, and the search with and without the device."""
 
 import numpy as np
 import pytest
 
-from rpm_cl import nearfield
-from rpm_cl.nearfield_cl import NearFieldDevice, device_for
+from rpm_cl.extract import nearfield
+from rpm_cl.extract.nearfield_cl import NearFieldDevice, device_for
 
 
 @pytest.fixture(scope="module")
@@ -93,8 +93,8 @@ def test_search_finds_the_paper_targets_with_and_without_device(cl_env):
     each within 10 mm of a true target's range and 0.02 of its sin(theta);
     both put them at the same places (within 1e-6 of a resolution cell)."""
     from rpm_cl.imaging import default_params
-    from rpm_cl.scene import get_preset
     from rpm_cl.simulate import simulate
+    from rpm_cl.simulate.scene import get_preset
 
     pre = get_preset("paper-2d-sparse")
     data = simulate(pre.scene, pre.array, pre.waveform, pre.range_axis, None, None)

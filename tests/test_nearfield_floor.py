@@ -1,14 +1,14 @@
 """Near-field search: the noise floor that ends re-seating, and the focusing
-table kept across calls (rpm_cl/nearfield.py)."""
+table kept across calls (rpm_cl/extract/nearfield.py)."""
 
 import numpy as np
 import pytest
 
-from rpm_cl import nearfield
-from rpm_cl.data import RadarData
-from rpm_cl.kspace import KSpaceParams, decompose
-from rpm_cl.scene import PointTarget, Scene, get_preset
+from rpm_cl.extract import nearfield
+from rpm_cl.extract.kspace import KSpaceParams, decompose
+from rpm_cl.io.data import RadarData
 from rpm_cl.simulate import simulate, simulate_preset
+from rpm_cl.simulate.scene import PointTarget, Scene, get_preset
 
 
 @pytest.fixture(scope="module")

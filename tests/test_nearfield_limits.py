@@ -1,7 +1,7 @@
 """Bounds of the near-field search on input without targets in it.
 
 Pure noise, a one-sample spike and 3 range samples ran the matching pursuit
-to 8 centres and 10-26 s.  The search is now bounded (rpm_cl.nearfield:
+to 8 centres and 10-26 s.  The search is now bounded (rpm_cl.extract.nearfield:
 MIN_SEARCH_GATES, the centre cap N // (2 SEARCH_TERMS), FIT_BUDGET,
 POLISH_MAX_NFEV).  Time is not asserted (shared machines); what bounds it is:
 the number of clusters, of candidate fits and of polish evaluations.
@@ -10,9 +10,9 @@ the number of clusters, of candidate fits and of polish evaluations.
 import numpy as np
 import pytest
 
-from rpm_cl import nearfield
-from rpm_cl.data import RadarData
-from rpm_cl.kspace import KSpaceParams, decompose
+from rpm_cl.extract import nearfield
+from rpm_cl.extract.kspace import KSpaceParams, decompose
+from rpm_cl.io.data import RadarData
 from rpm_cl.simulate import simulate_preset
 
 

@@ -1,11 +1,11 @@
-"""The near-field search's map peak finder (rpm_cl/nearfield.py, ``_peaks``)
+"""The near-field search's map peak finder (rpm_cl/extract/nearfield.py, ``_peaks``)
 against its definition: the points equal to scipy's maximum filter."""
 
 import numpy as np
 import pytest
 from scipy import ndimage
 
-from rpm_cl import nearfield
+from rpm_cl.extract import nearfield
 
 
 def _reference(fmap, size, floor, count):

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
-from rpm_cl.data import C0, DataWarning, InputError, Waveform
-from rpm_cl.formats import load_data
+from rpm_cl.io.data import C0, DataWarning, InputError, Waveform
+from rpm_cl.io.formats import load_data
 
 X = np.linspace(-0.05, 0.05, 21)
 FREQ = np.linspace(19.9e9, 20.1e9, 101)
@@ -158,12 +158,11 @@ def test_corrupt_header_is_not_out_of_memory(tmp_path, capsys):
 
 def test_memory_error_names_a_corrupt_member(tmp_path):
     """Where a MemoryError escapes a reader, main() looks at the inputs'
-    headers (rpm_cl.formats.check_members): a member declaring more than it
+    headers (rpm_cl.io.formats.check_members): a member declaring more than it
     holds is named, sound inputs leave the plain out-of-memory line."""
     import argparse
 
-    from rpm_cl import cli
-
+    from rpm_cl.cli import commands as cli
     bad = _with_header_shape(tmp_path / "bad.npz", _time_domain(), "signal",
                              (21, 12_000_000_000_000))
     line = cli._declared_too_large(argparse.Namespace(input=bad))

@@ -1,4 +1,4 @@
-"""Phase-aided range points (rpm_cl.phase) and the phase-rpm method.
+"""Phase-aided range points (rpm_cl.extract.phase) and the phase-rpm method.
 
 The unit tests build RPs of known echoes by hand: exact ranges R(X), the
 carrier phase -2 k_c R(X) (plus a scatterer's own constant phase), and
@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from rpm_cl import imaging
-from rpm_cl.data import C0, Array, RadarData, Waveform
-from rpm_cl.formats import range_compress
-from rpm_cl.phase import PhaseParams, phase_ranges, tracks
-from rpm_cl.rangepoints import RangePoints
+from rpm_cl.extract.phase import PhaseParams, phase_ranges, tracks
+from rpm_cl.extract.rangepoints import RangePoints
+from rpm_cl.io.data import C0, Array, RadarData, Waveform
+from rpm_cl.io.formats import range_compress
 
 FC = 20e9
 KC = 2 * np.pi * FC / C0
@@ -162,7 +162,7 @@ def test_short_tracks_and_phaseless_rps_are_left_alone():
 
 
 def test_phase_params_validation():
-    from rpm_cl.data import InputError
+    from rpm_cl.io.data import InputError
 
     with pytest.raises(InputError, match="track_gap"):
         PhaseParams(track_gap=0.0)
@@ -246,8 +246,8 @@ def test_coherent_level_removes_the_envelope_bias_of_a_shared_range_cell():
     coherent level's RMS is at least a fifth below the envelope mean's (what
     remains is the leakage through the taper's sidelobes and the parabola's
     fit to a flat top; measured 3.8 against 5.4 mm on these seeds)."""
-    from rpm_cl.kspace import decompose
-    from rpm_cl.rangepoints import rps_from_decomposition
+    from rpm_cl.extract.kspace import decompose
+    from rpm_cl.extract.rangepoints import rps_from_decomposition
 
     errs = {True: [], False: []}
     for seed in range(4):

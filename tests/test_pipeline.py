@@ -3,14 +3,14 @@
 import numpy as np
 import pytest
 
-from rpm_cl.data import Array, Waveform
+from rpm_cl.extract.kspace import KSpaceParams, decompose
+from rpm_cl.extract.rangepoints import profile_peaks, rps_from_decomposition
 from rpm_cl.imaging import ImagingParams, default_params, rpm_image, run_method
-from rpm_cl.kspace import KSpaceParams, decompose
+from rpm_cl.io.data import Array, Waveform
 from rpm_cl.metrics import cumulative, echoes_found, err_range, err_rpm, summary
-from rpm_cl.rangepoints import profile_peaks, rps_from_decomposition
 from rpm_cl.rpm import reference
-from rpm_cl.scene import PointTarget, Scene
 from rpm_cl.simulate import simulate, simulate_preset
+from rpm_cl.simulate.scene import PointTarget, Scene
 
 
 def test_profile_peak_refinement_is_subsample():
@@ -82,7 +82,7 @@ def test_device_and_reference_images_agree(dev32):
 
 def test_empty_and_zero_input_give_empty_image(dev32):
     data, pre = simulate_preset("paper-2d")
-    from rpm_cl.data import RadarData
+    from rpm_cl.io.data import RadarData
 
     zero = RadarData(np.zeros_like(data.signal), data.array, data.range, data.waveform)
     for m in ("kspace-rpm", "mf-rpm"):
@@ -91,7 +91,7 @@ def test_empty_and_zero_input_give_empty_image(dev32):
 
 
 def test_metrics_by_hand():
-    from rpm_cl.data import Truth
+    from rpm_cl.io.data import Truth
 
     truth = Truth([0, 0, 1], [1.0, 1.5, 2.0], [[0.0, 1.0], [1.0, 1.0]])
     e = err_range([0, 0, 1, 2], [1.004, 1.3, 2.02, 1.0], truth)
@@ -132,9 +132,9 @@ def test_example_runs():
 def test_chunked_rpm_equals_whole_and_scale_invariant(dev32):
     from dataclasses import replace
 
-    from rpm_cl.data import InputError, RadarData
-    from rpm_cl.kspace import decompose as dec_
-    from rpm_cl.rangepoints import rps_from_decomposition as rps_
+    from rpm_cl.extract.kspace import decompose as dec_
+    from rpm_cl.extract.rangepoints import rps_from_decomposition as rps_
+    from rpm_cl.io.data import InputError, RadarData
 
     data, pre = simulate_preset("paper-2d", 20.0, seed=3, noise="receiver")
     p = default_params(data, **pre.defaults)
@@ -168,7 +168,7 @@ def test_intersect_chunk_offset_matches_reference(dev32, rng):
 
 def test_noise_free_paper_2d_meets_the_paper(dev32):
     """Acceptance: the noise-free k-space RPM row at or past Tables I/II."""
-    from rpm_cl.reproduce import PAPER
+    from rpm_cl.cli.reproduce import PAPER
 
     data, pre = simulate_preset("paper-2d")
     res = run_method("kspace-rpm", data, default_params(data, **pre.defaults), dev32)

@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
-from rpm_cl.data import Array, Waveform
+from rpm_cl.extract.kspace import decompose
+from rpm_cl.extract.rangepoints import rps_from_decomposition
 from rpm_cl.imaging import default_params, run_method
-from rpm_cl.kspace import decompose
+from rpm_cl.io.data import Array, Waveform
 from rpm_cl.metrics import err_range, err_rpm, summary
-from rpm_cl.rangepoints import rps_from_decomposition
-from rpm_cl.scene import HUMAN_BODY_PARTS, Ellipsoid, PointTarget, Scene, specular_point
 from rpm_cl.simulate import echoes, simulate, simulate_preset
+from rpm_cl.simulate.scene import HUMAN_BODY_PARTS, Ellipsoid, PointTarget, Scene, specular_point
 
 
 @pytest.fixture(scope="module")
@@ -173,7 +173,7 @@ def test_alias_ranking_survives_point_focusing_of_elongated_surfaces():
     within 10 mm.  Ranked by the better of the focused and the plain
     alignment every cluster points at the thighs, which lie within
     |u_x| < 0.2 of the array's centre."""
-    from rpm_cl.scene import HUMAN_BODY_ARRAY_Z
+    from rpm_cl.simulate.scene import HUMAN_BODY_ARRAY_Z
 
     n = 64
     arr = Array((np.arange(n) - (n - 1) / 2) * 7.5e-3,

@@ -1,14 +1,14 @@
-"""GPR-style steps before imaging (rpm_cl/preprocess.py)."""
+"""GPR-style steps before imaging (rpm_cl/extract/preprocess.py)."""
 
 import numpy as np
 import pytest
 
-from rpm_cl.data import Array, InputError, RadarData, Waveform
+from rpm_cl.extract.preprocess import preprocess
 from rpm_cl.imaging import ImagingParams, default_params, run_method
-from rpm_cl.preprocess import preprocess
+from rpm_cl.io.data import Array, InputError, RadarData, Waveform
 from rpm_cl.rpm import reference
-from rpm_cl.scene import PointTarget, Scene
 from rpm_cl.simulate import simulate, synthesize
+from rpm_cl.simulate.scene import PointTarget, Scene
 
 X = (np.arange(31) - 15) * 5e-3
 AXIS = np.arange(0.0, 1.2, 2.5e-3)

@@ -88,7 +88,7 @@ def test_simulation_silent_by_default_on_a_terminal(tty):
 
 def test_das_numpy_reports_every_voxel(capsys):
     """The callback reaches the grid size (known: 11 x 11 voxels)."""
-    from rpm_cl.das import das_numpy, parse_grid
+    from rpm_cl.baselines.das import das_numpy, parse_grid
     from rpm_cl.simulate import simulate_preset
 
     data, _ = simulate_preset("paper-2d")

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from rpm_cl.data import Array, InputError
+from rpm_cl.extract.rangepoints import RangePoints
 from rpm_cl.imaging import Image, ImagingParams, in_reach, reach_angles
-from rpm_cl.rangepoints import RangePoints
+from rpm_cl.io.data import Array, InputError
 
 
 def _rps(antenna, x):

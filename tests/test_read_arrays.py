@@ -1,4 +1,4 @@
-"""Named arrays -> the input schema by a key mapping (rpm_cl.mapped, `rpm-cl convert --map`).
+"""Named arrays -> the input schema by a key mapping (rpm_cl.io.mapped, `rpm-cl convert --map`).
 
 The MATLAB fixtures (tests/data/readers, made by benchmarks/readers_fixture.py
 to MATLAB's documented layouts: no MATLAB file could be downloaded) hold a
@@ -15,11 +15,11 @@ import h5py
 import numpy as np
 import pytest
 
-from rpm_cl import mapped as M
 from rpm_cl.cli import main
-from rpm_cl.data import C0, InputError
-from rpm_cl.formats import load_data, range_compress
-from rpm_cl.readers import convert
+from rpm_cl.io import mapped as M
+from rpm_cl.io.data import C0, InputError
+from rpm_cl.io.formats import load_data, range_compress
+from rpm_cl.io.readers import convert
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import readers_fixture as RF

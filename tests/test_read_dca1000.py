@@ -1,4 +1,4 @@
-"""TI mmWave + DCA1000 raw ADC -> the frequency-domain input (rpm_cl.dca1000,
+"""TI mmWave + DCA1000 raw ADC -> the frequency-domain input (rpm_cl.io.dca1000,
 `rpm-cl convert IN.bin`).
 
 The fixture tests/data/readers/capture.bin is synthetic (no capture could be
@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rpm_cl import dca1000 as D
 from rpm_cl.cli import main
-from rpm_cl.data import C0, InputError
-from rpm_cl.formats import load_data, range_compress
-from rpm_cl.readers import convert
+from rpm_cl.io import dca1000 as D
+from rpm_cl.io.data import C0, InputError
+from rpm_cl.io.formats import load_data, range_compress
+from rpm_cl.io.readers import convert
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import readers_fixture as RF

@@ -1,8 +1,8 @@
-"""GSSI DZT -> the frequency-domain input (rpm_cl.dzt, `rpm-cl convert IN.dzt`).
+"""GSSI DZT -> the frequency-domain input (rpm_cl.io.dzt, `rpm-cl convert IN.dzt`).
 
 The fixture tests/data/readers/scan.dzt is synthetic (no GSSI file could be
 downloaded): benchmarks/readers_fixture.py writes the 1024-byte header and
-16-bit samples to the layout of rpm_cl/dzt.py's docstring, 48 scans at 2 cm
+16-bit samples to the layout of rpm_cl/io/dzt.py's docstring, 48 scans at 2 cm
 (50 scans per metre) of a 1.6 GHz Ricker echo from a point 0.9 m below x =
 0.47 m (in air), time zero at sample 40.5, and a direct coupling at time
 zero, the same in every trace.
@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rpm_cl import dzt as Z
 from rpm_cl.cli import main
-from rpm_cl.data import C0, DataWarning, InputError
-from rpm_cl.formats import load_data, range_compress
-from rpm_cl.readers import convert
+from rpm_cl.io import dzt as Z
+from rpm_cl.io.data import C0, DataWarning, InputError
+from rpm_cl.io.formats import load_data, range_compress
+from rpm_cl.io.readers import convert
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import readers_fixture as RF

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
-from rpm_cl.data import InputError, Truth, load_npz
-from rpm_cl.formats import load_data
+from rpm_cl.io.data import InputError, Truth, load_npz
+from rpm_cl.io.formats import load_data
 
 C0 = 299792458.0
 
@@ -162,9 +162,9 @@ def test_view_reads_a_das_h5_image_as_the_npz_one(p2, tmp_path, capsys, monkeypa
 def test_view_h5_volume_reads_slabs_like_the_npz(tmp_path, monkeypatch):
     """A 3-D .h5 volume: the same brightest voxel (a blob put at a known
     place), block maxima and planes as the .npz, read slab by slab."""
-    import rpm_cl.view as v
-    from rpm_cl.das import Grid
-    from rpm_cl.formats import write_volume
+    import rpm_cl.viz.view as v
+    from rpm_cl.baselines.das import Grid
+    from rpm_cl.io.formats import write_volume
 
     g = Grid(np.linspace(-0.2, 0.2, 40), np.linspace(0.8, 1.1, 30), np.linspace(0.5, 1.5, 50))
     centre = (0.05, 0.95, 1.1)
@@ -194,8 +194,8 @@ def test_view_h5_volume_renders_as_the_npz(tmp_path, capsys, iso, cl_env):
     # the other order aborts the process ("LLVM ERROR: inconsistency in
     # registered CommandLine options") when a later test builds OpenCL programs
     pytest.importorskip("pyvista")
-    from rpm_cl.das import Grid
-    from rpm_cl.formats import write_volume
+    from rpm_cl.baselines.das import Grid
+    from rpm_cl.io.formats import write_volume
 
     g = Grid(np.linspace(-0.2, 0.2, 20), np.linspace(0.8, 1.1, 15), np.linspace(0.5, 1.5, 25))
 
@@ -245,7 +245,7 @@ def test_rma_writes_what_its_extension_says(p2, tmp_path, capsys):
         assert str(a["meta"]) and b["meta"][()]
         img, x, y = a["image"], a["x"], a["y"]
     # both hold the image of rma_image, as the .npz always did
-    from rpm_cl.rma import rma_image
+    from rpm_cl.baselines.rma import rma_image
 
     want = rma_image(load_data(p2), y_min=0.3, y_max=0.6)
     for got, w in zip((img, x, y), want):
@@ -262,8 +262,7 @@ def test_figure_uses_config_and_flags_like_image(p2, tmp_path, capsys, monkeypat
     so window_x = 417 (the default, the paper's) keeps 3 centres, 1300
     (+-325 rad/m) merges +44 and +354 (310 apart) into 2, and 2000 (+-500)
     leaves 1."""
-    from rpm_cl import figures
-
+    from rpm_cl.viz import figures
     monkeypatch.setenv("MPLBACKEND", "Agg")
     drawn = []
     real = figures.figure
@@ -287,10 +286,10 @@ def test_figure_uses_config_and_flags_like_image(p2, tmp_path, capsys, monkeypat
 def wide_sparse(tmp_path_factory):
     """The review's extreme linear array: 21 antennas at 1 m pitch (a 20 m
     aperture, 1334 wavelengths at 20 GHz), two point targets, 12 m of range."""
-    from rpm_cl.data import Array, Waveform
-    from rpm_cl.formats import save_data
-    from rpm_cl.scene import PointTarget, Scene
+    from rpm_cl.io.data import Array, Waveform
+    from rpm_cl.io.formats import save_data
     from rpm_cl.simulate import simulate
+    from rpm_cl.simulate.scene import PointTarget, Scene
 
     data = simulate(Scene((PointTarget((0.3, 5.0)), PointTarget((-2.0, 8.0))), "wide"),
                     Array((np.arange(21) - 10) * 1.0), Waveform(20e9, 0.2e9),
@@ -307,8 +306,7 @@ def test_huge_near_field_search_is_refused_at_once(wide_sparse, tmp_path, capsys
     # (Its 20 m aperture is 27 range resolutions long, so by default it now
     # takes the plane-wave path, nearfield.near_field_wanted; asked for, the
     # near-field search is refused.)
-    from rpm_cl import nearfield
-
+    from rpm_cl.extract import nearfield
     maps = []
     real = nearfield._Search.focus_map
     monkeypatch.setattr(nearfield._Search, "focus_map", lambda s, x: maps.append(1) or real(s, x))
@@ -328,7 +326,7 @@ def test_paper_sparse_map_is_far_inside_the_bound():
     """The bound must not touch the paper's sparse case: its map has 441
     directions x 21 antennas x 104 samples, under a sixteenth of the bound
     (the result itself is checked against the targets in test_nearfield)."""
-    from rpm_cl import nearfield
+    from rpm_cl.extract import nearfield
     from rpm_cl.simulate import simulate_preset
 
     data = simulate_preset("paper-2d-sparse")[0]

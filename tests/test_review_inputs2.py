@@ -15,12 +15,12 @@ import pytest
 from test_review_inputs import _one_error
 
 from rpm_cl.cli import main
-from rpm_cl.data import InputError, RadarData, Waveform
+from rpm_cl.io.data import InputError, RadarData, Waveform
 
 
 def _warned_error(capsys, argv):
     """The error line of a run on x in mm read as m (a 5 km pitch), after
-    the one warning line that says so (rpm_cl.data.check_plausible)."""
+    the one warning line that says so (rpm_cl.io.data.check_plausible)."""
     assert main(argv) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and err[0].startswith("rpm-cl: warning: the antenna pitch 5000 m"), err
@@ -63,8 +63,8 @@ def test_complex64_extreme_amplitudes_match_complex128(p2):
     """complex64 x 1e19 squared left float32's range (warnings, sigma_r 45 -> 2.5
     mm, points 52 mm off); such data are now held as complex128, so the
     result is that of the same data in complex128."""
-    from rpm_cl.formats import load_data
     from rpm_cl.imaging import default_params, run_method
+    from rpm_cl.io.formats import load_data
     from rpm_cl.rpm import reference
 
     d = load_data(p2)
@@ -141,8 +141,7 @@ def test_messages_name_the_problem(tmp_path, capsys, p2):
 
 def test_error_is_one_line_whatever_the_message(capsys, monkeypatch):
     """A library message with newlines (h5py's) was printed on two lines."""
-    from rpm_cl import cli
-
+    from rpm_cl.cli import commands as cli
     def boom(args):
         raise InputError("first part\n  second part")
 
@@ -155,7 +154,7 @@ def test_vtk_write_failure_is_an_oserror(tmp_path):
     or crashed on a full disk (a point cloud): its error code now raises, and
     a point cloud is written by Python from VTK's string."""
     pv = pytest.importorskip("pyvista")
-    from rpm_cl.formats import _vtk_write
+    from rpm_cl.io.formats import _vtk_write
 
     cloud = pv.PolyData(np.random.default_rng(0).random((50, 3)))
     missing = tmp_path / "no" / "such" / "folder"
@@ -250,7 +249,7 @@ def test_numbers_and_pad_edge_values():
     from decimal import Decimal
     from fractions import Fraction
 
-    from rpm_cl.kspace import KSpaceParams
+    from rpm_cl.extract.kspace import KSpaceParams
 
     assert Waveform(Fraction(20_000_000_000), Decimal("2e8")).fc == 20e9
     for pad in (float("inf"), float("nan"), 65, 0, 2.5):

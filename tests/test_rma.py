@@ -1,12 +1,12 @@
-"""Range migration algorithm, f-k migration with Stolt interpolation (rpm_cl.rma)."""
+"""Range migration algorithm, f-k migration with Stolt interpolation (rpm_cl.baselines.rma)."""
 
 import numpy as np
 import pytest
 
-from rpm_cl.data import C0, Array, InputError, Waveform
-from rpm_cl.rma import image_peaks, rma_image
-from rpm_cl.scene import PointTarget, Scene
+from rpm_cl.baselines.rma import image_peaks, rma_image
+from rpm_cl.io.data import C0, Array, InputError, Waveform
 from rpm_cl.simulate import simulate, simulate_preset
+from rpm_cl.simulate.scene import PointTarget, Scene
 
 WF = Waveform(20e9, 3e9)
 ARRAY = Array((np.arange(41) - 20) * 5e-3)  # 5 mm pitch, 0.2 m aperture

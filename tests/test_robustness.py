@@ -1,9 +1,9 @@
-"""The robustness benchmark's synthesis, noise and bounds (rpm_cl.robustness)."""
+"""The robustness benchmark's synthesis, noise and bounds (rpm_cl.cli.robustness)."""
 
 import numpy as np
 import pytest
 
-from rpm_cl.robustness import GEOMETRIES_2D, GEOMETRY_3D, crb, radar_data, synthesize, table
+from rpm_cl.cli.robustness import GEOMETRIES_2D, GEOMETRY_3D, crb, radar_data, synthesize, table
 
 
 def test_in_band_noise_has_the_stated_snr():
@@ -46,7 +46,7 @@ def test_crb_scales_with_noise_and_bandwidth():
     r2, p2 = crb(g, 4e-6)
     assert r2 == pytest.approx(2 * r1, rel=1e-6) and p2 == pytest.approx(2 * p1, rel=1e-6)
     assert p1 < r1
-    from rpm_cl.robustness import _echoes, _positions
+    from rpm_cl.cli.robustness import _echoes, _positions
 
     pos = _positions(g)
     centre = int(np.argmin(np.linalg.norm(pos - pos.mean(axis=0), axis=1)))

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from rpm_cl.data import C0, Array, InputError, Waveform
-from rpm_cl.scene import Ellipsoid, PointTarget, Scene, boundary_samples, specular_point
+from rpm_cl.io.data import C0, Array, InputError, Waveform
 from rpm_cl.simulate import echoes, simulate, synthesize
+from rpm_cl.simulate.scene import Ellipsoid, PointTarget, Scene, boundary_samples, specular_point
 
 
 def test_point_target_peak_and_phase():
@@ -31,7 +31,7 @@ def test_measured_snr_matches_definition():
     check the definition directly: simulate noise alone with the same sigma^2
     and compare its MF output power to the predicted value from Parseval.
     """
-    from rpm_cl.simulate import _receiver_grid
+    from rpm_cl.simulate.synth import _receiver_grid
 
     wf = Waveform(20e9, 0.2e9)
     ax = np.arange(0.0, 1.5, 2.5e-3)

@@ -16,12 +16,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rpm_cl import kspace
-from rpm_cl.data import Array, RadarData, Waveform
+from rpm_cl.extract import kspace
+from rpm_cl.extract.kspace import decompose
 from rpm_cl.imaging import default_params, pair_windows, rpm_image, run_method
-from rpm_cl.kspace import decompose
-from rpm_cl.scene import Ellipsoid, PointTarget, Scene, get_preset
+from rpm_cl.io.data import Array, RadarData, Waveform
 from rpm_cl.simulate import simulate, simulate_preset
+from rpm_cl.simulate.scene import Ellipsoid, PointTarget, Scene, get_preset
 
 
 def _same_clusters(a, b):
@@ -105,12 +105,12 @@ def test_noise_only_is_empty(seed):
 def test_noise_floor_from_known_power():
     """2-D: the range axis is too short for the median over gates (one echo
     covers it), so the noise is estimated from the k-space map's low tail
-    (:func:`rpm_cl.kspace._kspace_noise`): noise-only data are empty with the
+    (:func:`rpm_cl.extract.kspace._kspace_noise`): noise-only data are empty with the
     estimate as with the known power, the estimate is within a factor 2.1 of
     the power (the bound its docstring gives for echoes filling half the
     map; pure noise fills none of it), and the paper's scene at 10 dB keeps
     its clusters under either floor."""
-    from rpm_cl.kspace import _kspace_noise, _taper
+    from rpm_cl.extract.kspace import _kspace_noise, _taper
 
     data, preset = simulate_preset("paper-2d", 10.0, 1, noise="receiver")
     clean, _ = simulate_preset("paper-2d", None, 1)
@@ -135,8 +135,8 @@ def test_floor_leaves_the_body_alone():
 
 
 def test_noise_params_validated():
-    from rpm_cl.data import InputError
-    from rpm_cl.kspace import KSpaceParams
+    from rpm_cl.extract.kspace import KSpaceParams
+    from rpm_cl.io.data import InputError
 
     for bad in ({"noise_pfa": 0.0}, {"noise_pfa": 1.5}, {"noise_power": -1.0},
                 {"noise_power": float("nan")}):

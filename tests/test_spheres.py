@@ -197,7 +197,7 @@ def test_device_refuses_chunks_outside_the_arrays(dev32, rng):
     """The kernels have no bounds checks; the host must refuse what the
     reference would index out of range (a device read past the end once
     crashed the process)."""
-    from rpm_cl.data import InputError
+    from rpm_cl.io.data import InputError
 
     x, z, r, amp, ant, st_, ct = planar_cluster(rng, [10])
     nbr, nn = lists(x, z, ant, st_, ct)

@@ -1,4 +1,4 @@
-"""Corrupt samples (rpm_cl.data.drop_spikes): a handful far above the rest
+"""Corrupt samples (rpm_cl.io.data.drop_spikes): a handful far above the rest
 are replaced by their neighbours with one warning; real data are left alone."""
 
 import time
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
-from rpm_cl.data import DataWarning, drop_spikes
+from rpm_cl.io.data import DataWarning, drop_spikes
 
 
 @pytest.mark.parametrize("spike", [-3.6e64, 1e3])

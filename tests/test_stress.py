@@ -8,11 +8,11 @@ and the measured figures are in the comments.
 import numpy as np
 import pytest
 
-from rpm_cl.data import Array, RadarData, Waveform
 from rpm_cl.imaging import default_params, run_method
+from rpm_cl.io.data import Array, RadarData, Waveform
 from rpm_cl.metrics import summary
-from rpm_cl.scene import PointTarget, Scene
 from rpm_cl.simulate import simulate, simulate_preset
+from rpm_cl.simulate.scene import PointTarget, Scene
 
 
 def _finite(res):

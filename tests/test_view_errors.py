@@ -1,9 +1,9 @@
 """``rpm-cl view`` on odd result files and unwritable outputs.
 
 Every case must end in exit status 2 with one line on stderr (an
-:class:`~rpm_cl.data.InputError`), never a traceback, and leave neither the
+:class:`~rpm_cl.io.data.InputError`), never a traceback, and leave neither the
 picture nor a temporary file behind.  The result files are written here with
-NumPy (no OpenCL run needed): :func:`rpm_cl.view.load_result` reads only
+NumPy (no OpenCL run needed): :func:`rpm_cl.viz.view.load_result` reads only
 ``points``, ``cluster``, ``rp_x``, ``rp_z`` and ``meta``.
 """
 
@@ -151,7 +151,7 @@ def test_read_only_folder_is_an_input_error(tmp_path, capsys):
 def test_write_failure_while_rendering_leaves_nothing(tmp_path, capsys, monkeypatch):
     """A render that fails half-way (disk full, say) maps to InputError and the
     half-written temporary picture is removed."""
-    import rpm_cl.view as view_mod
+    import rpm_cl.viz.view as view_mod
 
     src = _write(tmp_path / "ok.npz", _result_2d())
 
@@ -204,11 +204,11 @@ def test_render_then_opencl_build_in_one_process(tmp_path):
     # ("LLVM ERROR: inconsistency in registered CommandLine options").  A
     # fresh process renders a 3-D result, then builds and runs a kernel.
     pytest.importorskip("pyvista")
-    from rpm_cl.formats import save_result
     from rpm_cl.imaging import default_params, run_method
+    from rpm_cl.io.formats import save_result
     from rpm_cl.rpm import reference
-    from rpm_cl.scene import get_preset
     from rpm_cl.simulate import simulate
+    from rpm_cl.simulate.scene import get_preset
 
     pre = get_preset("human-body")
     data = simulate(pre.scene, pre.array, pre.waveform, pre.range_axis, None, 0)
@@ -217,7 +217,7 @@ def test_render_then_opencl_build_in_one_process(tmp_path):
     save_result(str(out), res, {"scene": json.loads(data.truth.scene)})
     code = (
         "import sys, numpy as np\n"
-        "from rpm_cl import view\n"
+        "from rpm_cl.viz import view\n"
         "view.view(sys.argv[1], sys.argv[2])\n"
         "from rpm_cl.cl import create_env\n"
         "from rpm_cl.rpm import DeviceRPM\n"

@@ -14,12 +14,18 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
-from rpm_cl.data import C0, Array, DataWarning, InputError
-from rpm_cl.formats import RANGE_WINDOWS, load_data, range_sidelobe_db, save_data, window_bandwidth
 from rpm_cl.imaging import default_params, run_method
+from rpm_cl.io.data import C0, Array, DataWarning, InputError
+from rpm_cl.io.formats import (
+    RANGE_WINDOWS,
+    load_data,
+    range_sidelobe_db,
+    save_data,
+    window_bandwidth,
+)
 from rpm_cl.rpm import reference
-from rpm_cl.scene import PointTarget, Scene
 from rpm_cl.simulate import echoes, simulate_preset
+from rpm_cl.simulate.scene import PointTarget, Scene
 
 ARRAY = Array((np.arange(21) - 10) * 5e-3)       # 0.1 m: no focusing beyond 0.33 m
 SCENE = Scene((PointTarget((0.05, 0.6)), PointTarget((-0.1, 0.8)), PointTarget((0.12, 1.0))))

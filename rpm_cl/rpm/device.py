@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..cl import CLEnv, get_kernels
-from ..data import InputError
+from ..io.data import InputError
 from .reference import (
     EPS_DET,
     MS_CUTOFF,

@@ -1,0 +1,279 @@
+"""The medium the echoes' range walks imply: a hyperbola fit per cluster.
+
+A point scatterer at true position ``(x0, d[, z0])`` in a homogeneous
+medium of refractive index ``n`` seen from antennas on the line (plane)
+``y = 0`` in the same medium has the air-equivalent range
+
+    R(x, z) = n sqrt(d^2 + (x - x0)^2 + (z - z0)^2),
+
+so that ``R^2 = a + b x + c z + eps_r (x^2 + z^2)``: a linear least-squares
+fit of each track's squared ranges gives ``eps_r`` directly, with its
+standard error from the residuals (the usual GPR hyperbola fit).
+
+The tracks come from the data alone (:func:`tracks`): each antenna's range
+profile peaks, linked across neighbouring antennas of a linear array.  The
+imaging method's own RPs would not do: their extraction assumes the medium
+under test, and with the wrong one the k-space windows cut a track's walk
+into pieces that no longer follow it (a homogeneous eps_r = 6 scene imaged
+as air: RPs 0.1-0.25 m off their tracks, fitting eps_r about 1).  Above a half-space (antennas ``h`` over the
+surface) the track is Fermat's path (:func:`rpm_cl.io.medium.one_way`), and
+``(x0, d[, z0], eps_r)`` are fitted by nonlinear least squares started from
+the homogeneous fit.
+
+Only tracks that pin the curvature take part: at least :data:`MIN_RPS` RPs,
+a relative standard error of ``eps_r`` at most :data:`MAX_REL_ERROR`.  A
+flat track (a plate, a planar surface) has none and is left out.  An
+extended convex scatterer (radius ``a`` at depth ``d``) flattens its track,
+``eps_r`` about ``(1 - a / d)`` times the true one: a fit *below* the
+setting may be the targets' own size, so :func:`check_medium` says so and
+never warns that air data fit less than air.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..io.data import DataWarning
+from ..io.medium import EPS_R_MAX, Medium, one_way
+
+__all__ = ["MAX_REL_ERROR", "MIN_RPS", "MISMATCH", "TRACK_THRESHOLD_DB", "check_medium",
+           "fit_eps_r", "track_eps_r", "tracks"]
+
+#: Fewest RPs of a cluster whose track is fitted.
+MIN_RPS = 6
+#: Largest relative standard error of a track's fitted eps_r that counts.
+MAX_REL_ERROR = 0.05
+#: Ratio between fitted and set eps_r beyond which :func:`check_medium` warns.
+MISMATCH = 1.5
+#: Profile peaks below this level (dB from the strongest) start no track.
+TRACK_THRESHOLD_DB = -20.0
+#: Largest distance, in range resolutions, between a peak and the range its
+#: track predicts for its antenna (the track's last range, moved on by its
+#: last step): farther, the peak is another echo.
+TRACK_STEP = 0.25
+#: Most clusters fitted (the ones with most RPs): enough for a median,
+#: bounded time on a 3-D scene of thousands of clusters.
+MAX_TRACKS = 16
+
+
+def tracks(data, threshold_db: float = TRACK_THRESHOLD_DB):
+    """Echo tracks of a linear array's data: profile peaks linked across
+    antennas.
+
+    Each antenna's range-profile peaks above ``threshold_db`` (relative to
+    the strongest) join the track whose last peak, on the previous antenna,
+    lies nearest in range and within :data:`TRACK_STEP` range resolutions
+    (greedy, strongest peak first); the others start tracks.
+
+    Parameters
+    ----------
+    data : RadarData
+        Range-compressed data of a linear array.
+    threshold_db : float
+        dB, < 0.
+
+    Returns
+    -------
+    RangePoints
+        One cluster per track, sorted by cluster; no samples.
+    """
+    from .rangepoints import RangePoints, rps_from_profiles
+
+    peaks = rps_from_profiles(data, threshold_db)
+    step = TRACK_STEP * data.waveform.range_resolution
+    label = np.full(peaks.range.size, -1)
+    # track -> (predicted range on the next antenna, its last range, antenna)
+    last: dict[int, tuple[float, float, int]] = {}
+    n_tracks = 0
+    order = np.lexsort((-peaks.amp, peaks.antenna))
+    for a in np.unique(peaks.antenna):
+        idx = order[peaks.antenna[order] == a]
+        open_ = {t: pr for t, (pr, _, ant) in last.items() if ant == a - 1}
+        for i in idx:
+            r = float(peaks.range[i])
+            best = min(open_, key=lambda t: abs(open_[t] - r), default=None)
+            if best is not None and abs(open_[best] - r) <= step:
+                label[i] = best
+                del open_[best]
+                prev = last[best][1]
+                last[best] = (2 * r - prev, r, int(a))
+            else:
+                label[i], n_tracks = n_tracks, n_tracks + 1
+                last[int(label[i])] = (r, r, int(a))
+    o = np.argsort(label, kind="stable")
+    return RangePoints(peaks.antenna[o], peaks.x[o], None, peaks.range[o], peaks.amp[o],
+                       label[o])
+
+
+def track_eps_r(x, z, r) -> tuple[float, float]:
+    """``eps_r`` and its standard error from one homogeneous track.
+
+    Parameters
+    ----------
+    x, z : ndarray, shape (K,)
+        Antenna positions, m (``z`` None for a linear array).
+    r : ndarray, shape (K,)
+        Air-equivalent ranges, m.
+
+    Returns
+    -------
+    (float, float)
+        The fitted ``eps_r`` (the coefficient of ``x^2 + z^2`` in ``R^2``)
+        and its standard error; ``(nan, inf)`` when the fit is singular or
+        has no degree of freedom left.
+    """
+    x = np.asarray(x, np.float64)
+    r = np.asarray(r, np.float64)
+    # centred and scaled columns: the normal equations stay well conditioned
+    # at any scale and offset of the array
+    sx = float(np.ptp(x))
+    if not sx > 0:   # one antenna position: no curvature to fit
+        return float("nan"), float("inf")
+    x0 = x.mean()
+    u = (x - x0) / sx
+    cols = [np.ones_like(u), u]
+    quad = u * u
+    if z is not None:
+        z = np.asarray(z, np.float64)
+        w = (z - z.mean()) / sx
+        cols.append(w)
+        quad = quad + w * w
+    cols.append(quad)
+    a = np.stack(cols, axis=1)
+    y = r * r / (sx * sx)
+    dof = len(y) - a.shape[1]
+    if dof < 1:
+        return float("nan"), float("inf")
+    coef, _, rank, _ = np.linalg.lstsq(a, y, rcond=None)
+    if rank < a.shape[1]:
+        return float("nan"), float("inf")
+    resid = y - a @ coef
+    s2 = float(resid @ resid) / dof
+    cov = s2 * np.linalg.pinv(a.T @ a)
+    return float(coef[-1]), float(np.sqrt(max(cov[-1, -1], 0.0)))
+
+
+def _halfspace_track(pos, r, h: float, eps0: float) -> tuple[float, float]:
+    """``eps_r`` and its standard error of one track above a half-space."""
+    from scipy.optimize import least_squares
+
+    planar = np.ptp(pos[:, 2]) > 0
+    j = int(np.argmin(r))
+    n0 = np.sqrt(min(max(eps0, 1.0), EPS_R_MAX))
+    d0 = max((r[j] - h) / n0, 1e-3)
+
+    def model(p):
+        n2 = p[-1]
+        m = Medium(float(np.clip(n2, 1.0, EPS_R_MAX)), h)
+        pt = np.array([p[0], h + p[1], p[2] if planar else 0.0])
+        return one_way(m, pos, pt[None, :]) - r
+
+    p0 = [pos[j, 0], d0] + ([pos[j, 2]] if planar else [0.0]) + [max(eps0, 1.0)]
+    lo = [-np.inf, 1e-6, -np.inf, 1.0]
+    hi = [np.inf, np.inf, np.inf, EPS_R_MAX]
+    if not planar:   # z0 fixed at 0
+        lo[2], hi[2] = -1e-12, 1e-12
+    fit = least_squares(model, p0, bounds=(lo, hi), x_scale="jac")
+    dof = len(r) - (4 if planar else 3)
+    if not fit.success or dof < 1:
+        return float("nan"), float("inf")
+    jac = fit.jac[:, [0, 1, 2, 3] if planar else [0, 1, 3]]
+    s2 = float(fit.fun @ fit.fun) / dof
+    try:
+        cov = s2 * np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        return float("nan"), float("inf")
+    return float(fit.x[-1]), float(np.sqrt(max(cov[-1, -1], 0.0)))
+
+
+def fit_eps_r(positions, rps, medium: Medium | None = None) -> tuple[float, int]:
+    """The relative permittivity the clusters' range walks imply.
+
+    Parameters
+    ----------
+    positions : ndarray, shape (A, 3)
+        Antenna positions, m (``Array.positions()``).
+    rps : RangePoints
+        RPs with air-equivalent ranges (as measured) and cluster labels.
+    medium : Medium, optional
+        Above a half-space the tracks are fitted with its antenna height;
+        otherwise (air or homogeneous) the homogeneous model.
+
+    Returns
+    -------
+    (float, int)
+        The inverse-variance weighted median of the qualifying tracks'
+        ``eps_r`` (module notes), and how many tracks qualified; ``(nan, 0)``
+        when none did.
+    """
+    cl = np.asarray(rps.cluster)
+    if cl.size == 0:
+        return float("nan"), 0
+    _, start, count = np.unique(cl, return_index=True, return_counts=True)
+    order = np.argsort(count)[::-1]
+    order = order[count[order] >= MIN_RPS][:MAX_TRACKS]
+    pos_all = np.asarray(positions, np.float64)[np.asarray(rps.antenna)]
+    if pos_all.shape[1] == 2:   # a linear array's (x, y): z = 0
+        pos_all = np.column_stack([pos_all, np.zeros(len(pos_all))])
+    half = medium is not None and medium.half_space
+    est, err = [], []
+    for i in order:
+        sl = slice(start[i], start[i] + count[i])
+        r = np.asarray(rps.range[sl], np.float64)
+        z = None if rps.z is None else np.asarray(rps.z[sl])
+        e, se = track_eps_r(rps.x[sl], z, r)
+        if half and np.isfinite(e) and se <= 2 * MAX_REL_ERROR * e:
+            e, se = _halfspace_track(pos_all[sl], r, medium.antenna_height, e)
+        if np.isfinite(e) and e > 0 and se <= MAX_REL_ERROR * e:
+            est.append(e)
+            err.append(se)
+    if not est:
+        return float("nan"), 0
+    est, w = np.asarray(est), 1.0 / np.square(np.maximum(err, 1e-12))
+    o = np.argsort(est)
+    cw = np.cumsum(w[o])
+    return float(est[o][np.searchsorted(cw, 0.5 * cw[-1])]), len(est)
+
+
+def check_medium(data, medium: Medium) -> float | None:
+    """Warn when the fitted ``eps_r`` of the data's tracks
+    (:func:`tracks`, :func:`fit_eps_r`) and the medium's differ by more than
+    :data:`MISMATCH` times.
+
+    Parameters
+    ----------
+    data : RadarData
+        As the method images it (after :mod:`rpm_cl.extract.preprocess`: a
+        background removed leaves the targets' tracks, not the flat coupling
+        and surface echoes); planar arrays are not checked.
+    medium : Medium
+
+    Returns
+    -------
+    float or None
+        The fitted value when a track qualified, else None.
+
+    Warns
+    -----
+    DataWarning
+        One line naming the fitted value and the option that sets it; never
+        for a fit below 1 on air data (extended targets, module notes).
+    """
+    if data.array.planar:
+        return None
+    eps, n = fit_eps_r(data.array.positions(), tracks(data), medium)
+    if n == 0:
+        return None
+    ratio = eps / medium.eps_r
+    if ratio > MISMATCH:
+        warnings.warn(f"the echoes' range walks fit eps_r = {eps:.2f} ({n} hyperbolas), but the "
+                      f"medium is set to eps_r = {medium.eps_r:g}: image with --eps-r {eps:.2f} "
+                      f"(or check the antenna height)", DataWarning, stacklevel=3)
+    elif ratio < 1.0 / MISMATCH and not medium.air:
+        warnings.warn(f"the echoes' range walks fit eps_r = {eps:.2f} ({n} hyperbolas), but the "
+                      f"medium is set to eps_r = {medium.eps_r:g}: try --eps-r {max(eps, 1.0):.2f} "
+                      f"(extended targets flatten their tracks and fit low)", DataWarning,
+                      stacklevel=3)
+    return eps

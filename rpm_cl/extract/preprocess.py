@@ -1,0 +1,110 @@
+"""What a GPR user does to the range profiles before imaging.
+
+Four steps, each off by default (the paper's scenes need none), in this
+order, on the range-compressed data (:class:`rpm_cl.io.data.RadarData`):
+
+1. **time zero** (``time_zero``, m): the range at which the antenna's own
+   pulse leaves it (the direct coupling, or the surface echo of a ground-
+   coupled antenna) becomes 0: ``R' = R - time_zero``, gates before it
+   dropped;
+2. **background removal** (``background``): the mean or median profile over
+   the antennas, per range gate (complex), is subtracted: what every
+   antenna sees alike (coupling, the surface of a flat ground, cable
+   ringing) goes, a target's range walk across the scan stays;
+3. **gain** (``gain_db_per_m``): amplitudes times ``10^(g R' / 20)``, a
+   linear-in-range gain in dB per metre, for echoes that a lossy medium
+   weakens with depth (scaled so that no factor exceeds 1: only amplitude
+   ratios matter to the imagers);
+4. **region of interest** (``max_range``, m): gates beyond it dropped (a
+   radar's feed and cable echoes far beyond the scene make clusters of
+   their own).
+
+The median is taken over the real and imaginary parts apart (a robust
+background where a few antennas hold a strong target).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..io.data import InputError, RadarData
+
+__all__ = ["BACKGROUNDS", "preprocess", "shift_truth"]
+
+#: Background removals: none, the mean profile, the median profile.
+BACKGROUNDS = ("none", "mean", "median")
+
+
+def check(background: str, time_zero: float, gain_db_per_m: float,
+          max_range: float | None) -> None:
+    """Refuse settings that no data could take (one line each)."""
+    if background not in BACKGROUNDS:
+        raise InputError(f"background must be one of {', '.join(BACKGROUNDS)}, got "
+                         f"{background!r}")
+    if not (np.isfinite(time_zero) and time_zero >= 0):
+        raise InputError(f"time_zero must be a range >= 0 m, got {time_zero}")
+    if not (np.isfinite(gain_db_per_m) and abs(gain_db_per_m) <= 1000):
+        raise InputError(f"gain_db_per_m must be within +-1000 dB/m, got {gain_db_per_m}")
+    if max_range is not None and not (np.isfinite(max_range) and max_range > 0):
+        raise InputError(f"max_range must be a range > 0 m (after time_zero), got {max_range}")
+
+
+def preprocess(data: RadarData, background: str = "none", time_zero: float = 0.0,
+               gain_db_per_m: float = 0.0, max_range: float | None = None) -> RadarData:
+    """``data`` after the module's steps; ``data`` itself when all are off.
+
+    Parameters
+    ----------
+    data : RadarData
+    background : {'none', 'mean', 'median'}
+    time_zero : float
+        m, >= 0.
+    gain_db_per_m : float
+        dB per metre of range after time zero.
+    max_range : float, optional
+        m (after time zero); None keeps every gate.
+
+    Returns
+    -------
+    RadarData
+        The same antennas; the range axis shifted by ``-time_zero`` and
+        cut to ``[0, max_range]``; the truth's RP ranges shifted alike.
+
+    Raises
+    ------
+    InputError
+        A setting out of range, or no range gate left.
+    """
+    check(background, time_zero, gain_db_per_m, max_range)
+    if background == "none" and time_zero == 0 and gain_db_per_m == 0 and max_range is None:
+        return data
+    rng = data.range - time_zero
+    keep = rng >= 0
+    if max_range is not None:
+        keep &= rng <= max_range
+    if keep.sum() < 2:
+        raise InputError(f"time_zero {time_zero:g} m and max_range {max_range} m leave fewer "
+                         f"than 2 range gates of {data.range[0]:g} .. {data.range[-1]:g} m")
+    s = np.array(data.signal[..., keep], copy=True)
+    rng = rng[keep]
+    flat = s.reshape(-1, rng.size)
+    if background == "mean":
+        flat -= flat.mean(axis=0)
+    elif background == "median":
+        flat -= np.median(flat.real, axis=0) + 1j * np.median(flat.imag, axis=0)
+    if gain_db_per_m:
+        # relative to the gate it raises most, so no factor exceeds 1 (the
+        # imagers normalise amplitudes; a large gain cannot overflow)
+        ref = rng[-1] if gain_db_per_m > 0 else rng[0]
+        s *= (10.0 ** (gain_db_per_m * (rng - ref) / 20.0)).astype(s.real.dtype)
+    return replace(data, signal=s, range=rng, truth=shift_truth(data.truth, time_zero))
+
+
+def shift_truth(truth, time_zero: float):
+    """``truth`` (:class:`rpm_cl.io.data.Truth` or None) with its RP ranges
+    measured from ``time_zero``, m, as :func:`preprocess` measures ranges."""
+    if truth is None or not truth.has_rps or not time_zero:
+        return truth
+    return replace(truth, rp_range=truth.rp_range - time_zero)

@@ -1,0 +1,2 @@
+"""Pictures: ``rpm-cl view`` (:mod:`.view`) and the README's figures
+(:mod:`.figures`)."""
