@@ -182,7 +182,7 @@ def test_round_trip_recovers_scatterer(px, py, xi, dx, sign):
     """Exact ranges from two antennas to a scatterer intersect at it."""
     xj = xi + sign * dx
     ri, rj = np.hypot(px - xi, py), np.hypot(px - xj, py)
-    cand, w, valid = ref.intersect_circles(np.array([xi, xj]), np.array([ri, rj]), np.ones(2),
+    cand, _w, valid = ref.intersect_circles(np.array([xi, xj]), np.array([ri, rj]), np.ones(2),
                                            np.zeros(2, int), np.full(2, 2), 2, 0.1)
     assert valid[0, 1] == 1
     # backward error: float64 rounding of the ranges (~1e-16 R) amplified by

@@ -81,7 +81,7 @@ def test_device_and_reference_images_agree(dev32):
 
 
 def test_empty_and_zero_input_give_empty_image(dev32):
-    data, pre = simulate_preset("paper-2d")
+    data, _pre = simulate_preset("paper-2d")
     from rpm_cl.io.data import RadarData
 
     zero = RadarData(np.zeros_like(data.signal), data.array, data.range, data.waveform)
@@ -189,7 +189,7 @@ def test_device_round_trip_recovers_scatterers(dev32, dev64, rng):
     rs = np.concatenate([np.hypot(t[0] - x, t[1]) for t in targets])
     st_, ct = np.repeat([0, 16, 32], 16), np.full(48, 16)
     for dev, tol in ((dev64, 1e-9), (dev32, 2e-3)):
-        best, score, pt = dev.rpm_circles(xs, rs, np.ones(48), st_, ct, 16, 0.05, 0.01)
+        _best, _score, pt = dev.rpm_circles(xs, rs, np.ones(48), st_, ct, 16, 0.05, 0.01)
         got = np.stack([xs + pt[0], pt[1]], axis=1)
         want = np.repeat(targets, 16, axis=0)
         # float32: range rounding 1e-7 R amplified by (R/baseline)^2 <= (2/0.005)^2

@@ -42,7 +42,7 @@ def test_measured_snr_matches_definition():
     noisy = synthesize(np.arange(n_ant), np.full(n_ant, 0.5), np.full(n_ant, amp), n_ant, wf, ax,
                        snr_db=10.0, rng=rng, noise="receiver")
     noise = noisy - clean
-    f, p, window = _receiver_grid(wf, ax[-1])
+    _f, p, window = _receiver_grid(wf, ax[-1])
     fs = C0 / (2 * 2.5e-3)
     n_rx = fs * window
     # peak received power of a lone echo of amplitude a: |a * sum P / sqrt(n_rx)|^2
@@ -59,7 +59,7 @@ def test_ellipse_specular_point_is_nearest_boundary_point(rng):
         ell = Ellipsoid(rng.uniform(-0.3, 0.3, 2) + [0, 1.0], rng.uniform(0.01, 0.3, 2),
                         rng.uniform(0, np.pi))
         p = np.stack([rng.uniform(-1, 1, 20), np.zeros(20)], axis=1)
-        spec, d, radii = specular_point(ell, p)
+        _spec, d, radii = specular_point(ell, p)
         dense = boundary_samples(ell, 1e-5)
         brute = np.min(np.linalg.norm(dense[None] - p[:, None], axis=2), axis=1)
         np.testing.assert_allclose(d, brute, atol=2e-6)
@@ -70,7 +70,7 @@ def test_ellipsoid_specular_point_elongated_and_curvature():
     # very elongated body (1000:1): bisection still converges
     ell = Ellipsoid([0.0, 1.0, 0.0], [0.5, 5e-4, 0.2], [0.3, 0.1, 0.2])
     p = np.array([[0.01, 0.0, 0.02], [-0.3, 0.0, 0.1]])
-    spec, d, radii = specular_point(ell, p)
+    spec, d, _radii = specular_point(ell, p)
     rot = ell.rotation
     u = (spec - ell.center) @ rot
     np.testing.assert_allclose(np.sum((u / ell.semi_axes) ** 2, axis=1), 1.0, atol=1e-9)
@@ -89,10 +89,10 @@ def test_blocked_path_is_dropped():
     arr = Array(np.linspace(-0.05, 0.05, 11))
     pt = PointTarget([0.0, 1.0])
     wall = Ellipsoid([0.0, 0.5], [0.2, 0.02])
-    ant, r, a, tgt = echoes(Scene((pt, wall)), arr)
+    *_, tgt = echoes(Scene((pt, wall)), arr)
     assert np.sum(tgt == 0) == 0  # the point is hidden from all antennas
     assert np.sum(tgt == 1) == 11
-    ant, r, a, tgt = echoes(Scene((pt, Ellipsoid([0.6, 0.5], [0.05, 0.02]))), arr)
+    *_, tgt = echoes(Scene((pt, Ellipsoid([0.6, 0.5], [0.05, 0.02]))), arr)
     assert np.sum(tgt == 0) == 11
 
 

@@ -55,7 +55,7 @@ def test_pair_table_colex_prefix_property():
 
 
 def test_neighbour_lists_respect_cluster_antenna_radius_and_order(rng):
-    x, z, r, amp, ant, starts, counts = planar_cluster(rng, [30, 25])
+    x, z, _r, _amp, ant, starts, counts = planar_cluster(rng, [30, 25])
     radius, kmax = 0.04, 12
     nbr, nn = neighbour_lists(x, z, ant, starts, counts, radius, kmax)
     for i in range(x.size):
@@ -168,7 +168,7 @@ def test_tangent_triplet_is_skipped():
     z = np.array([0.0, 0.0, d])
     p = np.array([0.5, 0.0, 0.5])  # in the array plane: y = 0, tangent case
     r = np.sqrt((p[0] - x) ** 2 + (p[2] - z) ** 2)
-    cand, w, valid = ref.intersect_spheres(x, z, r, np.ones(3), np.array([[1, 2]] * 3),
+    cand, _w, valid = ref.intersect_spheres(x, z, r, np.ones(3), np.array([[1, 2]] * 3),
                                            np.array([2, 2, 2]), 0.03)
     assert valid[0, 0] == 0 and np.all(np.isfinite(cand))
 
@@ -185,7 +185,7 @@ def test_round_trip_recovers_scatterer(px, py, pz, dx, dz, ang):
     x = np.array([0.0, dx, dz * np.cos(ang)])
     z = np.array([0.0, 0.0, dz * np.sin(ang)])
     r = np.sqrt((px - x) ** 2 + py**2 + (pz - z) ** 2)
-    cand, w, valid = ref.intersect_spheres(x, z, r, np.ones(3), np.array([[1, 2]] * 3),
+    cand, _w, valid = ref.intersect_spheres(x, z, r, np.ones(3), np.array([[1, 2]] * 3),
                                            np.array([2, 2, 2]), 0.1)
     assert valid[0, 0] == 1
     # float64 rounding of R (~1e-16 R) amplified by R^2 / (baseline area).
@@ -201,7 +201,7 @@ def test_device_refuses_chunks_outside_the_arrays(dev32, rng):
 
     x, z, r, amp, ant, st_, ct = planar_cluster(rng, [10])
     nbr, nn = lists(x, z, ant, st_, ct)
-    for kw in (dict(i0=8, n=50), dict(i0=-1, n=2)):
+    for kw in ({"i0": 8, "n": 50}, {"i0": -1, "n": 2}):
         with pytest.raises(InputError):
             dev32.rpm_spheres(x, z, r, amp, nbr, nn, 0.03, 0.02, **kw)
     with pytest.raises(InputError):
@@ -214,7 +214,7 @@ def test_neighbour_lists_near_plus_spread(rng):
     """near + spread lists: the first entries are the nearest within the
     radius, the rest distinct RPs of the same cluster at other antennas,
     spread over the distance ranks up to the farthest."""
-    x, z, r, amp, ant, st_, ct = planar_cluster(rng, [60, 40], dup=False)
+    x, z, _r, _amp, ant, st_, ct = planar_cluster(rng, [60, 40], dup=False)
     nbr, nn = neighbour_lists(x, z, ant, st_, ct, 0.03, 12, near=4)
     for i in range(x.size):
         lst = nbr[i, :nn[i]]
