@@ -39,8 +39,10 @@ from rpm_cl.io.data import save_npz
 from rpm_cl.simulate import simulate_preset
 
 # DAS grids of --das: the 2-D image and the human body's y = 1 m section (3 mm)
-DAS_GRIDS = {"paper-2d": "-0.3:0.3:0.005,0.3:0.6:0.005",
-             "human-body": "-1:1:0.003,1.0:1.0:0.003,0:2:0.003"}
+DAS_GRIDS = {
+    "paper-2d": "-0.3:0.3:0.005,0.3:0.6:0.005",
+    "human-body": "-1:1:0.003,1.0:1.0:0.003,0:2:0.003",
+}
 
 _COLD = r"""
 import json, sys, time
@@ -64,15 +66,22 @@ def single_run(path: str, out: str, repeats: int) -> dict:
     cli, parts = [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "rpm_cl.cli", "image", path, "-o", out],
-                       check=True, capture_output=True)
+        subprocess.run(
+            [sys.executable, "-m", "rpm_cl.cli", "image", path, "-o", out],
+            check=True,
+            capture_output=True,
+        )
         cli.append(time.perf_counter() - t0)
-        r = subprocess.run([sys.executable, "-c", _COLD, path, out], check=True,
-                           capture_output=True, text=True)
+        r = subprocess.run(
+            [sys.executable, "-c", _COLD, path, out], check=True, capture_output=True, text=True
+        )
         parts.append(json.loads(r.stdout.strip().splitlines()[-1]))
     med = {k: float(np.median([p[k] for p in parts])) for k in parts[0]}
-    return {"cli_wall": float(np.median(cli)), **med,
-            "in_process": med["context_build"] + med["frame"]}
+    return {
+        "cli_wall": float(np.median(cli)),
+        **med,
+        "in_process": med["context_build"] + med["frame"],
+    }
 
 
 def main():
@@ -92,10 +101,15 @@ def main():
             inp = os.path.join(tmp, "in")
             os.mkdir(inp)
             for seed in range(args.frames):
-                save_npz(os.path.join(inp, f"{scene}_{seed:04d}.npz"),
-                         simulate_preset(scene, 20.0, seed, noise="receiver")[0])
-            single = single_run(os.path.join(inp, f"{scene}_0000.npz"),
-                                os.path.join(tmp, "single.npz"), args.repeats)
+                save_npz(
+                    os.path.join(inp, f"{scene}_{seed:04d}.npz"),
+                    simulate_preset(scene, 20.0, seed, noise="receiver")[0],
+                )
+            single = single_run(
+                os.path.join(inp, f"{scene}_0000.npz"),
+                os.path.join(tmp, "single.npz"),
+                args.repeats,
+            )
             config = BatchConfig(das_grid=DAS_GRIDS[scene] if args.das else None)
             for w in args.workers:
                 fps, per = [], []
@@ -105,19 +119,32 @@ def main():
                     fps.append(s.frames_per_s)
                     per.append(s.stage_median_s["total"])
                     device = ", ".join(s.device)
-                rows.append({"scene": scene, "workers": w, "frames": args.frames,
-                             "frames_per_s": float(np.median(fps)),
-                             "per_frame_s": float(np.median(per)), "single": single,
-                             "das": bool(args.das)})
-    print(f"device: {device}; POCL_MAX_PTHREAD_COUNT={os.environ.get('POCL_MAX_PTHREAD_COUNT')}; "
-          f"median of {args.repeats} batches{' with DAS' if args.das else ''}")
-    print(f"{'scene':11s} {'workers':>7s} {'frames':>6s} {'frames/s':>9s} "
-          f"{'per frame in batch':>19s} {'single run (cli / in-process)':>30s} {'ratio':>6s}")
+                rows.append(
+                    {
+                        "scene": scene,
+                        "workers": w,
+                        "frames": args.frames,
+                        "frames_per_s": float(np.median(fps)),
+                        "per_frame_s": float(np.median(per)),
+                        "single": single,
+                        "das": bool(args.das),
+                    }
+                )
+    print(
+        f"device: {device}; POCL_MAX_PTHREAD_COUNT={os.environ.get('POCL_MAX_PTHREAD_COUNT')}; "
+        f"median of {args.repeats} batches{' with DAS' if args.das else ''}"
+    )
+    print(
+        f"{'scene':11s} {'workers':>7s} {'frames':>6s} {'frames/s':>9s} "
+        f"{'per frame in batch':>19s} {'single run (cli / in-process)':>30s} {'ratio':>6s}"
+    )
     for r in rows:
         sg = r["single"]
-        print(f"{r['scene']:11s} {r['workers']:7d} {r['frames']:6d} {r['frames_per_s']:9.2f} "
-              f"{1e3 * r['per_frame_s']:16.1f} ms {1e3 * sg['cli_wall']:13.0f} / "
-              f"{1e3 * sg['in_process']:7.0f} ms {sg['cli_wall'] / r['per_frame_s']:6.1f}x")
+        print(
+            f"{r['scene']:11s} {r['workers']:7d} {r['frames']:6d} {r['frames_per_s']:9.2f} "
+            f"{1e3 * r['per_frame_s']:16.1f} ms {1e3 * sg['cli_wall']:13.0f} / "
+            f"{1e3 * sg['in_process']:7.0f} ms {sg['cli_wall'] / r['per_frame_s']:6.1f}x"
+        )
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"device": device, "rows": rows}, fh, indent=2)

@@ -91,8 +91,11 @@ def main(argv=None) -> int:
     want = json.loads(args.check.read_text())
     bad = sorted(k for k in set(want) | set(got) if want.get(k) != got.get(k))
     for k in bad:
-        keys = sorted(a for a in set(want.get(k, {})) | set(got.get(k, {}))
-                      if want.get(k, {}).get(a) != got.get(k, {}).get(a))
+        keys = sorted(
+            a
+            for a in set(want.get(k, {})) | set(got.get(k, {}))
+            if want.get(k, {}).get(a) != got.get(k, {}).get(a)
+        )
         print(f"differs: {k}: {', '.join(keys) or 'missing'}")
     print(f"{len(got) - len(bad)} of {len(set(want) | set(got))} cases bit-identical")
     return 1 if bad else 0

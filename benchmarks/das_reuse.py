@@ -51,13 +51,17 @@ def main():
     t0 = time.perf_counter()
     das_numpy(frames[0], grid, budget)
     t_np = time.perf_counter() - t0
-    print(f"device: {env.name}; section {grid.shape}, {frames[0].array.n} antennas, "
-          f"{bp:.3g} back-projections per frame")
+    print(
+        f"device: {env.name}; section {grid.shape}, {frames[0].array.n} antennas, "
+        f"{bp:.3g} back-projections per frame"
+    )
     print(f"reuse tables: {plan.nbytes / 1e9:.2f} GB, built in {t_build:.1f} s")
-    print(f"per frame: reuse (NumPy) {np.median(per_frame):.3f} s "
-          f"({bp / np.median(per_frame):.3g} bp/s) | direct OpenCL float32 "
-          f"{np.median(direct):.3f} s ({bp / np.median(direct):.3g} bp/s) | direct NumPy float64 "
-          f"{t_np:.1f} s ({bp / t_np:.3g} bp/s); reuse vs OpenCL max difference {rel:.1e} of the peak")
+    print(
+        f"per frame: reuse (NumPy) {np.median(per_frame):.3f} s "
+        f"({bp / np.median(per_frame):.3g} bp/s) | direct OpenCL float32 "
+        f"{np.median(direct):.3f} s ({bp / np.median(direct):.3g} bp/s) | direct NumPy float64 "
+        f"{t_np:.1f} s ({bp / t_np:.3g} bp/s); reuse vs OpenCL max difference {rel:.1e} of the peak"
+    )
     try:
         DASPlan(frames[0], parse_grid(VOLUME), budget)
     except InputError as exc:

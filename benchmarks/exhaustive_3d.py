@@ -56,8 +56,11 @@ def rps_digest(rps) -> str:
     """A digest of the RPs: an exhaustive image kept in a cache holds for
     these RPs only (a change to the decomposition or the RP extraction moves
     them).  A change to the RPM code itself is not seen: delete the cache then."""
-    return hashlib.sha1(np.ascontiguousarray(np.stack(
-        [rps.range, rps.amp, rps.x, rps.z, rps.cluster.astype(float)])).tobytes()).hexdigest()
+    return hashlib.sha1(
+        np.ascontiguousarray(
+            np.stack([rps.range, rps.amp, rps.x, rps.z, rps.cluster.astype(float)])
+        ).tobytes()
+    ).hexdigest()
 
 
 def exhaustive_image(data, pre, engine, snr, cache=None):
@@ -74,7 +77,7 @@ def exhaustive_image(data, pre, engine, snr, cache=None):
     line : str
         Its accuracy figures.
     """
-    snr = np.inf if snr is None else snr   # as kept in the cache
+    snr = np.inf if snr is None else snr  # as kept in the cache
     precision = getattr(engine, "precision", "float64")
     params = default_params(data, **pre.defaults)
     rps = rps_from_decomposition(data, decompose(data, params.kspace), params.rp_threshold_db)
@@ -83,26 +86,38 @@ def exhaustive_image(data, pre, engine, snr, cache=None):
         with np.load(cache) as f:
             # caches written before the precision was kept are float32's
             kept = str(f["precision"]) if "precision" in f else "float32"
-            if (float(f["snr"]) == snr and "rps" in f and str(f["rps"]) == key
-                    and kept == precision):
-                return (SimpleNamespace(rp_index=f["rp_index"], points=f["points"]),
-                        float(f["sec"]), f"{f['line']!s} (from {cache})")
+            if float(f["snr"]) == snr and "rps" in f and str(f["rps"]) == key and kept == precision:
+                return (
+                    SimpleNamespace(rp_index=f["rp_index"], points=f["points"]),
+                    float(f["sec"]),
+                    f"{f['line']!s} (from {cache})",
+                )
     params = default_params(data, **{**pre.defaults, **EXHAUSTIVE})
     t0 = time.perf_counter()
     res = run_method("kspace-rpm", data, params, engine)
     sec = time.perf_counter() - t0
     line = accuracy_line(res, data.truth)
     if cache:
-        np.savez(cache, rp_index=res.image.rp_index, points=res.image.points,
-                 snr=snr, sec=sec, line=line, rps=key, precision=precision)
+        np.savez(
+            cache,
+            rp_index=res.image.rp_index,
+            points=res.image.points,
+            snr=snr,
+            sec=sec,
+            line=line,
+            rps=key,
+            precision=precision,
+        )
     return res.image, sec, line
 
 
 def accuracy_line(res, truth) -> str:
     s = summary(res.rps, res.image, truth)
     m = max(1, s["rpm_total"])
-    return (f"{s['rpm_total']} points, RPM<=50 {s['rpm_within_50mm'] / m:.1%}, "
-            f"RPM<=10 {s['rpm_within_10mm'] / m:.1%}")
+    return (
+        f"{s['rpm_total']} points, RPM<=50 {s['rpm_within_50mm'] / m:.1%}, "
+        f"RPM<=10 {s['rpm_within_10mm'] / m:.1%}"
+    )
 
 
 def distances(a, b):
@@ -141,7 +156,7 @@ def eq10_density(rps, rp_index, points, sigma_d, sigma_r):
         js, ks = np.triu_indices(members.size, 1)
         px, py, pz, ok, g, _ = _triplet(x, z, r, amp, i, members[js], members[ks], sigma_d)
         c = np.stack([px[ok] + x[i], py[ok], pz[ok] + z[i]], axis=1)
-        out[q] = g[ok] @ np.exp(-np.sum((c - p) ** 2, axis=1) / (2.0 * sigma_r ** 2))
+        out[q] = g[ok] @ np.exp(-np.sum((c - p) ** 2, axis=1) / (2.0 * sigma_r**2))
     return out
 
 
@@ -191,28 +206,41 @@ def tie_line(res, exh, params, precision) -> str:
         return "no main RP imaged by both"
     if rel.size == 0:
         return "every point the exhaustive one"
-    return (f"{rel.size} points not the exhaustive one; eq. 10 in float64 there: "
-            f"|f_exh - f_row| / f_exh at most {np.nanmax(np.abs(rel)):.2g} (median "
-            f"{np.nanmedian(np.abs(rel)):.2g}), the row's point higher in {np.mean(rel < 0):.0%}; "
-            f"the same point or a tie (within {TIE_REL[precision]:g}): "
-            f"{round(same_or_tied(same, rel, precision) * same.size)} of {same.size}")
+    return (
+        f"{rel.size} points not the exhaustive one; eq. 10 in float64 there: "
+        f"|f_exh - f_row| / f_exh at most {np.nanmax(np.abs(rel)):.2g} (median "
+        f"{np.nanmedian(np.abs(rel)):.2g}), the row's point higher in {np.mean(rel < 0):.0%}; "
+        f"the same point or a tie (within {TIE_REL[precision]:g}): "
+        f"{round(same_or_tied(same, rel, precision) * same.size)} of {same.size}"
+    )
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--snr", type=float, default=None)
-    ap.add_argument("--steps", type=int, nargs="+", default=[0, 1, 2],
-                    help="mean-shift steps of the rows besides the exhaustive one")
+    ap.add_argument(
+        "--steps",
+        type=int,
+        nargs="+",
+        default=[0, 1, 2],
+        help="mean-shift steps of the rows besides the exhaustive one",
+    )
     ap.add_argument("--cache", help="npz file that keeps the exhaustive image")
-    ap.add_argument("--precision", choices=("float32", "float64"), default="float32",
-                    help="kernel precision of every row and of the exhaustive image")
+    ap.add_argument(
+        "--precision",
+        choices=("float32", "float64"),
+        default="float32",
+        help="kernel precision of every row and of the exhaustive image",
+    )
     args = ap.parse_args()
     engine = DeviceRPM(create_env(), args.precision)
     data, pre = simulate_preset("human-body", args.snr, 0, noise="receiver")
     out = {}
     default_steps = default_params(data, **pre.defaults).rpm.meanshift_iters
-    rows = tuple((f"{k} steps" + (" (default)" if k == default_steps else ""),
-                  {"meanshift_iters": k}) for k in args.steps)
+    rows = tuple(
+        (f"{k} steps" + (" (default)" if k == default_steps else ""), {"meanshift_iters": k})
+        for k in args.steps
+    )
     for name, extra in rows:
         params = default_params(data, **{**pre.defaults, **extra})
         run_method("kspace-rpm", data, params, engine)
@@ -226,10 +254,12 @@ def main():
     for name, _ in rows:
         res, params = out[name]
         d = distances(res.image, b)
-        print(f"{name:18s} to exhaustive, per main RP imaged by both ({d.size}): "
-              f"same point (< 1 um) {np.mean(d < 1e-6):.1%}, "
-              f"< 0.1 mm {np.mean(d < 1e-4):.1%}, < 1 mm {np.mean(d < 1e-3):.1%}, "
-              f"< 5 mm {np.mean(d < 5e-3):.1%}, median {1e3 * np.median(d):.2f} mm")
+        print(
+            f"{name:18s} to exhaustive, per main RP imaged by both ({d.size}): "
+            f"same point (< 1 um) {np.mean(d < 1e-6):.1%}, "
+            f"< 0.1 mm {np.mean(d < 1e-4):.1%}, < 1 mm {np.mean(d < 1e-3):.1%}, "
+            f"< 5 mm {np.mean(d < 5e-3):.1%}, median {1e3 * np.median(d):.2f} mm"
+        )
         if params.rpm.meanshift_iters > 0:
             print(f"{'':18s}   {tie_line(res, b, params, args.precision)}")
 

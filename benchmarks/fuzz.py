@@ -82,23 +82,48 @@ __all__ = [
 ]
 
 C0 = 299792458.0
-FAMILIES = ("bytes", "truncate", "dtypes", "extreme", "units", "zipbomb", "hdf5", "special",
-            "outputs", "sigint", "config")
-OUTCOMES = ("overwritten", "outside-read", "hang", "memory", "traceback", "garbage", "leftover",
-            "slow-refusal", "slow-accept", "bad-refusal", "failed", "refused", "interrupted",
-            "accepted")
+FAMILIES = (
+    "bytes",
+    "truncate",
+    "dtypes",
+    "extreme",
+    "units",
+    "zipbomb",
+    "hdf5",
+    "special",
+    "outputs",
+    "sigint",
+    "config",
+)
+OUTCOMES = (
+    "overwritten",
+    "outside-read",
+    "hang",
+    "memory",
+    "traceback",
+    "garbage",
+    "leftover",
+    "slow-refusal",
+    "slow-accept",
+    "bad-refusal",
+    "failed",
+    "refused",
+    "interrupted",
+    "accepted",
+)
 # the issue's targets (0 each); memory is a run stopped from outside, as a hang
 FAILURES = ("overwritten", "outside-read", "hang", "memory", "traceback", "garbage")
 GRID = "-0.3:0.3:0.01,0.2:0.6:0.01"
 RADAR = ("td.npz", "td.h5", "fd.npz", "fd.h5")
-REFUSE_S = 2.0          # a refusal later than this is slow
-RSS_FACTOR = 4.0        # a refusal above this x the input's bytes (+ base) is slow
-BASE_SLACK = 1.15       # the base RSS varies by the modules a refusal's path imports
-ACCEPT_FACTOR = 2.0     # a few-bad-samples run above this x its clean time is slow
-TOL = 0.05              # m: a point within this of a true target is accurate
+REFUSE_S = 2.0  # a refusal later than this is slow
+RSS_FACTOR = 4.0  # a refusal above this x the input's bytes (+ base) is slow
+BASE_SLACK = 1.15  # the base RSS varies by the modules a refusal's path imports
+ACCEPT_FACTOR = 2.0  # a few-bad-samples run above this x its clean time is slow
+TOL = 0.05  # m: a point within this of a true target is accurate
 
 
 # ----------------------------------------------------------------- files
+
 
 def save_npz(path, d):
     np.savez(path, **d)
@@ -167,8 +192,13 @@ def to_spectrum(d, nf=81):
 def npy_header(shape, dtype):
     buf = io.BytesIO()
     np.lib.format.write_array_header_1_0(
-        buf, {"descr": np.lib.format.dtype_to_descr(np.dtype(dtype)), "fortran_order": False,
-              "shape": tuple(shape)})
+        buf,
+        {
+            "descr": np.lib.format.dtype_to_descr(np.dtype(dtype)),
+            "fortran_order": False,
+            "shape": tuple(shape),
+        },
+    )
     return buf.getvalue()
 
 
@@ -189,11 +219,12 @@ def npz_bomb(path, arrays, key, shape, dtype, inflate):
             block = bytes(16 << 20)
             left = inflate
             while left > 0:
-                f.write(block[:min(left, len(block))])
+                f.write(block[: min(left, len(block))])
                 left -= len(block)
 
 
 # ----------------------------------------------------------------- running
+
 
 def _group_hwm(pgid):
     """Summed peak RSS (VmHWM, bytes) of the processes in group ``pgid``:
@@ -228,7 +259,7 @@ def _group_rss(pgid):
                 s = f.read()
         except OSError:
             continue
-        rest = s[s.rfind(")") + 2:].split()
+        rest = s[s.rfind(")") + 2 :].split()
         if len(rest) > 21 and int(rest[2]) == pgid:
             total += int(rest[21]) * page
     return total
@@ -242,9 +273,15 @@ def run_cli(argv, cwd, timeout, mem_cap, sigint_at=None):
     out, err = Path(cwd) / ".stdout", Path(cwd) / ".stderr"
     with open(out, "wb") as fo, open(err, "wb") as fe:
         t0 = time.perf_counter()
-        p = subprocess.Popen([sys.executable, "-m", "rpm_cl", *argv], cwd=cwd, env=env,
-                             stdin=subprocess.DEVNULL, stdout=fo, stderr=fe,
-                             start_new_session=True)
+        p = subprocess.Popen(
+            [sys.executable, "-m", "rpm_cl", *argv],
+            cwd=cwd,
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=fo,
+            stderr=fe,
+            start_new_session=True,
+        )
     peak, killed, sent, status = 0, None, False, None
     while True:
         pid, status, _ = os.wait4(p.pid, os.WNOHANG)
@@ -266,7 +303,7 @@ def run_cli(argv, cwd, timeout, mem_cap, sigint_at=None):
             break
         time.sleep(0.05)
     wall = time.perf_counter() - t0
-    _signal_group(p.pid, signal.SIGKILL)        # workers left behind by the run
+    _signal_group(p.pid, signal.SIGKILL)  # workers left behind by the run
     rc = os.waitstatus_to_exitcode(status)
     p.returncode = rc
 
@@ -274,8 +311,15 @@ def run_cli(argv, cwd, timeout, mem_cap, sigint_at=None):
         with open(path, "rb") as f:
             return f.read(1 << 20).decode("utf-8", "replace")
 
-    return {"rc": rc, "wall": wall, "rss": peak, "killed": killed, "stdout": text(out),
-            "stderr": text(err), "sigint_sent": sent}
+    return {
+        "rc": rc,
+        "wall": wall,
+        "rss": peak,
+        "killed": killed,
+        "stdout": text(out),
+        "stderr": text(err),
+        "sigint_sent": sent,
+    }
 
 
 def _signal_group(pgid, sig):
@@ -286,6 +330,7 @@ def _signal_group(pgid, sig):
 
 
 # ----------------------------------------------------------------- bases
+
 
 class Bases:
     """The clean inputs of a campaign under ``root/bases``, made once."""
@@ -304,8 +349,11 @@ class Bases:
             fd = to_spectrum(load(d / "td.npz"))
             save(d / "fd.npz", fd)
             save(d / "fd.h5", fd)
-            for args in (["image", "td.npz", "-o", "res.npz"], ["image", "td.npz", "-o", "res.h5"],
-                         ["das", "td.npz", "-o", "das.npz", "--grid", GRID]):
+            for args in (
+                ["image", "td.npz", "-o", "res.npz"],
+                ["image", "td.npz", "-o", "res.h5"],
+                ["das", "td.npz", "-o", "das.npz", "--grid", GRID],
+            ):
                 r = run_cli(args + ["-q"], d, 120, 8 << 30)
                 if r["rc"] != 0:
                     raise RuntimeError(f"{args} failed: " + r["stderr"])
@@ -342,6 +390,7 @@ class Bases:
 
 # ----------------------------------------------------------------- cases
 
+
 @dataclass
 class Case:
     id: int
@@ -351,11 +400,11 @@ class Case:
     command: str = ""
     argv: list = field(default_factory=list)
     dir: str = ""
-    inputs: list = field(default_factory=list)     # files whose hash must not change
-    outdir: str = ""                               # where outputs go (leftovers, marker)
-    output: str = ""                               # the result file to score
-    few: bool = False      # a few corrupted samples: garbage and slow-accept apply
-    units: bool = False    # a wrong unit: exit 0 needs a warning line
+    inputs: list = field(default_factory=list)  # files whose hash must not change
+    outdir: str = ""  # where outputs go (leftovers, marker)
+    output: str = ""  # the result file to score
+    few: bool = False  # a few corrupted samples: garbage and slow-accept apply
+    units: bool = False  # a wrong unit: exit 0 needs a warning line
     outside: bool = False  # the data live only outside the input: exit 0 read them
     sigint: float | None = None
     data_bytes: int = 0
@@ -415,8 +464,13 @@ def m_flip(mk, mode):
         buf[i] ^= (1 << int(mk.rng.integers(8))) if mode == "bit" else int(mk.rng.integers(1, 256))
     path.write_bytes(bytes(buf))
     kind = "radar" if name in RADAR else ("image" if name == "das.npz" else "result")
-    return {"input": path, "base": name, "kind": kind, "few": n <= 8 and kind == "radar",
-            "detail": {"region": region, "offsets": [int(i) for i in where]}}
+    return {
+        "input": path,
+        "base": name,
+        "kind": kind,
+        "few": n <= 8 and kind == "radar",
+        "detail": {"region": region, "offsets": [int(i) for i in where]},
+    }
 
 
 def m_truncate(mk, mode):
@@ -424,8 +478,13 @@ def m_truncate(mk, mode):
     name = names[int(mk.rng.integers(len(names)))]
     path = mk.copy(name)
     buf = path.read_bytes()
-    size = {"empty": 0, "tiny": int(mk.rng.integers(1, 64)), "half": len(buf) // 2,
-            "random": int(mk.rng.integers(1, len(buf))), "minus1": len(buf) - 1}[mode]
+    size = {
+        "empty": 0,
+        "tiny": int(mk.rng.integers(1, 64)),
+        "half": len(buf) // 2,
+        "random": int(mk.rng.integers(1, len(buf))),
+        "minus1": len(buf) - 1,
+    }[mode]
     path.write_bytes(buf[:size])
     kind = "radar" if name in RADAR else ("image" if name == "das.npz" else "result")
     return {"input": path, "base": name, "kind": kind, "detail": {"size": size}}
@@ -433,26 +492,31 @@ def m_truncate(mk, mode):
 
 def _dtype_mutations():
     """(name, function of (d, rng) editing the arrays of a radar input)."""
+
     def data(f):
         def g(d, rng):
             k = key_of(d)[0]
             d[k] = f(d[k])
+
         return g
 
     def axis(f):
         def g(d, rng):
             k = key_of(d)[1]
             d[k] = f(d[k])
+
         return g
 
     def put(k, v):
         def g(d, rng):
             d[k] = v() if callable(v) else v
+
         return g
 
     def drop(k):
         def g(d, rng):
             d.pop(k if k not in ("DATA", "AXIS") else key_of(d)[k == "AXIS"], None)
+
         return g
 
     return [
@@ -492,14 +556,27 @@ def _dtype_mutations():
         ("missing-axis", drop("AXIS")),
         ("missing-x", drop("x")),
         ("missing-fc", drop("fc")),
-        ("both-domains", lambda d, rng: d.update(
-            {"range": np.linspace(0, 1.5, 600), "signal": np.zeros((21, 600), complex)}
-            if "spectrum" in d else {"frequency": np.linspace(19.8e9, 20.2e9, 81),
-                                     "spectrum": np.zeros((21, 81), complex)})),
-        ("truth-antenna-float", lambda d, rng: d.__setitem__(
-            "truth_rp_antenna", d["truth_rp_antenna"].astype(float) + 0.5)),
-        ("truth-antenna-outside", lambda d, rng: d.__setitem__(
-            "truth_rp_antenna", d["truth_rp_antenna"] + 10**6)),
+        (
+            "both-domains",
+            lambda d, rng: d.update(
+                {"range": np.linspace(0, 1.5, 600), "signal": np.zeros((21, 600), complex)}
+                if "spectrum" in d
+                else {
+                    "frequency": np.linspace(19.8e9, 20.2e9, 81),
+                    "spectrum": np.zeros((21, 81), complex),
+                }
+            ),
+        ),
+        (
+            "truth-antenna-float",
+            lambda d, rng: d.__setitem__(
+                "truth_rp_antenna", d["truth_rp_antenna"].astype(float) + 0.5
+            ),
+        ),
+        (
+            "truth-antenna-outside",
+            lambda d, rng: d.__setitem__("truth_rp_antenna", d["truth_rp_antenna"] + 10**6),
+        ),
         ("truth-boundary-shape", put("truth_boundary", np.zeros((3, 5)))),
         ("truth-scene-json", put("truth_scene", np.array("{not json"))),
         ("truth-scene-deep", put("truth_scene", np.array("[" * 100000 + "]" * 100000))),
@@ -559,8 +636,16 @@ def _view_mutation(mk, name):
     return {"input": path, "base": "res", "kind": "result"}
 
 
-VIEW_DTYPES = ("das-axis-inf", "das-axis-overflow", "das-shape", "das-zero", "points-shape",
-               "points-str", "meta-json", "points-empty")
+VIEW_DTYPES = (
+    "das-axis-inf",
+    "das-axis-overflow",
+    "das-shape",
+    "das-zero",
+    "points-shape",
+    "points-str",
+    "meta-json",
+    "points-empty",
+)
 VIEW_EXTREME = ("das-nan-pixel", "das-huge-pixel", "points-nan", "points-huge")
 
 
@@ -579,14 +664,22 @@ def m_extreme(mk, name):
     # a sample near the echoes, where a corruption does most harm
     i = int(np.argmax(np.abs(flat) * (mk.rng.random(flat.size) < 0.2)))
     few = True
-    one = {"one-1e300": 1e300, "one-neg-3.6e64": -3.6e64, "one-1e30": 1e30, "one-nan": np.nan,
-           "one-inf": np.inf, "one-neg-inf": -np.inf, "one-nan-imag": complex(0, np.nan),
-           "one-1e3x": 1e3 * peak}
+    one = {
+        "one-1e300": 1e300,
+        "one-neg-3.6e64": -3.6e64,
+        "one-1e30": 1e30,
+        "one-nan": np.nan,
+        "one-inf": np.inf,
+        "one-neg-inf": -np.inf,
+        "one-nan-imag": complex(0, np.nan),
+        "one-1e3x": 1e3 * peak,
+    }
     if name in one:
         flat[i] = one[name]
     elif name.startswith("spikes-"):
-        n, scale = {"spikes-3x1e3": (3, 1e3), "spikes-5x1e6": (5, 1e6),
-                    "spikes-10x1e2": (10, 1e2)}[name]
+        n, scale = {"spikes-3x1e3": (3, 1e3), "spikes-5x1e6": (5, 1e6), "spikes-10x1e2": (10, 1e2)}[
+            name
+        ]
         j = mk.rng.choice(flat.size, n, replace=False)
         flat[j] = scale * peak * np.exp(2j * np.pi * mk.rng.random(n))
     else:
@@ -607,15 +700,42 @@ def m_extreme(mk, name):
             "axis-inf": lambda: d[ax].__setitem__(-1, np.inf),
         }
         edits[name]()
-    return {"input": mk.write(base, d), "base": base, "kind": "radar", "few": few,
-            "detail": {"sample": i} if few else {}}
+    return {
+        "input": mk.write(base, d),
+        "base": base,
+        "kind": "radar",
+        "few": few,
+        "detail": {"sample": i} if few else {},
+    }
 
 
-EXTREME = ("one-1e300", "one-neg-3.6e64", "one-1e30", "one-nan", "one-inf", "one-neg-inf",
-           "one-nan-imag", "one-1e3x", "spikes-3x1e3", "spikes-5x1e6", "spikes-10x1e2",
-           "all-zero", "scale-1e-300", "scale-1e250", "fc-1e30", "fc-1e-30", "fc-inf", "fc-nan",
-           "bandwidth-1e30", "bandwidth-200Hz", "x-1e200", "x-nan", "axis-1e300", "axis-inf",
-           *VIEW_EXTREME)
+EXTREME = (
+    "one-1e300",
+    "one-neg-3.6e64",
+    "one-1e30",
+    "one-nan",
+    "one-inf",
+    "one-neg-inf",
+    "one-nan-imag",
+    "one-1e3x",
+    "spikes-3x1e3",
+    "spikes-5x1e6",
+    "spikes-10x1e2",
+    "all-zero",
+    "scale-1e-300",
+    "scale-1e250",
+    "fc-1e30",
+    "fc-1e-30",
+    "fc-inf",
+    "fc-nan",
+    "bandwidth-1e30",
+    "bandwidth-200Hz",
+    "x-1e200",
+    "x-nan",
+    "axis-1e300",
+    "axis-inf",
+    *VIEW_EXTREME,
+)
 
 
 def m_units(mk, name):
@@ -680,8 +800,7 @@ def m_hdf5(mk, name):
     k = key_of(d)[0]
     path = mk.dir / "in.h5"
     outside = name.startswith(("external", "extlink", "virtual"))
-    target = {"x": "x", "data": k, "scene": "truth_scene"}[name.split("-")[-1]] \
-        if outside else None
+    target = {"x": "x", "data": k, "scene": "truth_scene"}[name.split("-")[-1]] if outside else None
     special = {}
     if name == "chunked-1e9-x":
         special["x"] = ("chunked", (10**9,), "f8")
@@ -698,14 +817,18 @@ def m_hdf5(mk, name):
             if key in special:
                 how, shape, dt = special[key]
                 if how == "chunked":
-                    f.create_dataset(key, shape=shape, dtype=dt,
-                                     chunks=tuple(min(n, 4096) for n in shape))
+                    f.create_dataset(
+                        key, shape=shape, dtype=dt, chunks=tuple(min(n, 4096) for n in shape)
+                    )
                 else:
                     ds = f.create_dataset(key, data=v, maxshape=(None,), chunks=(4,))
                     ds.resize((10**9,))
                 continue
-            if name.startswith("group-") and key == {"group-data": k, "group-x": "x",
-                                                     "group-fc": "fc"}.get(name):
+            if name.startswith("group-") and key == {
+                "group-data": k,
+                "group-x": "x",
+                "group-fc": "fc",
+            }.get(name):
                 g = f.create_group(key)
                 g.create_dataset("value", data=v)
                 continue
@@ -734,8 +857,9 @@ def m_hdf5(mk, name):
                 raw = np.ascontiguousarray(v)
             if name.startswith("external"):
                 sec = mk.outside(raw.tobytes())
-                f.create_dataset(target, shape=raw.shape, dtype=raw.dtype,
-                                 external=[(str(sec), 0, raw.nbytes)])
+                f.create_dataset(
+                    target, shape=raw.shape, dtype=raw.dtype, external=[(str(sec), 0, raw.nbytes)]
+                )
             elif name.startswith("extlink"):
                 other = mk.dir / "outside" / "other.h5"
                 other.parent.mkdir(exist_ok=True)
@@ -758,14 +882,35 @@ def m_hdf5(mk, name):
             for key, v in d.items():
                 if v.dtype.kind not in "UO":
                     g.create_dataset(key, data=v)
-    return {"input": path, "base": base, "kind": "radar",
-            "outside": outside and target != "truth_scene"}
+    return {
+        "input": path,
+        "base": base,
+        "kind": "radar",
+        "outside": outside and target != "truth_scene",
+    }
 
 
-HDF5 = ("chunked-1e9-x", "chunked-1e9-data", "chunked-1e9-unused", "chunked-maxshape",
-        "external-x", "external-data", "external-scene", "extlink-x", "extlink-data",
-        "extlink-scene", "virtual-x", "virtual-data", "group-data", "group-x", "group-fc",
-        "group-root", "softlink-loop", "softlink-dangling", "null-fc")
+HDF5 = (
+    "chunked-1e9-x",
+    "chunked-1e9-data",
+    "chunked-1e9-unused",
+    "chunked-maxshape",
+    "external-x",
+    "external-data",
+    "external-scene",
+    "extlink-x",
+    "extlink-data",
+    "extlink-scene",
+    "virtual-x",
+    "virtual-data",
+    "group-data",
+    "group-x",
+    "group-fc",
+    "group-root",
+    "softlink-loop",
+    "softlink-dangling",
+    "null-fc",
+)
 
 
 def m_special(mk, name):
@@ -801,8 +946,19 @@ def m_special(mk, name):
     return {"input": path, "base": base, "kind": kind, "config": config}
 
 
-SPECIAL = ("fifo", "dev-zero", "dev-urandom", "dev-null", "directory", "dangling", "loop",
-           "config-fifo", "config-zero", "config-urandom", "view-fifo")
+SPECIAL = (
+    "fifo",
+    "dev-zero",
+    "dev-urandom",
+    "dev-null",
+    "directory",
+    "dangling",
+    "loop",
+    "config-fifo",
+    "config-zero",
+    "config-urandom",
+    "view-fifo",
+)
 
 
 def m_outputs(mk, name):
@@ -827,8 +983,14 @@ def m_outputs(mk, name):
     elif name == "config":
         config = mk.dir / "c.toml"
         config.write_text("[rpm]\nsigma_x = 0.1\n")
-        return {"input": path, "base": base, "kind": "radar", "config": config,
-                "command": cmd if cmd != "batch" else "image", "out": config}
+        return {
+            "input": path,
+            "base": base,
+            "kind": "radar",
+            "config": config,
+            "command": cmd if cmd != "batch" else "image",
+            "out": config,
+        }
     elif name == "view-png-input":
         res = mk.copy("res.npz")
         return {"input": res, "base": "res", "kind": "result", "command": "view", "out": res}
@@ -836,28 +998,57 @@ def m_outputs(mk, name):
         out = mk.dir / "adir"
         out.mkdir()
         (out / "keep.txt").write_text("keep")
-        return {"input": path, "base": base, "kind": "radar", "out": out,
-                "command": "image", "keep": out / "keep.txt"}
+        return {
+            "input": path,
+            "base": base,
+            "kind": "radar",
+            "out": out,
+            "command": "image",
+            "keep": out / "keep.txt",
+        }
     if cmd == "batch":
         # the output folder is the input folder, or the frame itself
-        return {"input": path, "base": base, "kind": "radar", "command": "batch",
-                "out": "FRAMES" if name in ("same", "relative") else out}
+        return {
+            "input": path,
+            "base": base,
+            "kind": "radar",
+            "command": "batch",
+            "out": "FRAMES" if name in ("same", "relative") else out,
+        }
     return {"input": path, "base": base, "kind": "radar", "command": cmd, "out": out}
 
 
-OUTPUTS = ("same", "symlink", "hardlink", "relative", "dir-symlink", "config", "view-png-input",
-           "existing-dir")
+OUTPUTS = (
+    "same",
+    "symlink",
+    "hardlink",
+    "relative",
+    "dir-symlink",
+    "config",
+    "view-png-input",
+    "existing-dir",
+)
 
 
 def m_sigint(mk, name):
     cmd = name
     if cmd == "view":
-        return {"input": mk.copy("res.npz"), "base": "res", "kind": "result", "command": "view",
-                "sigint": float(mk.rng.uniform(0.0, 2.5))}
+        return {
+            "input": mk.copy("res.npz"),
+            "base": "res",
+            "kind": "result",
+            "command": "view",
+            "sigint": float(mk.rng.uniform(0.0, 2.5)),
+        }
     base = RADAR[int(mk.rng.integers(4))]
     late = 4.0 if cmd == "batch" else 2.0
-    return {"input": mk.copy(base), "base": base, "kind": "radar", "command": cmd,
-            "sigint": float(mk.rng.uniform(0.0, late))}
+    return {
+        "input": mk.copy(base),
+        "base": base,
+        "kind": "radar",
+        "command": cmd,
+        "sigint": float(mk.rng.uniform(0.0, late)),
+    }
 
 
 SIGINT = ("image", "das", "params", "batch", "view")
@@ -876,7 +1067,7 @@ def m_config(mk, name):
         "negative": "[rpm]\nsigma_x = -1.0\n",
         "zero-pad": "[kspace]\npad = 0\n",
         "chunk-1": "[rpm]\nchunk_slots = 1\n",
-        "string-number": "[rpm]\nsigma_x = \"0.1\"\n",
+        "string-number": '[rpm]\nsigma_x = "0.1"\n',
         "unknown": "[nope]\nx = 1\n",
         "binary": None,
         "long-line": "# " + "x" * 5_000_000 + "\n",
@@ -888,8 +1079,20 @@ def m_config(mk, name):
     return {"input": path, "base": base, "kind": "radar", "config": config}
 
 
-CONFIG = ("deep-arrays", "deep-tables", "huge-int", "nan", "inf", "negative", "zero-pad",
-          "chunk-1", "string-number", "unknown", "binary", "long-line")
+CONFIG = (
+    "deep-arrays",
+    "deep-tables",
+    "huge-int",
+    "nan",
+    "inf",
+    "negative",
+    "zero-pad",
+    "chunk-1",
+    "string-number",
+    "unknown",
+    "binary",
+    "long-line",
+)
 
 MUTATIONS = {
     "bytes": (m_flip, ("bit", "byte", "few", "many")),
@@ -922,9 +1125,19 @@ def make_case(cid, family, mutation, root, bases, rng, command=None):
         cmd = "view"
     else:
         cmd = command or ("image", "image", "das", "params", "batch")[int(rng.integers(5))]
-    case = Case(cid, family, mutation, m["base"], cmd, dir=str(cdir), few=m.get("few", False),
-                units=m.get("units", False), outside=m.get("outside", False),
-                sigint=m.get("sigint"), detail=m.get("detail", {}))
+    case = Case(
+        cid,
+        family,
+        mutation,
+        m["base"],
+        cmd,
+        dir=str(cdir),
+        few=m.get("few", False),
+        units=m.get("units", False),
+        outside=m.get("outside", False),
+        sigint=m.get("sigint"),
+        detail=m.get("detail", {}),
+    )
     outdir = cdir / "out"
     outdir.mkdir()
     out = m.get("out")
@@ -947,7 +1160,8 @@ def make_case(cid, family, mutation, root, bases, rng, command=None):
         case.output = str(png)
     else:
         suffix = {"params": ".toml", "das": ".npz"}.get(
-            cmd, ".h5" if rng.random() < 0.3 else ".npz")
+            cmd, ".h5" if rng.random() < 0.3 else ".npz"
+        )
         target = out or outdir / ("result" + suffix)
         argv = [cmd, str(inp)]
         if cmd == "das":
@@ -959,8 +1173,9 @@ def make_case(cid, family, mutation, root, bases, rng, command=None):
         argv += ["--config", str(m["config"])]
     case.argv = argv
     case.outdir = str(outdir)
-    files = [p for p in cdir.rglob("*") if p.is_file() and not p.is_symlink()
-             and p.parent != outdir]
+    files = [
+        p for p in cdir.rglob("*") if p.is_file() and not p.is_symlink() and p.parent != outdir
+    ]
     case.inputs = [str(p) for p in files]
     case.data_bytes = sum(p.stat().st_size for p in files)
     if m.get("keep"):
@@ -969,6 +1184,7 @@ def make_case(cid, family, mutation, root, bases, rng, command=None):
 
 
 # ----------------------------------------------------------------- scoring
+
 
 def score(case, truth):
     """Accuracy of a result file against the truth (None where unreadable)."""
@@ -986,8 +1202,9 @@ def score(case, truth):
             return {"recall": 0.0, "peak": False}
         top = img.max()
         gx, gy = np.meshgrid(x, y, indexing="ij")
-        hit = [img[np.hypot(gx - t[0], gy - t[1]) <= 0.03].max(initial=0) >= 0.5 * top
-               for t in truth]
+        hit = [
+            img[np.hypot(gx - t[0], gy - t[1]) <= 0.03].max(initial=0) >= 0.5 * top for t in truth
+        ]
         i = np.unravel_index(np.argmax(img), img.shape)
         peak = bool(np.hypot(truth[:, 0] - x[i[0]], truth[:, 1] - y[i[1]]).min() <= TOL)
         return {"recall": float(np.mean(hit)), "peak": peak}
@@ -995,8 +1212,11 @@ def score(case, truth):
     if pts.ndim != 2 or pts.shape[1] < 2 or not len(pts):
         return {"n": 0, "precision": 0.0, "recall": 0.0}
     dist = np.hypot(pts[:, None, 0] - truth[None, :, 0], pts[:, None, 1] - truth[None, :, 1])
-    return {"n": len(pts), "precision": float(np.mean(dist.min(1) <= TOL)),
-            "recall": float(np.mean(dist.min(0) <= TOL))}
+    return {
+        "n": len(pts),
+        "precision": float(np.mean(dist.min(1) <= TOL)),
+        "recall": float(np.mean(dist.min(0) <= TOL)),
+    }
 
 
 def collapsed(acc, clean):
@@ -1004,8 +1224,11 @@ def collapsed(acc, clean):
         return acc is None and clean is not None
     if "peak" in clean:
         return acc["recall"] < 0.5 * clean["recall"] or (clean["peak"] and not acc["peak"])
-    return (acc["precision"] < 0.5 * clean["precision"] or acc["recall"] < 0.5 * clean["recall"]
-            or acc["n"] > 10 * max(clean["n"], 1))
+    return (
+        acc["precision"] < 0.5 * clean["precision"]
+        or acc["recall"] < 0.5 * clean["recall"]
+        or acc["n"] > 10 * max(clean["n"], 1)
+    )
 
 
 def marker_in(case, marker, stdout):
@@ -1044,10 +1267,13 @@ def classify(case, res, hashes, ref):
         flags.add("traceback")
     if case.sigint is not None:
         names = {Path(case.output).name, ".stdout", ".stderr"}
-        left = [p.name for p in Path(case.outdir).rglob("*")
-                if p.is_file() and p.name not in names
-                and ("tmp" in p.name.lower() or p.name.startswith(".")
-                     or case.command != "batch")]
+        left = [
+            p.name
+            for p in Path(case.outdir).rglob("*")
+            if p.is_file()
+            and p.name not in names
+            and ("tmp" in p.name.lower() or p.name.startswith(".") or case.command != "batch")
+        ]
         if left:
             flags.add("leftover")
             res["leftover"] = left
@@ -1068,8 +1294,11 @@ def classify(case, res, hashes, ref):
         base = ref["base_rss"].get(case.command, 0)
         if res["wall"] > REFUSE_S or res["rss"] > RSS_FACTOR * case.data_bytes + base:
             flags.add("slow-refusal")
-    flags.add({0: "accepted", 1: "failed", 2: "refused", 130: "interrupted"}.get(rc, "traceback")
-              if not res["killed"] else res["killed"])
+    flags.add(
+        {0: "accepted", 1: "failed", 2: "refused", 130: "interrupted"}.get(rc, "traceback")
+        if not res["killed"]
+        else res["killed"]
+    )
     outcome = next(o for o in OUTCOMES if o in flags)
     return outcome, sorted(flags, key=OUTCOMES.index)
 
@@ -1083,15 +1312,22 @@ def run_case(case, ref, timeout, mem_cap):
     res = run_cli(case.argv, case.dir, timeout, mem_cap, case.sigint)
     outcome, flags = classify(case, res, hashes, ref)
     rec = asdict(case)
-    rec.update(outcome=outcome, flags=flags, rc=res["rc"], wall=round(res["wall"], 3),
-               rss_mb=round(res["rss"] / 2**20, 1),
-               stderr=res["stderr"][-2000:], acc=res.get("acc"),
-               leftover=res.get("leftover"))
+    rec.update(
+        outcome=outcome,
+        flags=flags,
+        rc=res["rc"],
+        wall=round(res["wall"], 3),
+        rss_mb=round(res["rss"] / 2**20, 1),
+        stderr=res["stderr"][-2000:],
+        acc=res.get("acc"),
+        leftover=res.get("leftover"),
+    )
     rec["cli"] = "rpm-cl " + " ".join(case.argv)
     return rec
 
 
 # ----------------------------------------------------------------- campaign
+
 
 def references(root, bases, timeout, mem_cap, repeats, commands, jobs):
     """Per command: the RSS of refusing a 10-byte file; per (base, command):
@@ -1104,22 +1340,36 @@ def references(root, bases, timeout, mem_cap, repeats, commands, jobs):
     tinies[0].write_bytes(b"not a zip!")
     zipfile.ZipFile(tinies[1], "w").close()
     save_h5(tinies[2], {})
-    ref = {"marker": bases.marker, "truth": bases.truth, "base_rss": {}, "clean": {},
-           "base_wall": {}}
-    argvs = {"image": ["image", "{}", "-o", str(rdir / "t.npz")],
-             "das": ["das", "{}", "-o", str(rdir / "t.npz"), "--grid", GRID],
-             "params": ["params", "{}"], "view": ["view", "{}", "--png", str(rdir / "t.png")],
-             "batch": ["batch", "{}", "-o", str(rdir / "tb"), "--workers", "1"]}
+    ref = {
+        "marker": bases.marker,
+        "truth": bases.truth,
+        "base_rss": {},
+        "clean": {},
+        "base_wall": {},
+    }
+    argvs = {
+        "image": ["image", "{}", "-o", str(rdir / "t.npz")],
+        "das": ["das", "{}", "-o", str(rdir / "t.npz"), "--grid", GRID],
+        "params": ["params", "{}"],
+        "view": ["view", "{}", "--png", str(rdir / "t.png")],
+        "batch": ["batch", "{}", "-o", str(rdir / "tb"), "--workers", "1"],
+    }
     # and a trivially bad request on a clean input, refused once the engine
     # is loaded: an out-of-range parameter (view takes none)
     bad_cfg = rdir / "bad.toml"
-    bad_cfg.write_text("[engine]\nprecision = \"float16\"\n")
+    bad_cfg.write_text('[engine]\nprecision = "float16"\n')
     for cmd in commands:
-        runs = [run_cli([a.format(t) for a in argvs[cmd]], rdir, timeout, mem_cap)
-                for t in tinies]
+        runs = [run_cli([a.format(t) for a in argvs[cmd]], rdir, timeout, mem_cap) for t in tinies]
         if cmd != "view":
-            runs.append(run_cli([a.format(bases.dir / RADAR[0]) for a in argvs[cmd]]
-                                + ["--config", str(bad_cfg)], rdir, timeout, mem_cap))
+            runs.append(
+                run_cli(
+                    [a.format(bases.dir / RADAR[0]) for a in argvs[cmd]]
+                    + ["--config", str(bad_cfg)],
+                    rdir,
+                    timeout,
+                    mem_cap,
+                )
+            )
         ref["base_rss"][cmd] = BASE_SLACK * max(r["rss"] for r in runs)
         ref["base_wall"][cmd] = min(r["wall"] for r in runs)
     jobs_list = []
@@ -1147,8 +1397,9 @@ def references(root, bases, timeout, mem_cap, repeats, commands, jobs):
             case.output = str(cdir / "out" / "b.npz")
         else:
             case.output = str(cdir / "out" / "r.npz")
-            case.argv = [cmd, str(inp), "-o", case.output] + (["--grid", GRID]
-                                                               if cmd == "das" else [])
+            case.argv = [cmd, str(inp), "-o", case.output] + (
+                ["--grid", GRID] if cmd == "das" else []
+            )
         r = run_cli(case.argv, cdir, timeout, mem_cap)
         return base, cmd, r, (score(case, bases.truth) if r["rc"] == 0 else None)
 
@@ -1162,8 +1413,10 @@ def references(root, bases, timeout, mem_cap, repeats, commands, jobs):
             ok = [(r, a) for r, a in rs if r["rc"] == 0]
             if not ok:
                 raise RuntimeError(f"clean {cmd} of {base} failed: {rs[0][0]['stderr']}")
-            ref["clean"][(base, cmd)] = {"wall": float(np.median([r["wall"] for r, _ in ok])),
-                                         "acc": ok[0][1]}
+            ref["clean"][(base, cmd)] = {
+                "wall": float(np.median([r["wall"] for r, _ in ok])),
+                "acc": ok[0][1],
+            }
     return ref
 
 
@@ -1184,8 +1437,18 @@ def plan(n, seed, families=FAMILIES):
     return out
 
 
-def campaign(root, pairs, seed, timeout=20.0, mem_cap=4 << 30, bomb_bytes=2 << 30, jobs=1,
-             repeats=3, log=None, commands=None):
+def campaign(
+    root,
+    pairs,
+    seed,
+    timeout=20.0,
+    mem_cap=4 << 30,
+    bomb_bytes=2 << 30,
+    jobs=1,
+    repeats=3,
+    log=None,
+    commands=None,
+):
     """Run the cases ``pairs`` [(family, mutation) or (family, mutation,
     command)] under ``root``; returns (records, ref)."""
     root = Path(root)
@@ -1195,8 +1458,9 @@ def campaign(root, pairs, seed, timeout=20.0, mem_cap=4 << 30, bomb_bytes=2 << 3
     cases = []
     for cid, pair in enumerate(pairs):
         rng = np.random.default_rng([seed, cid])
-        cases.append(make_case(cid, pair[0], pair[1], root, bases, rng,
-                               pair[2] if len(pair) > 2 else None))
+        cases.append(
+            make_case(cid, pair[0], pair[1], root, bases, rng, pair[2] if len(pair) > 2 else None)
+        )
 
     def one(case):
         rec = run_case(case, ref, timeout, mem_cap)
@@ -1222,8 +1486,10 @@ def table(recs):
         lines.append(f.ljust(w) + " | " + " | ".join(cells) + f" | {len(rs)}")
     flags = {o: sum(o in r["flags"] for r in recs) for o in OUTCOMES}
     lines.append("")
-    lines.append("cases with each flag (a case may hold several): "
-                 + ", ".join(f"{o} {flags[o]}" for o in OUTCOMES if flags[o]))
+    lines.append(
+        "cases with each flag (a case may hold several): "
+        + ", ".join(f"{o} {flags[o]}" for o in OUTCOMES if flags[o])
+    )
     lines.append("targets (0 each): " + ", ".join(f"{o} {flags[o]}" for o in FAILURES))
     return "\n".join(lines)
 
@@ -1232,17 +1498,34 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--n", type=int, default=None, help="cases (default 660; --quick 110)")
-    ap.add_argument("--out", default=None, help="working folder and cases.json (default: a "
-                    "temporary folder, removed; cases.json then in the current folder)")
-    ap.add_argument("--quick", action="store_true",
-                    help="110 cases, 10 s limit, 512 MB zip bombs, 2 clean runs each")
-    ap.add_argument("--jobs", type=int, default=1, help="cases run at once (timings compare "
-                    "within a run: clean references run with the same parallelism)")
-    ap.add_argument("--timeout", type=float, default=None, help="s per case (default 20; "
-                    "--quick 10)")
+    ap.add_argument(
+        "--out",
+        default=None,
+        help="working folder and cases.json (default: a "
+        "temporary folder, removed; cases.json then in the current folder)",
+    )
+    ap.add_argument(
+        "--quick",
+        action="store_true",
+        help="110 cases, 10 s limit, 512 MB zip bombs, 2 clean runs each",
+    )
+    ap.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        help="cases run at once (timings compare "
+        "within a run: clean references run with the same parallelism)",
+    )
+    ap.add_argument(
+        "--timeout", type=float, default=None, help="s per case (default 20; --quick 10)"
+    )
     ap.add_argument("--mem-cap", type=float, default=4.0, help="GB per case (default 4)")
-    ap.add_argument("--bomb-mb", type=int, default=None,
-                    help="bytes a zip bomb inflates, MB (default 2048; --quick 512)")
+    ap.add_argument(
+        "--bomb-mb",
+        type=int,
+        default=None,
+        help="bytes a zip bomb inflates, MB (default 2048; --quick 512)",
+    )
     ap.add_argument("--families", default=",".join(FAMILIES))
     args = ap.parse_args(argv)
     n = args.n or (110 if args.quick else 660)
@@ -1263,22 +1546,41 @@ def main(argv=None):
         stream.flush()
         done[0] += 1
         bad = rec["outcome"] in FAILURES
-        print(f"[{done[0]:4d}/{n}] {rec['family']:9s} {rec['mutation']:22s} {rec['command']:6s} "
-              f"-> {rec['outcome']:13s} rc={rec['rc']:4d} {rec['wall']:6.2f} s "
-              f"{rec['rss_mb']:7.0f} MB" + ("  <<" if bad else ""), file=sys.stderr, flush=True)
+        print(
+            f"[{done[0]:4d}/{n}] {rec['family']:9s} {rec['mutation']:22s} {rec['command']:6s} "
+            f"-> {rec['outcome']:13s} rc={rec['rc']:4d} {rec['wall']:6.2f} s "
+            f"{rec['rss_mb']:7.0f} MB" + ("  <<" if bad else ""),
+            file=sys.stderr,
+            flush=True,
+        )
 
-    recs, ref = campaign(root, pairs, args.seed, timeout, int(args.mem_cap * 2**30), bomb,
-                         args.jobs, 2 if args.quick else 3, log)
+    recs, ref = campaign(
+        root,
+        pairs,
+        args.seed,
+        timeout,
+        int(args.mem_cap * 2**30),
+        bomb,
+        args.jobs,
+        2 if args.quick else 3,
+        log,
+    )
     stream.close()
     text = table(recs)
     print(text)
-    summary = {"seed": args.seed, "n": n, "timeout_s": timeout, "mem_cap_gb": args.mem_cap,
-               "bomb_mb": bomb >> 20, "jobs": args.jobs,
-               "seconds": round(time.perf_counter() - t0, 1),
-               "base_rss_mb": {k: round(v / 2**20, 1) for k, v in ref["base_rss"].items()},
-               "base_refusal_s": {k: round(v, 3) for k, v in ref["base_wall"].items()},
-               "clean": {f"{b} {c}": v for (b, c), v in ref["clean"].items()},
-               "cases": recs}
+    summary = {
+        "seed": args.seed,
+        "n": n,
+        "timeout_s": timeout,
+        "mem_cap_gb": args.mem_cap,
+        "bomb_mb": bomb >> 20,
+        "jobs": args.jobs,
+        "seconds": round(time.perf_counter() - t0, 1),
+        "base_rss_mb": {k: round(v / 2**20, 1) for k, v in ref["base_rss"].items()},
+        "base_refusal_s": {k: round(v, 3) for k, v in ref["base_wall"].items()},
+        "clean": {f"{b} {c}": v for (b, c), v in ref["clean"].items()},
+        "cases": recs,
+    }
     dest = (root if keep else Path.cwd()) / "cases.json"
     dest.write_text(json.dumps(summary, indent=1, default=str))
     print(f"\n{len(recs)} cases in {summary['seconds']} s; wrote {dest}")

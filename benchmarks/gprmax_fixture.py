@@ -77,23 +77,23 @@ import numpy as np
 C0 = 299_792_458.0
 
 # ---------------------------------------------------------------- settings
-DX = 0.002                      # cell, m (square cells; one cell in z)
-DOMAIN = (0.90, 0.84)           # x, y extent, m
+DX = 0.002  # cell, m (square cells; one cell in z)
+DOMAIN = (0.90, 0.84)  # x, y extent, m
 PML_CELLS = 20
-TIME_WINDOW = 6e-9              # s
+TIME_WINDOW = 6e-9  # s
 WAVEFORM = {"type": "ricker", "amplitude": 1.0, "frequency": 3e9}
 N_SCAN = 41
-PITCH = 0.008                   # m
-SCAN_X0 = 0.290                 # first position, m (the array centre is at x = 0.45)
-SCAN_Y = 0.090                  # the scan line, m
-CYLINDERS = [                   # centre x, y (m), radius (m)
+PITCH = 0.008  # m
+SCAN_X0 = 0.290  # first position, m (the array centre is at x = 0.45)
+SCAN_Y = 0.090  # the scan line, m
+CYLINDERS = [  # centre x, y (m), radius (m)
     {"centre": [0.190, 0.470], "radius": 0.012},
     {"centre": [0.450, 0.390], "radius": 0.010},
     {"centre": [0.730, 0.450], "radius": 0.015},
     {"centre": [0.330, 0.670], "radius": 0.008},
 ]
 PLATE = {"centre": [0.610, 0.690], "length": 0.100, "thickness": 0.004}
-BAND_CHECK = (1.5e9, 5e9)       # the band the fixture is meant for, Hz
+BAND_CHECK = (1.5e9, 5e9)  # the band the fixture is meant for, Hz
 
 
 def plate_corners(plate, face_to):
@@ -102,7 +102,7 @@ def plate_corners(plate, face_to):
     c = np.asarray(plate["centre"], float)
     n = np.asarray(face_to, float) - c
     n /= np.linalg.norm(n)
-    a = np.array([n[1], -n[0]])                      # along the plate
+    a = np.array([n[1], -n[0]])  # along the plate
     h, t = plate["length"] / 2, plate["thickness"] / 2
     return np.array([c + t * n - h * a, c + t * n + h * a, c - t * n + h * a, c - t * n - h * a])
 
@@ -141,7 +141,7 @@ def check_settings():
     f0 = WAVEFORM["frequency"]
     dt = DX / (C0 * math.sqrt(2))
     f40 = frequency_at_db(-40, f0)
-    chi = math.sqrt(2) / f0                            # gprMax's Ricker delay
+    chi = math.sqrt(2) / f0  # gprMax's Ricker delay
     xs = SCAN_X0 + PITCH * np.arange(N_SCAN)
     dist = surface_distances(xs, SCAN_Y)
     checks = {
@@ -187,7 +187,7 @@ def input_file(title, targets: bool, threads: int) -> str:
             (x, y), r = c["centre"], c["radius"]
             lines.append(f"#cylinder: {x:.4f} {y:.4f} 0 {x:.4f} {y:.4f} inf {r:.4f} pec")
         p = plate_corners(PLATE, (SCAN_X0 + (N_SCAN - 1) * PITCH / 2, SCAN_Y))
-        for tri in (p[[0, 1, 2]], p[[0, 2, 3]]):     # the rectangle as two prisms one cell thick
+        for tri in (p[[0, 1, 2]], p[[0, 2, 3]]):  # the rectangle as two prisms one cell thick
             pts = " ".join(f"{x:.5f} {y:.5f} 0" for x, y in tri)
             lines.append(f"#triangle: {pts} {DX} pec")
     return "\n".join(lines) + "\n"
@@ -205,9 +205,24 @@ def run_scan(name, targets, work, threads, python):
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
     t0 = time.perf_counter()
     with open(log, "w") as fh:
-        subprocess.run([python, "-m", "gprMax", path, "-n", str(N_SCAN), "-cpu_precision",
-                        "double", "--hide-progress-bars"], check=True, stdout=fh,
-                       stderr=subprocess.STDOUT, env=env, cwd=work)
+        subprocess.run(
+            [
+                python,
+                "-m",
+                "gprMax",
+                path,
+                "-n",
+                str(N_SCAN),
+                "-cpu_precision",
+                "double",
+                "--hide-progress-bars",
+            ],
+            check=True,
+            stdout=fh,
+            stderr=subprocess.STDOUT,
+            env=env,
+            cwd=work,
+        )
     sec = time.perf_counter() - t0
     traces = [os.path.join(work, f"{name}{i}.h5") for i in range(1, N_SCAN + 1)]
     merged = os.path.join(work, f"{name}_merged.h5")
@@ -217,32 +232,47 @@ def run_scan(name, targets, work, threads, python):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "..", "tests",
-                                                   "data", "gprmax"))
+    ap.add_argument(
+        "--out", default=os.path.join(os.path.dirname(__file__), "..", "tests", "data", "gprmax")
+    )
     ap.add_argument("--threads", type=int, default=1, help="OpenMP threads of gprMax (default 1)")
-    ap.add_argument("--python", default=sys.executable,
-                    help="the Python that has gprMax installed (default: this one)")
-    ap.add_argument("--keep", help="a folder where gprMax's input files, logs and per-trace "
-                    "outputs are kept")
+    ap.add_argument(
+        "--python",
+        default=sys.executable,
+        help="the Python that has gprMax installed (default: this one)",
+    )
+    ap.add_argument(
+        "--keep", help="a folder where gprMax's input files, logs and per-trace outputs are kept"
+    )
     args = ap.parse_args()
     import gprMax
 
     dt, f40, _, xs, dist, checks = check_settings()
     iterations = math.ceil(TIME_WINDOW / dt) + 1
     nx, ny = round(DOMAIN[0] / DX), round(DOMAIN[1] / DX)
-    print(f"gprMax {gprMax.__version__}: 2-D TM (Ez), free space, {nx} x {ny} cells of "
-          f"{1e3 * DX:g} mm, PML {PML_CELLS} cells, double precision, {args.threads} thread(s)")
-    print(f"time window {1e9 * TIME_WINDOW:g} ns, dt {1e12 * dt:.3f} ps (2-D Courant limit), "
-          f"about {iterations} iterations")
-    print(f"waveform {WAVEFORM['type']} {WAVEFORM['frequency'] / 1e9:g} GHz: "
-          f"{ricker_db(1.5e9, WAVEFORM['frequency']):.1f} dB at 1.5 GHz, "
-          f"{ricker_db(5e9, WAVEFORM['frequency']):.1f} dB at 5 GHz, -40 dB at {f40 / 1e9:.2f} GHz")
-    print(f"scan: {N_SCAN} positions at {1e3 * PITCH:g} mm, x {xs[0]:.3f} .. {xs[-1]:.3f} m, "
-          f"y {SCAN_Y} m; tx and rx in the same cell")
+    print(
+        f"gprMax {gprMax.__version__}: 2-D TM (Ez), free space, {nx} x {ny} cells of "
+        f"{1e3 * DX:g} mm, PML {PML_CELLS} cells, double precision, {args.threads} thread(s)"
+    )
+    print(
+        f"time window {1e9 * TIME_WINDOW:g} ns, dt {1e12 * dt:.3f} ps (2-D Courant limit), "
+        f"about {iterations} iterations"
+    )
+    print(
+        f"waveform {WAVEFORM['type']} {WAVEFORM['frequency'] / 1e9:g} GHz: "
+        f"{ricker_db(1.5e9, WAVEFORM['frequency']):.1f} dB at 1.5 GHz, "
+        f"{ricker_db(5e9, WAVEFORM['frequency']):.1f} dB at 5 GHz, -40 dB at {f40 / 1e9:.2f} GHz"
+    )
+    print(
+        f"scan: {N_SCAN} positions at {1e3 * PITCH:g} mm, x {xs[0]:.3f} .. {xs[-1]:.3f} m, "
+        f"y {SCAN_Y} m; tx and rx in the same cell"
+    )
     for k, v in checks.items():
         print(f"  {k}: {v:.2f}")
-    print(f"  nearest object surface from the antennas: {dist.min():.3f} .. "
-          f"{dist.min(axis=1).max():.3f} m; farthest object {dist.max():.3f} m")
+    print(
+        f"  nearest object surface from the antennas: {dist.min():.3f} .. "
+        f"{dist.min(axis=1).max():.3f} m; farthest object {dist.max():.3f} m"
+    )
 
     os.makedirs(args.out, exist_ok=True)
     work = args.keep or tempfile.mkdtemp(prefix="gprmax-fixture-")
@@ -256,32 +286,55 @@ def main():
             shutil.copyfile(merged, os.path.join(args.out, f"{name}_merged.h5"))
         import h5py
 
-        with h5py.File(os.path.join(args.out, "targets_merged.h5"), "r") as f, \
-                h5py.File(os.path.join(args.out, "background_merged.h5"), "r") as g:
+        with (
+            h5py.File(os.path.join(args.out, "targets_merged.h5"), "r") as f,
+            h5py.File(os.path.join(args.out, "background_merged.h5"), "r") as g,
+        ):
             a, b = f["rxs/rx1/Ez"][()], g["rxs/rx1/Ez"][()]
             its, dt_file = int(f.attrs["Iterations"]), float(f.attrs["dt"])
             pos = f["trace_metadata/rxs/rx1/Position"][()]
         scat = a - b
-        print(f"Ez {a.shape} ({a.dtype}); direct field peak {np.abs(b).max():.3g} V/m, "
-              f"scattered peak {np.abs(scat).max():.3g} V/m "
-              f"({20 * np.log10(np.abs(scat).max() / np.abs(b).max()):.1f} dB)")
+        print(
+            f"Ez {a.shape} ({a.dtype}); direct field peak {np.abs(b).max():.3g} V/m, "
+            f"scattered peak {np.abs(scat).max():.3g} V/m "
+            f"({20 * np.log10(np.abs(scat).max() / np.abs(b).max()):.1f} dB)"
+        )
         assert np.allclose(pos[:, 0], xs) and np.allclose(pos[:, 1], SCAN_Y)
         scene = {
             "description": "gprMax 2-D TM B-scan fixture of rpm-cl (benchmarks/gprmax_fixture.py);"
-                           " gprMax coordinates, m; the targets lie at y > the scan line",
+            " gprMax coordinates, m; the targets lie at y > the scan line",
             "gprmax_version": gprMax.__version__,
             "waveform": WAVEFORM,
-            "scan": {"x": [round(float(v), 6) for v in xs], "y": SCAN_Y, "pitch": PITCH,
-                     "tx_rx": "same cell", "component": "Ez"},
+            "scan": {
+                "x": [round(float(v), 6) for v in xs],
+                "y": SCAN_Y,
+                "pitch": PITCH,
+                "tx_rx": "same cell",
+                "component": "Ez",
+            },
             "cylinders": CYLINDERS,
-            "plates": [{"corners": plate_corners(
-                PLATE, (SCAN_X0 + (N_SCAN - 1) * PITCH / 2, SCAN_Y)).round(6).tolist(),
-                "length": PLATE["length"], "thickness": PLATE["thickness"],
-                "material": "pec"}],
-            "fdtd": {"mode": "2-D TM", "cell": DX, "domain": list(DOMAIN), "pml_cells": PML_CELLS,
-                     "time_window": TIME_WINDOW, "dt": dt_file, "iterations": its,
-                     "precision": "double", "threads": args.threads,
-                     "seconds": {k: round(v, 1) for k, v in runs.items()}},
+            "plates": [
+                {
+                    "corners": plate_corners(PLATE, (SCAN_X0 + (N_SCAN - 1) * PITCH / 2, SCAN_Y))
+                    .round(6)
+                    .tolist(),
+                    "length": PLATE["length"],
+                    "thickness": PLATE["thickness"],
+                    "material": "pec",
+                }
+            ],
+            "fdtd": {
+                "mode": "2-D TM",
+                "cell": DX,
+                "domain": list(DOMAIN),
+                "pml_cells": PML_CELLS,
+                "time_window": TIME_WINDOW,
+                "dt": dt_file,
+                "iterations": its,
+                "precision": "double",
+                "threads": args.threads,
+                "seconds": {k: round(v, 1) for k, v in runs.items()},
+            },
             "files": {"targets": "targets_merged.h5", "background": "background_merged.h5"},
         }
         with open(os.path.join(args.out, "scene.json"), "w") as fh:

@@ -69,23 +69,23 @@ import numpy as np
 C0 = 299_792_458.0
 
 # ---------------------------------------------------------------- settings
-DX = 0.002                      # cell, m (square cells; one cell in z)
-DOMAIN = (0.90, 0.57)           # x, y extent, m
+DX = 0.002  # cell, m (square cells; one cell in z)
+DOMAIN = (0.90, 0.57)  # x, y extent, m
 PML_CELLS = 20
 WAVEFORM = {"type": "ricker", "amplitude": 1.0, "frequency": 2e9}
-EPS_R = 6.0                     # the half-space, lossless
-SURFACE_Y = 0.40                # the surface, gprMax y, m; the half-space is y < SURFACE_Y
-ANTENNA_HEIGHT = 0.08           # the antennas above the surface, m
+EPS_R = 6.0  # the half-space, lossless
+SURFACE_Y = 0.40  # the surface, gprMax y, m; the half-space is y < SURFACE_Y
+ANTENNA_HEIGHT = 0.08  # the antennas above the surface, m
 N_SCAN = 51
-PITCH = 0.010                   # m
-SCAN_X0 = 0.200                 # first position, m (the array centre is at x = 0.45)
-RODS = [                        # centre x (m), depth of the centre below the surface (m), radius (m)
+PITCH = 0.010  # m
+SCAN_X0 = 0.200  # first position, m (the array centre is at x = 0.45)
+RODS = [  # centre x (m), depth of the centre below the surface (m), radius (m)
     {"x": 0.300, "depth": 0.100, "radius": 0.008},
     {"x": 0.450, "depth": 0.220, "radius": 0.010},
     {"x": 0.580, "depth": 0.140, "radius": 0.006},
     {"x": 0.660, "depth": 0.290, "radius": 0.008},
 ]
-BAND = (1e9, 3e9)               # the band the fixture is meant for, Hz
+BAND = (1e9, 3e9)  # the band the fixture is meant for, Hz
 
 
 def ricker_db(f, f0):
@@ -136,12 +136,12 @@ def check_settings():
     f0 = WAVEFORM["frequency"]
     dt = DX / (C0 * math.sqrt(2))
     f40 = frequency_at_db(-40, f0)
-    chi = math.sqrt(2) / f0                            # gprMax's Ricker delay
+    chi = math.sqrt(2) / f0  # gprMax's Ricker delay
     n = math.sqrt(EPS_R)
     xs = SCAN_X0 + PITCH * np.arange(N_SCAN)
     ranges = rod_ranges(xs)
     window = 2 * ranges.max() / C0 + 2 * chi
-    window = math.ceil(window * 1e10 + 1) / 1e10        # up to the next 0.1 ns, with 0.1 ns spare
+    window = math.ceil(window * 1e10 + 1) / 1e10  # up to the next 0.1 ns, with 0.1 ns spare
     checks = {
         "cells per wavelength in the half-space at the -40 dB frequency": C0 / (n * f40) / DX,
         "cells per wavelength in the half-space at 3 GHz": C0 / (n * BAND[1]) / DX,
@@ -202,9 +202,24 @@ def run_scan(name, rods, work, threads, python, window):
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
     t0 = time.perf_counter()
     with open(log, "w") as fh:
-        subprocess.run([python, "-m", "gprMax", path, "-n", str(N_SCAN), "-cpu_precision",
-                        "double", "--hide-progress-bars"], check=True, stdout=fh,
-                       stderr=subprocess.STDOUT, env=env, cwd=work)
+        subprocess.run(
+            [
+                python,
+                "-m",
+                "gprMax",
+                path,
+                "-n",
+                str(N_SCAN),
+                "-cpu_precision",
+                "double",
+                "--hide-progress-bars",
+            ],
+            check=True,
+            stdout=fh,
+            stderr=subprocess.STDOUT,
+            env=env,
+            cwd=work,
+        )
     sec = time.perf_counter() - t0
     traces = [os.path.join(work, f"{name}{i}.h5") for i in range(1, N_SCAN + 1)]
     merged = os.path.join(work, f"{name}_merged.h5")
@@ -214,35 +229,53 @@ def run_scan(name, rods, work, threads, python, window):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "..", "tests",
-                                                   "data", "gprmax_halfspace"))
+    ap.add_argument(
+        "--out",
+        default=os.path.join(os.path.dirname(__file__), "..", "tests", "data", "gprmax_halfspace"),
+    )
     ap.add_argument("--threads", type=int, default=1, help="OpenMP threads of gprMax (default 1)")
-    ap.add_argument("--python", default=sys.executable,
-                    help="the Python that has gprMax installed (default: this one)")
-    ap.add_argument("--keep", help="a folder where gprMax's input files, logs and per-trace "
-                    "outputs are kept")
+    ap.add_argument(
+        "--python",
+        default=sys.executable,
+        help="the Python that has gprMax installed (default: this one)",
+    )
+    ap.add_argument(
+        "--keep", help="a folder where gprMax's input files, logs and per-trace outputs are kept"
+    )
     args = ap.parse_args()
     import gprMax
 
     dt, f40, _, xs, ranges, window, checks = check_settings()
     iterations = math.ceil(window / dt) + 1
     nx, ny = round(DOMAIN[0] / DX), round(DOMAIN[1] / DX)
-    print(f"gprMax {gprMax.__version__}: 2-D TM (Ez), {nx} x {ny} cells of {1e3 * DX:g} mm, "
-          f"PML {PML_CELLS} cells, double precision, {args.threads} thread(s)")
-    print(f"half-space eps_r {EPS_R:g} (lossless) below y = {SURFACE_Y} m; antennas "
-          f"{ANTENNA_HEIGHT} m above it")
-    print(f"time window {1e9 * window:g} ns, dt {1e12 * dt:.3f} ps (2-D Courant limit), "
-          f"about {iterations} iterations")
-    print(f"waveform {WAVEFORM['type']} {WAVEFORM['frequency'] / 1e9:g} GHz: "
-          f"{ricker_db(BAND[0], WAVEFORM['frequency']):.1f} dB at {BAND[0] / 1e9:g} GHz, "
-          f"{ricker_db(BAND[1], WAVEFORM['frequency']):.1f} dB at {BAND[1] / 1e9:g} GHz, "
-          f"-40 dB at {f40 / 1e9:.2f} GHz")
-    print(f"scan: {N_SCAN} positions at {1e3 * PITCH:g} mm, x {xs[0]:.3f} .. {xs[-1]:.3f} m; "
-          f"tx and rx in the same cell")
+    print(
+        f"gprMax {gprMax.__version__}: 2-D TM (Ez), {nx} x {ny} cells of {1e3 * DX:g} mm, "
+        f"PML {PML_CELLS} cells, double precision, {args.threads} thread(s)"
+    )
+    print(
+        f"half-space eps_r {EPS_R:g} (lossless) below y = {SURFACE_Y} m; antennas "
+        f"{ANTENNA_HEIGHT} m above it"
+    )
+    print(
+        f"time window {1e9 * window:g} ns, dt {1e12 * dt:.3f} ps (2-D Courant limit), "
+        f"about {iterations} iterations"
+    )
+    print(
+        f"waveform {WAVEFORM['type']} {WAVEFORM['frequency'] / 1e9:g} GHz: "
+        f"{ricker_db(BAND[0], WAVEFORM['frequency']):.1f} dB at {BAND[0] / 1e9:g} GHz, "
+        f"{ricker_db(BAND[1], WAVEFORM['frequency']):.1f} dB at {BAND[1] / 1e9:g} GHz, "
+        f"-40 dB at {f40 / 1e9:.2f} GHz"
+    )
+    print(
+        f"scan: {N_SCAN} positions at {1e3 * PITCH:g} mm, x {xs[0]:.3f} .. {xs[-1]:.3f} m; "
+        f"tx and rx in the same cell"
+    )
     for k, v in checks.items():
         print(f"  {k}: {v:.2f}")
-    print(f"  refracted ranges to the rods (air-equivalent, c t / 2): {ranges.min():.3f} .. "
-          f"{ranges.max():.3f} m")
+    print(
+        f"  refracted ranges to the rods (air-equivalent, c t / 2): {ranges.min():.3f} .. "
+        f"{ranges.max():.3f} m"
+    )
 
     os.makedirs(args.out, exist_ok=True)
     work = args.keep or tempfile.mkdtemp(prefix="gprmax-halfspace-")
@@ -256,35 +289,62 @@ def main():
             shutil.copyfile(merged, os.path.join(args.out, f"{name}_merged.h5"))
         import h5py
 
-        with h5py.File(os.path.join(args.out, "targets_merged.h5"), "r") as f, \
-                h5py.File(os.path.join(args.out, "background_merged.h5"), "r") as g:
+        with (
+            h5py.File(os.path.join(args.out, "targets_merged.h5"), "r") as f,
+            h5py.File(os.path.join(args.out, "background_merged.h5"), "r") as g,
+        ):
             a, b = f["rxs/rx1/Ez"][()], g["rxs/rx1/Ez"][()]
             its, dt_file = int(f.attrs["Iterations"]), float(f.attrs["dt"])
             pos = f["trace_metadata/rxs/rx1/Position"][()]
         scat = a - b
-        print(f"Ez {a.shape} ({a.dtype}); background peak {np.abs(b).max():.3g} V/m, "
-              f"rods' echoes peak {np.abs(scat).max():.3g} V/m "
-              f"({20 * np.log10(np.abs(scat).max() / np.abs(b).max()):.1f} dB)")
+        print(
+            f"Ez {a.shape} ({a.dtype}); background peak {np.abs(b).max():.3g} V/m, "
+            f"rods' echoes peak {np.abs(scat).max():.3g} V/m "
+            f"({20 * np.log10(np.abs(scat).max() / np.abs(b).max()):.1f} dB)"
+        )
         y_ant = SURFACE_Y + ANTENNA_HEIGHT
         assert np.allclose(pos[:, 0], xs) and np.allclose(pos[:, 1], y_ant)
         scene = {
             "description": "gprMax 2-D TM B-scan over a dielectric half-space with buried PEC "
-                           "rods (benchmarks/gprmax_halfspace.py); gprMax coordinates, m; the "
-                           "half-space fills y < medium.surface_y, the antennas lie above it",
+            "rods (benchmarks/gprmax_halfspace.py); gprMax coordinates, m; the "
+            "half-space fills y < medium.surface_y, the antennas lie above it",
             "gprmax_version": gprMax.__version__,
             "waveform": WAVEFORM,
-            "scan": {"x": [round(float(v), 6) for v in xs], "y": round(y_ant, 6), "pitch": PITCH,
-                     "tx_rx": "same cell", "component": "Ez"},
-            "medium": {"eps_r": EPS_R, "surface_y": SURFACE_Y,
-                       "antenna_height": ANTENNA_HEIGHT, "conductivity": 0.0},
-            "cylinders": [{"centre": [r["x"], round(SURFACE_Y - r["depth"], 6)],
-                           "radius": r["radius"], "depth": r["depth"], "material": "pec"}
-                          for r in RODS],
+            "scan": {
+                "x": [round(float(v), 6) for v in xs],
+                "y": round(y_ant, 6),
+                "pitch": PITCH,
+                "tx_rx": "same cell",
+                "component": "Ez",
+            },
+            "medium": {
+                "eps_r": EPS_R,
+                "surface_y": SURFACE_Y,
+                "antenna_height": ANTENNA_HEIGHT,
+                "conductivity": 0.0,
+            },
+            "cylinders": [
+                {
+                    "centre": [r["x"], round(SURFACE_Y - r["depth"], 6)],
+                    "radius": r["radius"],
+                    "depth": r["depth"],
+                    "material": "pec",
+                }
+                for r in RODS
+            ],
             "band": list(BAND),
-            "fdtd": {"mode": "2-D TM", "cell": DX, "domain": list(DOMAIN), "pml_cells": PML_CELLS,
-                     "time_window": window, "dt": dt_file, "iterations": its,
-                     "precision": "double", "threads": args.threads,
-                     "seconds": {k: round(v, 1) for k, v in runs.items()}},
+            "fdtd": {
+                "mode": "2-D TM",
+                "cell": DX,
+                "domain": list(DOMAIN),
+                "pml_cells": PML_CELLS,
+                "time_window": window,
+                "dt": dt_file,
+                "iterations": its,
+                "precision": "double",
+                "threads": args.threads,
+                "seconds": {k: round(v, 1) for k, v in runs.items()},
+            },
             "files": {"targets": "targets_merged.h5", "background": "background_merged.h5"},
         }
         with open(os.path.join(args.out, "scene.json"), "w") as fh:

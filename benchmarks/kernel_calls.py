@@ -46,10 +46,16 @@ for name in ("paper-2d", "human-body"):
     rows = []
     for so in sorted(glob.glob(os.path.join(cache, "**", "*.so"), recursive=True)):
         kernel = os.path.basename(os.path.dirname(os.path.dirname(so)))
-        dis = subprocess.run(["objdump", "-d", "--no-show-raw-insn", so], capture_output=True,
-                             text=True, check=True).stdout
-        calls = sorted({ln.rsplit("<", 1)[-1].rstrip(">") for ln in dis.splitlines()
-                        if "\tcall " in ln and "<" in ln})
+        dis = subprocess.run(
+            ["objdump", "-d", "--no-show-raw-insn", so], capture_output=True, text=True, check=True
+        ).stdout
+        calls = sorted(
+            {
+                ln.rsplit("<", 1)[-1].rstrip(">")
+                for ln in dis.splitlines()
+                if "\tcall " in ln and "<" in ln
+            }
+        )
         rows.append((kernel, calls))
     for kernel, calls in sorted({(k, tuple(c)) for k, c in rows}):
         print(f"{kernel:20s} {', '.join(calls) if calls else '(no calls)'}")

@@ -44,9 +44,12 @@ def main():
             found = echoes_found(res.rps.antenna, res.rps.range, data.truth)
             true = data.truth.rp_range.size
             label = "noise-free" if snr is None else f"{snr:g} dB seed {seed}"
-            print(f"{n} x {n} {label:16s}: {len(res.rps):6d} RPs, echoes {found}/{true} "
-                  f"({found / max(true, 1):6.1%})  RP<=10 {rp10:6.1%}  RPM<=50 {rpm50:6.1%}  "
-                  f"RPM<=10 {rpm10:6.1%}  {sec:6.2f} s", flush=True)
+            print(
+                f"{n} x {n} {label:16s}: {len(res.rps):6d} RPs, echoes {found}/{true} "
+                f"({found / max(true, 1):6.1%})  RP<=10 {rp10:6.1%}  RPM<=50 {rpm50:6.1%}  "
+                f"RPM<=10 {rpm10:6.1%}  {sec:6.2f} s",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

@@ -33,9 +33,16 @@ def list_args(n):
     rps = rps_from_decomposition(d, decompose(d, params.kspace), params.rp_threshold_db)
     p = params.rpm
     idx, _, _, start, count = _prepare(rps, p)
-    return (np.asarray(rps.x, float)[idx], np.asarray(rps.z, float)[idx],
-            np.asarray(rps.antenna)[idx], start, count,
-            p.pair_cutoff * p.sigma_x, p.max_neighbours, p.near_neighbours), nz
+    return (
+        np.asarray(rps.x, float)[idx],
+        np.asarray(rps.z, float)[idx],
+        np.asarray(rps.antenna)[idx],
+        start,
+        count,
+        p.pair_cutoff * p.sigma_x,
+        p.max_neighbours,
+        p.near_neighbours,
+    ), nz
 
 
 def timed(args, grid: bool):
@@ -55,8 +62,10 @@ def main():
     ap.add_argument("--sizes", type=int, nargs="+", default=[11, 32, 64])
     ap.add_argument("--repeats", type=int, default=3)
     a = ap.parse_args()
-    print(f"{'array':>9} {'RPs':>7} {'clusters':>8} {'grid s':>8} {'float s':>8} {'ratio':>6} "
-          f"{'rows differing':>15}")
+    print(
+        f"{'array':>9} {'RPs':>7} {'clusters':>8} {'grid s':>8} {'float s':>8} {'ratio':>6} "
+        f"{'rows differing':>15}"
+    )
     for n in a.sizes:
         args, nz = list_args(n)
         tg, tf = [], []
@@ -67,8 +76,11 @@ def main():
             tf.append(t)
         differ = int(np.sum(np.any(g[0] != f[0], axis=1))) if g[0].shape == f[0].shape else -1
         mg, mf = np.median(tg), np.median(tf)
-        print(f"{n:3d} x {nz:3d} {args[0].size:7d} {np.unique(args[3]).size:8d} {mg:8.3f} {mf:8.3f} "
-              f"{mf / mg:6.2f} {differ:15d}", flush=True)
+        print(
+            f"{n:3d} x {nz:3d} {args[0].size:7d} {np.unique(args[3]).size:8d} {mg:8.3f} {mf:8.3f} "
+            f"{mf / mg:6.2f} {differ:15d}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

@@ -42,17 +42,25 @@ def main():
     pre = get_preset("paper-2d")
     print(f"paper-2d, S/N {args.snr:g} dB, {args.trials} noise realisations, engine {args.engine}")
     print(f"{'receiver_fs':>12s} {'RP<=10mm':>9s} {'RPM<=50mm':>10s} {'RPM<=100mm':>11s}")
-    rows = [(f"{float(g):9.0f} GHz", {"noise": "receiver", "receiver_fs": float(g) * 1e9})
-            for g in args.rates_ghz.split(",")] + [(f"{'in-band':>13s}", {"noise": "in-band"})]
+    rows = [
+        (f"{float(g):9.0f} GHz", {"noise": "receiver", "receiver_fs": float(g) * 1e9})
+        for g in args.rates_ghz.split(",")
+    ] + [(f"{'in-band':>13s}", {"noise": "in-band"})]
     for label, model in rows:
         tot = np.zeros(5)
         for seed in range(args.trials):
-            data = simulate(pre.scene, pre.array, pre.waveform, pre.range_axis, args.snr, seed,
-                            **model)
+            data = simulate(
+                pre.scene, pre.array, pre.waveform, pre.range_axis, args.snr, seed, **model
+            )
             res = run_method("kspace-rpm", data, default_params(data, **pre.defaults), engine)
             s = summary(res.rps, res.image, data.truth)
-            tot += [s["rp_within_10mm"], s["rp_total"], s["rpm_within_50mm"],
-                    s["rpm_within_100mm"], s["rpm_total"]]
+            tot += [
+                s["rp_within_10mm"],
+                s["rp_total"],
+                s["rpm_within_50mm"],
+                s["rpm_within_100mm"],
+                s["rpm_total"],
+            ]
         print(f"{label} {tot[0] / tot[1]:9.0%} {tot[2] / tot[4]:10.0%} {tot[3] / tot[4]:11.0%}")
 
 

@@ -59,8 +59,10 @@ def pareto(points, time_tol=0.0):
     """
     idx = []
     for i, (t, e) in enumerate(points):
-        if not any((e2 <= e and t2 * (1 + time_tol) < t) or (e2 < e and t2 <= t * (1 + time_tol))
-                   for t2, e2 in points):
+        if not any(
+            (e2 <= e and t2 * (1 + time_tol) < t) or (e2 < e and t2 <= t * (1 + time_tol))
+            for t2, e2 in points
+        ):
             idx.append(i)
     return idx
 
@@ -70,39 +72,66 @@ def main():
     ap.add_argument("--out", default="benchmarks/pareto.png")
     ap.add_argument("--quick", action="store_true", help="a smaller grid")
     ap.add_argument("--arrays-only", action="store_true", help="only part 2 (larger arrays)")
-    ap.add_argument("--time-tol", type=float, default=0.15,
-                    help="times within this fraction of each other count as equal on the "
-                         "front (default 0.15: identical settings measured 10 %% apart)")
-    ap.add_argument("--exhaustive", metavar="FILE.npz",
-                    help="exhaustive_3d.py's cache for S/N 20 (made if missing, minutes): "
-                         "adds each float32 default-window row's share of points equal to "
-                         "the float32 exhaustive eq. 10 image's (within 1 um; float64 "
-                         "candidates differ from float32 ones by more than that), and the "
-                         "share equal or tied (eq. 10 in float64 within "
-                         f"{TIE_REL['float32']:g} of the exhaustive point's, "
-                         "exhaustive_3d.TIE_REL)")
+    ap.add_argument(
+        "--time-tol",
+        type=float,
+        default=0.15,
+        help="times within this fraction of each other count as equal on the "
+        "front (default 0.15: identical settings measured 10 %% apart)",
+    )
+    ap.add_argument(
+        "--exhaustive",
+        metavar="FILE.npz",
+        help="exhaustive_3d.py's cache for S/N 20 (made if missing, minutes): "
+        "adds each float32 default-window row's share of points equal to "
+        "the float32 exhaustive eq. 10 image's (within 1 um; float64 "
+        "candidates differ from float32 ones by more than that), and the "
+        "share equal or tied (eq. 10 in float64 within "
+        f"{TIE_REL['float32']:g} of the exhaustive point's, "
+        "exhaustive_3d.TIE_REL)",
+    )
     args = ap.parse_args()
     env = create_env()
     engines = {p: DeviceRPM(env, p) for p in ("float32", "float64")}
     data, pre = simulate_preset("human-body", 20.0, 0, noise="receiver")
     d = default_params(data, **pre.defaults)
-    assert (d.rpm.meanshift_neighbours, d.rpm.meanshift_iters, d.rpm.pair_cutoff,
-            d.kspace.window_x) == DEFAULT[:4], "DEFAULT no longer names the defaults"
+    assert (
+        d.rpm.meanshift_neighbours,
+        d.rpm.meanshift_iters,
+        d.rpm.pair_cutoff,
+        d.kspace.window_x,
+    ) == DEFAULT[:4], "DEFAULT no longer names the defaults"
     exh = None
     if args.exhaustive and not args.arrays_only:
         exh, sec, line = exhaustive_image(data, pre, engines["float32"], 20.0, args.exhaustive)
         print(f"exhaustive eq. 10 (float32): {sec:.1f} s, {line}", flush=True)
-    grid = [] if args.arrays_only else list(itertools.product(
-        [8, 12, 24, 32] if not args.quick else [8, 12, 24],
-        [0, 2, 3],
-        [1.5, 2.0, 3.0] if not args.quick else [2.0],
-        [50.0, 60.0, 75.0, 100.0] if not args.quick else [DEFAULT[3]],
-        ["float32", "float64"] if not args.quick else ["float32"]))
+    grid = (
+        []
+        if args.arrays_only
+        else list(
+            itertools.product(
+                [8, 12, 24, 32] if not args.quick else [8, 12, 24],
+                [0, 2, 3],
+                [1.5, 2.0, 3.0] if not args.quick else [2.0],
+                [50.0, 60.0, 75.0, 100.0] if not args.quick else [DEFAULT[3]],
+                ["float32", "float64"] if not args.quick else ["float32"],
+            )
+        )
+    )
     rows = []
     for k, steps, cut, w, prec in grid:
         lists = {"meanshift_neighbours": k} if steps else {"max_neighbours": k}
-        params = default_params(data, **{**pre.defaults, **lists, "meanshift_iters": steps,
-                                         "pair_cutoff": cut, "window_x": w, "window_z": w})
+        params = default_params(
+            data,
+            **{
+                **pre.defaults,
+                **lists,
+                "meanshift_iters": steps,
+                "pair_cutoff": cut,
+                "window_x": w,
+                "window_z": w,
+            },
+        )
         res, sec, _ = timed_run("kspace-rpm", data, params, engines[prec], repeats=3)
         rp10, rpm50, rpm10, _ = figures(res, data.truth)
         same = "     -                "
@@ -111,22 +140,29 @@ def main():
             if eq.size:
                 same = f"{eq.mean():6.1%} (or tied {same_or_tied(eq, rel, 'float32'):6.1%})"
         rows.append((k, steps, cut, w, prec, sec, rp10, rpm50, rpm10, same))
-        print(f"{k:3d} {steps:2d} {cut:4.1f} {w:6.0f} {prec:8s} {1e3 * sec:8.1f} ms  "
-              f"RP<=10 {rp10:6.1%}  RPM<=50 {rpm50:6.1%}  RPM<=10 {rpm10:6.1%}  "
-              f"exhaustive {same}", flush=True)
+        print(
+            f"{k:3d} {steps:2d} {cut:4.1f} {w:6.0f} {prec:8s} {1e3 * sec:8.1f} ms  "
+            f"RP<=10 {rp10:6.1%}  RPM<=50 {rpm50:6.1%}  RPM<=10 {rpm10:6.1%}  "
+            f"exhaustive {same}",
+            flush=True,
+        )
     if not rows:
         return larger_arrays(engines["float32"])
     front = set(pareto([(r[5], 1 - r[8]) for r in rows], args.time_tol))
-    print(f"\nPareto front (time, share of points beyond 10 mm; times within "
-          f"{args.time_tol:.0%} count as equal); * = on the front, "
-          f"D = the default (list {DEFAULT[0]}, {DEFAULT[1]} steps, cutoff {DEFAULT[2]}, "
-          f"window {DEFAULT[3]:g}, {DEFAULT[4]}); exhaustive = the points equal to the "
-          "exhaustive image's")
+    print(
+        f"\nPareto front (time, share of points beyond 10 mm; times within "
+        f"{args.time_tol:.0%} count as equal); * = on the front, "
+        f"D = the default (list {DEFAULT[0]}, {DEFAULT[1]} steps, cutoff {DEFAULT[2]}, "
+        f"window {DEFAULT[3]:g}, {DEFAULT[4]}); exhaustive = the points equal to the "
+        "exhaustive image's"
+    )
     for i, r in enumerate(rows):
         mark = ("*" if i in front else " ") + ("D" if r[:5] == DEFAULT else " ")
-        print(f"{mark} list {r[0]:3d} steps {r[1]} cutoff {r[2]:3.1f} window {r[3]:5.0f} "
-              f"{r[4]:8s} {1e3 * r[5]:8.1f} ms  RPM<=10 {r[8]:6.1%}  RPM<=50 {r[7]:6.1%}  "
-              f"exhaustive {r[9]}")
+        print(
+            f"{mark} list {r[0]:3d} steps {r[1]} cutoff {r[2]:3.1f} window {r[3]:5.0f} "
+            f"{r[4]:8s} {1e3 * r[5]:8.1f} ms  RPM<=10 {r[8]:6.1%}  RPM<=50 {r[7]:6.1%}  "
+            f"exhaustive {r[9]}"
+        )
 
     try:
         import matplotlib
@@ -162,10 +198,20 @@ def body_on_array(nx, nz, snr=20.0, seed=0):
     preset's is) and its default parameters (the decomposition's
     zero-padding lowered to 2 above 1024 antennas to bound its memory)."""
     preset = get_preset("human-body")
-    arr = Array((np.arange(nx) - (nx - 1) / 2) * 7.5e-3,
-                HUMAN_BODY_ARRAY_Z + (np.arange(nz) - (nz - 1) / 2) * 7.5e-3)
-    d = simulate(preset.scene, arr, preset.waveform, preset.range_axis, snr, seed,
-                 boundary_spacing=preset.boundary_spacing, noise="receiver")
+    arr = Array(
+        (np.arange(nx) - (nx - 1) / 2) * 7.5e-3,
+        HUMAN_BODY_ARRAY_Z + (np.arange(nz) - (nz - 1) / 2) * 7.5e-3,
+    )
+    d = simulate(
+        preset.scene,
+        arr,
+        preset.waveform,
+        preset.range_axis,
+        snr,
+        seed,
+        boundary_spacing=preset.boundary_spacing,
+        noise="receiver",
+    )
     extra = {"pad": 2} if nx * nz > 1024 else {}
     return d, default_params(d, **{**preset.defaults, **extra})
 
@@ -176,10 +222,13 @@ def larger_arrays(engine):
         d, params = body_on_array(nx, nz)
         res, sec, st = timed_run("kspace-rpm", d, params, engine, repeats=1)
         rp10, rpm50, rpm10, _ = figures(res, d.truth)
-        print(f"{nx:3d} x {nz:3d}: {len(res.rps):6d} RPs ({d.truth.rp_range.size} true), "
-              f"{len(res.image.points):6d} points in "
-              f"{sec:7.2f} s (decompose {st['decompose']:.2f}, rpm {st['rpm']:.2f})  "
-              f"RP<=10 {rp10:6.1%}  RPM<=50 {rpm50:6.1%}  RPM<=10 {rpm10:6.1%}", flush=True)
+        print(
+            f"{nx:3d} x {nz:3d}: {len(res.rps):6d} RPs ({d.truth.rp_range.size} true), "
+            f"{len(res.image.points):6d} points in "
+            f"{sec:7.2f} s (decompose {st['decompose']:.2f}, rpm {st['rpm']:.2f})  "
+            f"RP<=10 {rp10:6.1%}  RPM<=50 {rpm50:6.1%}  RPM<=10 {rpm10:6.1%}",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

@@ -35,8 +35,11 @@ def figures(data, near_field, engine):
     p = replace(p, kspace=replace(p.kspace, near_field=near_field))
     res = run_method("kspace-rpm", data, p, engine)
     s = summary(res.rps, res.image, data.truth)
-    return (s["rp_total"], s["rp_within_10mm"] / max(1, s["rp_total"]),
-            s["rpm_within_50mm"] / max(1, s["rpm_total"]))
+    return (
+        s["rp_total"],
+        s["rp_within_10mm"] / max(1, s["rp_total"]),
+        s["rpm_within_50mm"] / max(1, s["rpm_total"]),
+    )
 
 
 def main():
@@ -49,25 +52,35 @@ def main():
     engine = DeviceRPM(create_env(), "float32")
     n, pitch = args.antennas, args.pitch_mm * 1e-3
     arr = Array((np.arange(n) - (n - 1) / 2) * pitch)
-    print(f"{n} antennas at {args.pitch_mm:g} mm, {args.fc_ghz:g} GHz; "
-          "columns: RPs found (true), RP<=10mm, RPM<=50mm")
-    print(f"{'GHz':>5} {'L/res':>5} {'default':>8} {'deg':>3} {'target':6}  {'near-field':>22}  {'plane-wave':>22}")
+    print(
+        f"{n} antennas at {args.pitch_mm:g} mm, {args.fc_ghz:g} GHz; "
+        "columns: RPs found (true), RP<=10mm, RPM<=50mm"
+    )
+    print(
+        f"{'GHz':>5} {'L/res':>5} {'default':>8} {'deg':>3} {'target':6}  {'near-field':>22}  {'plane-wave':>22}"
+    )
     for b in (float(v) * 1e9 for v in args.bandwidths.split(",")):
         wf = Waveform(args.fc_ghz * 1e9, b)
         for deg in (0, 20, 35, 45, 55, 65):
             th = np.radians(deg)
             pos = (0.8 * np.sin(th), 0.8 * np.cos(th))
-            for kind, tgt in (("point", PointTarget(pos)), ("circle", Ellipsoid(pos, (0.05, 0.05)))):
-                data = simulate(Scene((tgt,)), arr, wf, np.arange(0.3, 1.3, 2.5e-3), 20.0, 0,
-                                noise="receiver")
+            for kind, tgt in (
+                ("point", PointTarget(pos)),
+                ("circle", Ellipsoid(pos, (0.05, 0.05))),
+            ):
+                data = simulate(
+                    Scene((tgt,)), arr, wf, np.arange(0.3, 1.3, 2.5e-3), 20.0, 0, noise="receiver"
+                )
                 cols = []
                 for nf in (True, False):
                     k, rp, rpm = figures(data, nf, engine)
                     cols.append(f"{k:3d} ({data.truth.rp_range.size}) {rp:4.0%} {rpm:4.0%}")
                 path = "near" if near_field_wanted(data) else "plane"
                 ratio = float(arr.x[-1] - arr.x[0]) / wf.range_resolution
-                print(f"{b / 1e9:5.2g} {ratio:5.2f} {path:>8} {deg:3d} {kind:6}  {cols[0]:>22}  {cols[1]:>22}",
-                      flush=True)
+                print(
+                    f"{b / 1e9:5.2g} {ratio:5.2f} {path:>8} {deg:3d} {kind:6}  {cols[0]:>22}  {cols[1]:>22}",
+                    flush=True,
+                )
 
 
 if __name__ == "__main__":

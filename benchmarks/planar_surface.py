@@ -30,8 +30,9 @@ def _make(path):
     x = (np.arange(187) - 93) * 3e-3
     z = (np.arange(144) - 71.5) * 3e-3
     scene = Scene((Ellipsoid(np.array([0.0, 0.6, 0.0]), np.array([1.2, 0.5, 1.2]), 0.0),))
-    data = simulate(scene, Array(x, z), Waveform(24.2e9, 4e9), np.arange(0, 0.6, 0.002),
-                    snr_db=30, seed=1)
+    data = simulate(
+        scene, Array(x, z), Waveform(24.2e9, 4e9), np.arange(0, 0.6, 0.002), snr_db=30, seed=1
+    )
     save_data(path, data)
 
 
@@ -52,8 +53,12 @@ def main(argv=None):
         _make(args.out)
     result = os.path.splitext(args.out)[0] + "_points.npz"
     t0 = time.perf_counter()
-    p = subprocess.Popen([sys.executable, "-m", "rpm_cl", "image", args.out, "-o", result, "-v"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen(
+        [sys.executable, "-m", "rpm_cl", "image", args.out, "-o", result, "-v"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     peak = 0
     while p.poll() is None:
         peak = max(peak, _peak_rss(p.pid))
@@ -70,8 +75,10 @@ def main(argv=None):
     dist = cKDTree(truth).query(pts)[0]
     print(out.strip().splitlines()[0])
     print(f"stages (ms): {stages.group(1) if stages else '?'}")
-    print(f"wall {wall:.1f} s, peak memory {peak / 1e9:.2f} GB, {len(pts)} points, "
-          f"{100 * np.mean(dist <= 0.015):.1f} % within 15 mm, median {1e3 * np.median(dist):.1f} mm")
+    print(
+        f"wall {wall:.1f} s, peak memory {peak / 1e9:.2f} GB, {len(pts)} points, "
+        f"{100 * np.mean(dist <= 0.015):.1f} % within 15 mm, median {1e3 * np.median(dist):.1f} mm"
+    )
 
 
 if __name__ == "__main__":

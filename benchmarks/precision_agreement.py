@@ -27,8 +27,10 @@ def main():
     env = create_env()
     d32, d64 = DeviceRPM(env, "float32"), DeviceRPM(env, "float64")
     print(f"device: {env.name}")
-    print(f"{'scene':12s} {'S/N':>4s} {'main RPs':>9s} {'same point':>11s} {'fraction':>9s} "
-          f"{'max shift of the others':>24s}")
+    print(
+        f"{'scene':12s} {'S/N':>4s} {'main RPs':>9s} {'same point':>11s} {'fraction':>9s} "
+        f"{'max shift of the others':>24s}"
+    )
     for preset in ("paper-2d", "human-body"):
         for snr in (None, 20.0):
             n = same = 0
@@ -45,8 +47,10 @@ def main():
                 if np.any(d >= 1e-4):
                     worst = max(worst, float(d[d >= 1e-4].max()))
             snr_s = "inf" if snr is None else f"{snr:g}"
-            print(f"{preset:12s} {snr_s:>4s} {n:9d} {same:11d} {same / max(1, n):9.4f} "
-                  f"{1e3 * worst:21.1f} mm")
+            print(
+                f"{preset:12s} {snr_s:>4s} {n:9d} {same:11d} {same / max(1, n):9.4f} "
+                f"{1e3 * worst:21.1f} mm"
+            )
 
 
 if __name__ == "__main__":

@@ -41,19 +41,43 @@ C0 = 299_792_458.0
 
 # ------------------------------------------------------------------ scenes
 #: Stepped-frequency scan of the MAT files: antennas (mm), band (Hz), target (m).
-MAT = {"x_mm": np.arange(16) * 4.0 - 30.0, "f": 19.5e9 + 0.025e9 * np.arange(41),
-       "target": (0.012, 0.45), "amplitude": 0.8}
+MAT = {
+    "x_mm": np.arange(16) * 4.0 - 30.0,
+    "f": 19.5e9 + 0.025e9 * np.arange(41),
+    "target": (0.012, 0.45),
+    "amplitude": 0.8,
+}
 #: DZT scan: scans, samples, window (s), scans per metre, antenna, Ricker (Hz),
 #: target (m, x along the scan from the first scan, depth in air).
-DZT = {"scans": 48, "samples": 512, "window": 20e-9, "spm": 50.0, "antenna": "51600S",
-       "ricker": 1.6e9, "target": (0.47, 0.9), "coupling": 3.0}
+DZT = {
+    "scans": 48,
+    "samples": 512,
+    "window": 20e-9,
+    "spm": 50.0,
+    "antenna": "51600S",
+    "ricker": 1.6e9,
+    "target": (0.47, 0.9),
+    "coupling": 3.0,
+}
 #: Time zero of the DZT fixture, samples.
 DZT_TIME_ZERO = 40.5
 #: DCA1000 capture: chirp (TI profile), capture, geometry (m), target (m).
-DCA = {"start_freq": 77e9, "slope": 29.982e12, "adc_rate": 10e6, "samples": 64,
-       "adc_start_time": 6e-6, "receivers": 4, "chirps": 2, "frames": 20, "dx": 1e-3,
-       "rx_spacing": C0 / 77e9 / 2, "target": (0.011, 1.2), "amplitude": 2000.0,
-       "noise": 2.0, "seed": 7}
+DCA = {
+    "start_freq": 77e9,
+    "slope": 29.982e12,
+    "adc_rate": 10e6,
+    "samples": 64,
+    "adc_start_time": 6e-6,
+    "receivers": 4,
+    "chirps": 2,
+    "frames": 20,
+    "dx": 1e-3,
+    "rx_spacing": C0 / 77e9 / 2,
+    "target": (0.011, 1.2),
+    "amplitude": 2000.0,
+    "noise": 2.0,
+    "seed": 7,
+}
 
 
 def mat_spectrum() -> np.ndarray:
@@ -61,7 +85,7 @@ def mat_spectrum() -> np.ndarray:
     x = MAT["x_mm"] * 1e-3
     tx, ty = MAT["target"]
     r = np.hypot(x - tx, ty)
-    return (MAT["amplitude"] * np.exp(-4j * np.pi * np.outer(MAT["f"], r) / C0))
+    return MAT["amplitude"] * np.exp(-4j * np.pi * np.outer(MAT["f"], r) / C0)
 
 
 # ------------------------------------------------------------------ MATLAB
@@ -80,16 +104,21 @@ def write_mat_v73(path, arrays: dict) -> None:
     complex values as a compound of ``real`` and ``imag``."""
     import h5py
 
-    classes = {np.dtype(np.float64): "double", np.dtype(np.float32): "single",
-               np.dtype(np.int16): "int16", np.dtype(np.int32): "int32",
-               np.dtype(np.complex128): "double", np.dtype(np.complex64): "single"}
+    classes = {
+        np.dtype(np.float64): "double",
+        np.dtype(np.float32): "single",
+        np.dtype(np.int16): "int16",
+        np.dtype(np.int32): "int32",
+        np.dtype(np.complex128): "double",
+        np.dtype(np.complex64): "single",
+    }
     with h5py.File(path, "w", userblock_size=512) as f:
         for name, value in arrays.items():
             v = np.asarray(value)
             if v.ndim < 2:
                 v = v.reshape(1, -1) if v.ndim == 1 else v.reshape(1, 1)
             cls = classes[v.dtype]
-            stored = v.T                      # MATLAB's column-major = HDF5's reversed axes
+            stored = v.T  # MATLAB's column-major = HDF5's reversed axes
             if v.dtype.kind == "c":
                 part = v.real.dtype
                 comp = np.empty(stored.shape, np.dtype([("real", part), ("imag", part)]))
@@ -97,17 +126,29 @@ def write_mat_v73(path, arrays: dict) -> None:
                 stored = comp
             ds = f.create_dataset(name, data=np.ascontiguousarray(stored))
             ds.attrs.create("MATLAB_class", np.bytes_(cls))
-    text = (b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 "
-            b"HDF5 schema 1.00 .").ljust(116, b" ")
+    text = (
+        b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Jan  1 00:00:00 2024 "
+        b"HDF5 schema 1.00 ."
+    ).ljust(116, b" ")
     header = text + b"\0" * 8 + struct.pack("<H", 0x0200) + b"IM"
     with open(path, "r+b") as fh:
         fh.write(header)
 
 
 # ------------------------------------------------------------------ GSSI DZT
-def dzt_header(samples: int, bits: int, window: float, spm: float, antenna: str,
-               channels: int = 1, zero: int | None = None, tag: int = 0x00FF,
-               rh_data: int = 1024, sps: float = 64.0, epsr: float = 1.0) -> bytes:
+def dzt_header(
+    samples: int,
+    bits: int,
+    window: float,
+    spm: float,
+    antenna: str,
+    channels: int = 1,
+    zero: int | None = None,
+    tag: int = 0x00FF,
+    rh_data: int = 1024,
+    sps: float = 64.0,
+    epsr: float = 1.0,
+) -> bytes:
     """One 1024-byte DZT channel header (``rpm_cl/io/dzt.py``'s table); the
     binary offset defaults to 0x80 / 0x8000 for 8 / 16 bits, 0 for 32."""
     if zero is None:
@@ -118,7 +159,7 @@ def dzt_header(samples: int, bits: int, window: float, spm: float, antenna: str,
     struct.pack_into("<H", h, 52, channels)
     struct.pack_into("<f", h, 54, epsr)
     name = antenna.encode("ascii")[:14]
-    h[98:98 + len(name)] = name
+    h[98 : 98 + len(name)] = name
     h[114:126] = b"FIXTURE.DZT".ljust(12, b"\0")
     return bytes(h)
 
@@ -147,8 +188,10 @@ def dzt_bytes(traces: np.ndarray, bits: int = 16, channels: int = 1, **header) -
     scan header words (here the scan number and 0); ``traces`` (scans,
     samples) is written to every channel."""
     scans, n = traces.shape
-    head = b"".join(dzt_header(n, bits, DZT["window"], DZT["spm"], DZT["antenna"], channels,
-                               **header) for _ in range(channels))
+    head = b"".join(
+        dzt_header(n, bits, DZT["window"], DZT["spm"], DZT["antenna"], channels, **header)
+        for _ in range(channels)
+    )
     full = {8: 120, 16: 30000, 32: 1 << 28}[bits]
     q = np.round(traces / np.abs(traces).max() * full)
     if bits < 32:
@@ -167,13 +210,20 @@ def dca_if(real: bool = False) -> np.ndarray:
     p = DCA
     rng = np.random.default_rng(p["seed"])
     t = p["adc_start_time"] + np.arange(p["samples"]) / p["adc_rate"]
-    radar = np.arange(p["frames"]) * p["dx"]                               # transmitter x
+    radar = np.arange(p["frames"]) * p["dx"]  # transmitter x
     rx = radar[:, None] + np.arange(p["receivers"])[None, :] * p["rx_spacing"]
     tx_, ty = p["target"]
     tau = (np.hypot(radar - tx_, ty)[:, None] + np.hypot(rx - tx_, ty)) / C0
-    phase = 2 * np.pi * (p["start_freq"] * tau[..., None] + p["slope"] * tau[..., None] * t
-                         - p["slope"] * tau[..., None] ** 2 / 2)
-    z = p["amplitude"] * np.exp(1j * phase)                                # (frames, rx, n)
+    phase = (
+        2
+        * np.pi
+        * (
+            p["start_freq"] * tau[..., None]
+            + p["slope"] * tau[..., None] * t
+            - p["slope"] * tau[..., None] ** 2 / 2
+        )
+    )
+    z = p["amplitude"] * np.exp(1j * phase)  # (frames, rx, n)
     z = np.repeat(z[:, None], p["chirps"], axis=1)
     noise = rng.normal(size=z.shape) + 1j * rng.normal(size=z.shape)
     z = z + p["noise"] * noise
@@ -190,11 +240,11 @@ def dca_values(z: np.ndarray, layout: str) -> np.ndarray:
         return np.round(z.real).astype("<i2").ravel()
     i, q = np.round(z.real), np.round(z.imag)
     if layout == "complex-2lane":
-        ii, qq = i.reshape(-1, 2), q.reshape(-1, 2)      # pairs of successive samples
+        ii, qq = i.reshape(-1, 2), q.reshape(-1, 2)  # pairs of successive samples
         return np.stack([ii[:, 0], ii[:, 1], qq[:, 0], qq[:, 1]], axis=1).astype("<i2").ravel()
     lanes = np.zeros((z.shape[0], n, 8))
     lanes[:, :, :rx] = i.transpose(0, 2, 1)
-    lanes[:, :, 4:4 + rx] = q.transpose(0, 2, 1)
+    lanes[:, :, 4 : 4 + rx] = q.transpose(0, 2, 1)
     return lanes.astype("<i2").ravel()
 
 

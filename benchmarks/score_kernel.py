@@ -53,12 +53,17 @@ def main():
     ref = (w.astype(np.float64)[:, None, :] * np.exp(-d2 / (2 * sigma * sigma))).sum(-1)
     ref[valid == 0] = -1
     evals = int(valid.sum()) * maxc
-    print(f"device: {env.device.name}; {n} main RPs x {maxc} slots, DIM 3, float32; "
-          f"best of {args.repeats} after a warm-up")
+    print(
+        f"device: {env.device.name}; {n} main RPs x {maxc} slots, DIM 3, float32; "
+        f"best of {args.repeats} after a warm-up"
+    )
     for rep in range(2):
         for name, src in sources.items():
-            k = cl.Program(ctx, src).build(
-                options=["-DREAL=float", "-DDIM=3", "-I", str(kdir)]).score_candidates
+            k = (
+                cl.Program(ctx, src)
+                .build(options=["-DREAL=float", "-DDIM=3", "-I", str(kdir)])
+                .score_candidates
+            )
             kargs = (q, (maxc, n), None, *bufs, np.int32(n), np.int32(maxc), l2, out_buf)
             k(*kargs).wait()
             best = np.inf
@@ -69,8 +74,10 @@ def main():
             got = np.empty((n, maxc), np.float32)
             cl.enqueue_copy(q, got, out_buf)
             err = float(np.max(np.abs(got - ref) / np.maximum(np.abs(ref), 1e-30)))
-            print(f"{name:24s} {best * 1e3:7.1f} ms  {evals / best:.3g} evaluations/s  "
-                  f"max relative error {err:.1e}")
+            print(
+                f"{name:24s} {best * 1e3:7.1f} ms  {evals / best:.3g} evaluations/s  "
+                f"max relative error {err:.1e}"
+            )
 
 
 if __name__ == "__main__":

@@ -51,21 +51,34 @@ def _figures(rps, image, truth):
     if truth is None:
         return "-"
     s = summary(rps, image, truth)
-    return (f"RP<=10mm {s['rp_within_10mm']}/{s['rp_total']}, "
-            f"RPM<=50mm {s['rpm_within_50mm']}/{s['rpm_total']}")
+    return (
+        f"RP<=10mm {s['rp_within_10mm']}/{s['rp_total']}, "
+        f"RPM<=50mm {s['rpm_within_50mm']}/{s['rpm_total']}"
+    )
 
 
 def _scenes():
     preset = get_preset("human-body")
     body, _ = simulate_preset("human-body", 20.0, 0, noise="receiver")
     clean, _ = simulate_preset("human-body", None, 0)
-    one = simulate(Scene((Ellipsoid((0.0, 1.1, 1.0), (0.08, 0.05, 0.1)),), "one"), preset.array,
-                   preset.waveform, preset.range_axis, 20.0, 0, boundary_spacing=3e-3,
-                   noise="receiver")
+    one = simulate(
+        Scene((Ellipsoid((0.0, 1.1, 1.0), (0.08, 0.05, 0.1)),), "one"),
+        preset.array,
+        preset.waveform,
+        preset.range_axis,
+        20.0,
+        0,
+        boundary_spacing=3e-3,
+        noise="receiver",
+    )
     noise = dataclasses.replace(body, signal=body.signal - clean.signal, truth=None)
     zero = RadarData(np.zeros_like(body.signal), preset.array, preset.range_axis, preset.waveform)
-    return preset, [("human body, 20 dB", body), ("one ellipsoid, 20 dB", one),
-                    ("noise only (20 dB level)", noise), ("all zero", zero)]
+    return preset, [
+        ("human body, 20 dB", body),
+        ("one ellipsoid, 20 dB", one),
+        ("noise only (20 dB level)", noise),
+        ("all zero", zero),
+    ]
 
 
 def gate_skips(engine, repeats):
@@ -75,22 +88,27 @@ def gate_skips(engine, repeats):
     print("|---|---|---:|---:|---:|---:|---:|---|")
     for label, data in scenes:
         params = default_params(data, **preset.defaults)
-        off = dataclasses.replace(params, kspace=dataclasses.replace(
-            params.kspace, skip_gates=False, noise_pfa=None))
+        off = dataclasses.replace(
+            params, kspace=dataclasses.replace(params.kspace, skip_gates=False, noise_pfa=None)
+        )
         for name, p in (("on (default)", params), ("off", off)):
-            res, sec, dec = _median_time(lambda d=data, q=p: run_method("kspace-rpm", d, q, engine),
-                                         repeats, "decompose")
-            print(f"| {label} | {name} | {1e3 * sec:.1f} | {1e3 * dec:.1f} | "
-                  f"{len(set(res.rps.cluster.tolist()))} | {len(res.rps)} | "
-                  f"{len(res.image.points)} | {_figures(res.rps, res.image, data.truth)} |")
+            res, sec, dec = _median_time(
+                lambda d=data, q=p: run_method("kspace-rpm", d, q, engine), repeats, "decompose"
+            )
+            print(
+                f"| {label} | {name} | {1e3 * sec:.1f} | {1e3 * dec:.1f} | "
+                f"{len(set(res.rps.cluster.tolist()))} | {len(res.rps)} | "
+                f"{len(res.image.points)} | {_figures(res.rps, res.image, data.truth)} |"
+            )
     print()
 
 
 def pair_cutoff_2d(engine, repeats):
     arr = Array((np.arange(201) - 100) * 5e-3)
     scene = Scene((PointTarget((-0.1, 0.45)), PointTarget((0.15, 0.5))), "long")
-    data = simulate(scene, arr, Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3), 30.0, 0,
-                    noise="receiver")
+    data = simulate(
+        scene, arr, Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3), 30.0, 0, noise="receiver"
+    )
     params = default_params(data, sigma_x=0.05, sigma_r=0.05)
     rps = run_method("kspace-rpm", data, params, engine).rps
     print("## 2-D pairing cutoff: 201 antennas at 5 mm, sigma_x = 50 mm, 2 points, 30 dB\n")
@@ -101,8 +119,10 @@ def pair_cutoff_2d(engine, repeats):
         idx, _, _, s, c = _prepare(rps, p)
         width = int(pair_windows(np.asarray(rps.x)[idx], s, c, cut * p.sigma_x)[1].max())
         img, sec = _median_time(lambda q=p: rpm_image(rps, q, engine), repeats)
-        print(f"| {cut:g}{' (default)' if cut == 4.0 else ''} | {width} | {1e3 * sec:.1f} | "
-              f"{_figures(rps, img, data.truth)} |")
+        print(
+            f"| {cut:g}{' (default)' if cut == 4.0 else ''} | {width} | {1e3 * sec:.1f} | "
+            f"{_figures(rps, img, data.truth)} |"
+        )
     print()
 
 
@@ -113,8 +133,16 @@ def score_cutoff(engine):
     p = params.rpm
     idx, amp, _, start, count = _prepare(rps, p)
     x, z, r = (np.asarray(v, np.float64)[idx] for v in (rps.x, rps.z, rps.range))
-    nbr, nnbr = neighbour_lists(x, z, np.asarray(rps.antenna)[idx], start, count,
-                                p.pair_cutoff * p.sigma_x, p.max_neighbours, p.near_neighbours)
+    nbr, nnbr = neighbour_lists(
+        x,
+        z,
+        np.asarray(rps.antenna)[idx],
+        start,
+        count,
+        p.pair_cutoff * p.sigma_x,
+        p.max_neighbours,
+        p.near_neighbours,
+    )
     cand, _, valid = engine.intersect_spheres(x, z, r, amp, nbr, nnbr, p.sigma_x)
     within = {3: 0, 4: 0, 5: 0}
     pairs = 0
@@ -126,8 +154,10 @@ def score_cutoff(engine):
         for k in within:
             within[k] += int(np.sum(d2 <= (k * p.sigma_r) ** 2))
     print("## Scoring: candidate pairs within k sigma_r (human body, 20 dB)\n")
-    print(f"{pairs} candidate pairs over {x.size} main RPs (sigma_r = {1e3 * p.sigma_r:g} mm); "
-          "a cutoff at k sigma_r could skip at most the rest:\n")
+    print(
+        f"{pairs} candidate pairs over {x.size} main RPs (sigma_r = {1e3 * p.sigma_r:g} mm); "
+        "a cutoff at k sigma_r could skip at most the rest:\n"
+    )
     print("| k | pairs within | could skip |")
     print("|---:|---:|---:|")
     for k, n in within.items():

@@ -58,8 +58,7 @@ def layout(i):
 def image(pre, points, snr, seed, engine):
     """(figures, seconds) of one k-space RPM image."""
     scene = Scene(tuple(PointTarget(tuple(p)) for p in points), "layout")
-    data = simulate(scene, pre.array, pre.waveform, pre.range_axis, snr, seed,
-                    noise="receiver")
+    data = simulate(scene, pre.array, pre.waveform, pre.range_axis, snr, seed, noise="receiver")
     params = default_params(data, **pre.defaults)
     t0 = time.perf_counter()
     res = run_method("kspace-rpm", data, params, engine)
@@ -69,8 +68,10 @@ def image(pre, points, snr, seed, engine):
 
 
 def pooled(v):
-    return (f"RP<=10 {100 * v[0] / max(v[1], 1):5.1f}%  RPM<=50 {100 * v[2] / max(v[4], 1):5.1f}%"
-            f"  RPM<=100 {100 * v[3] / max(v[4], 1):5.1f}%  ({v[0]}/{v[1]} RPs, {v[4]} points)")
+    return (
+        f"RP<=10 {100 * v[0] / max(v[1], 1):5.1f}%  RPM<=50 {100 * v[2] / max(v[4], 1):5.1f}%"
+        f"  RPM<=100 {100 * v[3] / max(v[4], 1):5.1f}%  ({v[0]}/{v[1]} RPs, {v[4]} points)"
+    )
 
 
 def main():
@@ -93,8 +94,10 @@ def main():
         fig, dt = image(pre, truth, None, None, engine)
         times.append(dt)
     print(f"paper sparse case, noise-free: {pooled(fig)}")
-    print(f"  time per image: median {1e3 * np.median(times):.1f} ms, "
-          f"min {1e3 * np.min(times):.1f}, max {1e3 * np.max(times):.1f} ({args.repeats} runs)")
+    print(
+        f"  time per image: median {1e3 * np.median(times):.1f} ms, "
+        f"min {1e3 * np.min(times):.1f}, max {1e3 * np.max(times):.1f} ({args.repeats} runs)"
+    )
     tot = sum(image(pre, truth, 20.0, seed, engine)[0] for seed in range(args.seeds))
     print(f"paper sparse case, 20 dB, seeds 0-{args.seeds - 1} pooled: {pooled(tot)}")
 
@@ -108,8 +111,10 @@ def main():
                 bad.append(f"{i} ({fig[2]}/{fig[4]})")
         label = "noise-free" if snr is None else f"{snr:g} dB"
         print(f"{args.layouts} layouts, {label}: {pooled(tot)}")
-        print(f"  time per image: median {1e3 * np.median(times):.1f} ms, max {1e3 * np.max(times):.1f}"
-              f"; RPM<=50 under 90 %: {', '.join(bad) or 'none'}")
+        print(
+            f"  time per image: median {1e3 * np.median(times):.1f} ms, max {1e3 * np.max(times):.1f}"
+            f"; RPM<=50 under 90 %: {', '.join(bad) or 'none'}"
+        )
 
 
 if __name__ == "__main__":

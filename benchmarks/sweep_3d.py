@@ -31,22 +31,35 @@ def main():
     env = create_env()
     engine = DeviceRPM(env, args.precision)
     print(f"device: {env.name} | precision: {args.precision}")
-    print(f"{'window':>7s} {'nbrs':>5s} {'S/N':>4s} {'RPs':>5s} {'RP<=10':>7s} {'RPM<=50':>8s} "
-          f"{'RPM<=10':>8s} {'ms':>7s}")
+    print(
+        f"{'window':>7s} {'nbrs':>5s} {'S/N':>4s} {'RPs':>5s} {'RP<=10':>7s} {'RPM<=50':>8s} "
+        f"{'RPM<=10':>8s} {'ms':>7s}"
+    )
     data = {snr: simulate_preset("human-body", snr, 0, noise="receiver") for snr in (None, 20.0)}
     for w in args.windows:
         for k in args.neighbours:
             for snr, (d, pre) in data.items():
                 # the body's clusters are all refined: their list is meanshift_neighbours
-                params = default_params(d, **{**pre.defaults, "window_x": w, "window_z": w,
-                                              "max_neighbours": k, "meanshift_neighbours": k})
+                params = default_params(
+                    d,
+                    **{
+                        **pre.defaults,
+                        "window_x": w,
+                        "window_z": w,
+                        "max_neighbours": k,
+                        "meanshift_neighbours": k,
+                    },
+                )
                 res, sec, _ = timed_run("kspace-rpm", d, params, engine, repeats=3)
                 s = summary(res.rps, res.image, d.truth)
                 n, m = max(1, s["rp_total"]), max(1, s["rpm_total"])
-                print(f"{w:7.0f} {k:5d} {'inf' if snr is None else f'{snr:g}':>4s} "
-                      f"{s['rp_total']:5d} {s['rp_within_10mm'] / n:7.1%} "
-                      f"{s['rpm_within_50mm'] / m:8.1%} {s['rpm_within_10mm'] / m:8.1%} "
-                      f"{1e3 * sec:7.1f}", flush=True)
+                print(
+                    f"{w:7.0f} {k:5d} {'inf' if snr is None else f'{snr:g}':>4s} "
+                    f"{s['rp_total']:5d} {s['rp_within_10mm'] / n:7.1%} "
+                    f"{s['rpm_within_50mm'] / m:8.1%} {s['rpm_within_10mm'] / m:8.1%} "
+                    f"{1e3 * sec:7.1f}",
+                    flush=True,
+                )
 
 
 if __name__ == "__main__":

@@ -23,12 +23,26 @@ def main(quick=False, snr_db=20.0, seed=0, png=None):
     names = [name for name, _, _ in HUMAN_BODY_PARTS]
     parts = [0, 1, 2] if quick else list(range(len(names)))  # head, upper and lower torso
     scene = Scene(tuple(preset.scene.targets[i] for i in parts), "human-body")
-    data = simulate(scene, preset.array, preset.waveform, preset.range_axis, snr_db, seed,
-                    boundary_spacing=preset.boundary_spacing, noise="receiver")  # the paper's S/N
-    result = run_method("kspace-rpm", data, default_params(data, **preset.defaults),
-                        DeviceRPM(create_env(), "float32"))
+    data = simulate(
+        scene,
+        preset.array,
+        preset.waveform,
+        preset.range_axis,
+        snr_db,
+        seed,
+        boundary_spacing=preset.boundary_spacing,
+        noise="receiver",
+    )  # the paper's S/N
+    result = run_method(
+        "kspace-rpm",
+        data,
+        default_params(data, **preset.defaults),
+        DeviceRPM(create_env(), "float32"),
+    )
     points = result.image.points
-    print(f"{len(result.rps)} RPs -> {len(points)} points in {1e3 * result.timings['total']:.0f} ms")
+    print(
+        f"{len(result.rps)} RPs -> {len(points)} points in {1e3 * result.timings['total']:.0f} ms"
+    )
 
     # per part: the points nearest that part, their median distance to its surface
     trees = [cKDTree(boundary_samples(t, 3e-3)) for t in scene.targets]
@@ -37,10 +51,15 @@ def main(quick=False, snr_db=20.0, seed=0, png=None):
     per_part = {}
     for k, i in enumerate(parts):
         d = dist[nearest == k, k]
-        per_part[names[i]] = (d.size, float(np.median(d)) if d.size else np.nan,
-                              float(np.mean(d <= 0.05)) if d.size else np.nan)
-        print(f"  {names[i]:16s} {d.size:5d} points, median {1e3 * per_part[names[i]][1]:5.1f} mm,"
-              f" {100 * per_part[names[i]][2]:5.1f} % within 50 mm")
+        per_part[names[i]] = (
+            d.size,
+            float(np.median(d)) if d.size else np.nan,
+            float(np.mean(d <= 0.05)) if d.size else np.nan,
+        )
+        print(
+            f"  {names[i]:16s} {d.size:5d} points, median {1e3 * per_part[names[i]][1]:5.1f} mm,"
+            f" {100 * per_part[names[i]][2]:5.1f} % within 50 mm"
+        )
 
     if png:
         import json

@@ -46,8 +46,10 @@ def main(path=None, quick=False, output="measured_result.npz"):
     data = load_data(path)  # validated RadarData, or one-line InputError
     result = run_method("kspace-rpm", data, default_params(data), DeviceRPM(create_env()))
     save_result(output, result, {"input": str(path)})
-    print(f"{path}: {len(result.rps)} RPs in {len(np.unique(result.rps.cluster))} clusters -> "
-          f"{len(result.image.points)} points; wrote {output}")
+    print(
+        f"{path}: {len(result.rps)} RPs in {len(np.unique(result.rps.cluster))} clusters -> "
+        f"{len(result.image.points)} points; wrote {output}"
+    )
     for c in np.unique(result.image.cluster):
         x, y = np.median(result.image.points[result.image.cluster == c], axis=0)
         print(f"  cluster {c}: median point ({1e3 * x:.1f}, {1e3 * y:.1f}) mm")

@@ -19,8 +19,10 @@ def main(snr_db=20.0, seed=0):
     data, preset = simulate_preset("paper-2d", snr_db, seed, noise="receiver")
     params = default_params(data, **preset.defaults)
     result = run_method("kspace-rpm", data, params, engine)
-    print(f"{len(result.rps)} RPs in {len(np.unique(result.rps.cluster))} clusters, "
-          f"{len(result.image.points)} points on {env.name}")
+    print(
+        f"{len(result.rps)} RPs in {len(np.unique(result.rps.cluster))} clusters, "
+        f"{len(result.image.points)} points on {env.name}"
+    )
     print(summary(result.rps, result.image, data.truth))
     return result
 

@@ -30,8 +30,9 @@ def main(quick=False, png=None):
     targets = np.array([t.position for t in preset.scene.targets])
 
     # k-space RPM (the near-field decomposition is chosen for arrays this sparse)
-    rpm = run_method("kspace-rpm", data, default_params(data, **preset.defaults),
-                     DeviceRPM(env, "float32"))
+    rpm = run_method(
+        "kspace-rpm", data, default_params(data, **preset.defaults), DeviceRPM(env, "float32")
+    )
     s = summary(rpm.rps, rpm.image, data.truth)
     print(f"k-space RPM: {s['rpm_total']} points, {s['rpm_within_50mm']} within 50 mm of a target")
 
@@ -44,8 +45,10 @@ def main(quick=False, png=None):
     for name, img, x, y in (("DAS", das, grid.x, grid.y), ("RMA", rma, rx, ry)):
         peaks, _ = image_peaks(img, x, y, n_peaks=50, min_separation=0.02, rel_threshold_db=-6)
         d = nearest_target(peaks, targets)
-        print(f"{name}: {len(peaks)} peaks above -6 dB, {np.sum(d > 0.05)} more than 50 mm "
-              f"from any target (median distance {1e3 * np.median(d):.0f} mm)")
+        print(
+            f"{name}: {len(peaks)} peaks above -6 dB, {np.sum(d > 0.05)} more than 50 mm "
+            f"from any target (median distance {1e3 * np.median(d):.0f} mm)"
+        )
         out[name.lower()] = {"peaks": peaks, "distance": d}
 
     if png:
@@ -57,8 +60,9 @@ def main(quick=False, png=None):
         from rpm_cl.viz.figures import Comparison, draw_compare
 
         fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
-        c = Comparison(rpm.image.points, rpm.image.cluster, grid, das, data.truth.boundary,
-                       data.array.x)
+        c = Comparison(
+            rpm.image.points, rpm.image.cluster, grid, das, data.truth.boundary, data.array.x
+        )
         fig.colorbar(draw_compare(c, axes, 30.0), ax=axes[0], shrink=0.7)
         fig.tight_layout()
         fig.savefig(png)

@@ -13,17 +13,41 @@ import types as _types
 #: ``import rpm_cl`` (and so the ``rpm-cl`` command's start-up, before its
 #: Ctrl-C handler exists) loads neither NumPy nor OpenCL.
 _WHERE = {
-    "METHODS": "imaging", "Array": "io.data", "CLEnv": "cl", "DataWarning": "io.data",
-    "DeviceRPM": "rpm", "Ellipsoid": "simulate.scene", "ImagingParams": "imaging",
-    "InputError": "io.data", "KSpaceParams": "extract.kspace", "Medium": "io.medium",
-    "NoOpenCLError": "cl", "PointTarget": "simulate.scene", "RPMParams": "imaging",
-    "RadarData": "io.data", "Scene": "simulate.scene", "Truth": "io.data", "Waveform": "io.data",
-    "create_env": "cl", "decompose": "extract.kspace", "default_params": "imaging",
-    "err_range": "metrics", "err_rpm": "metrics", "frame_count": "io.formats",
-    "get_preset": "simulate.scene", "list_devices": "cl", "load_data": "io.formats",
-    "load_npz": "io.data", "range_compress": "io.formats", "run_method": "imaging",
-    "save_data": "io.formats", "save_npz": "io.data", "save_result": "io.formats",
-    "simulate": "simulate", "simulate_preset": "simulate", "summary": "metrics",
+    "METHODS": "imaging",
+    "Array": "io.data",
+    "CLEnv": "cl",
+    "DataWarning": "io.data",
+    "DeviceRPM": "rpm",
+    "Ellipsoid": "simulate.scene",
+    "ImagingParams": "imaging",
+    "InputError": "io.data",
+    "KSpaceParams": "extract.kspace",
+    "Medium": "io.medium",
+    "NoOpenCLError": "cl",
+    "PointTarget": "simulate.scene",
+    "RPMParams": "imaging",
+    "RadarData": "io.data",
+    "Scene": "simulate.scene",
+    "Truth": "io.data",
+    "Waveform": "io.data",
+    "create_env": "cl",
+    "decompose": "extract.kspace",
+    "default_params": "imaging",
+    "err_range": "metrics",
+    "err_rpm": "metrics",
+    "frame_count": "io.formats",
+    "get_preset": "simulate.scene",
+    "list_devices": "cl",
+    "load_data": "io.formats",
+    "load_npz": "io.data",
+    "range_compress": "io.formats",
+    "run_method": "imaging",
+    "save_data": "io.formats",
+    "save_npz": "io.data",
+    "save_result": "io.formats",
+    "simulate": "simulate",
+    "simulate_preset": "simulate",
+    "summary": "metrics",
 }
 
 
@@ -47,8 +71,11 @@ class _Package(_types.ModuleType):
         # the import system binds each submodule to its name in the package;
         # where a public function has its module's name (simulate), the
         # function keeps the name
-        if (isinstance(value, _types.ModuleType) and _WHERE.get(name) == name
-                and value.__name__ == f"{self.__name__}.{name}"):
+        if (
+            isinstance(value, _types.ModuleType)
+            and _WHERE.get(name) == name
+            and value.__name__ == f"{self.__name__}.{name}"
+        ):
             value = getattr(value, name)
         super().__setattr__(name, value)
 

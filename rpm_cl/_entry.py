@@ -28,6 +28,6 @@ def run() -> int:
     if early:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     code = main()
-    if early:   # done: a Ctrl-C during the interpreter's shutdown changes nothing
+    if early:  # done: a Ctrl-C during the interpreter's shutdown changes nothing
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     return code

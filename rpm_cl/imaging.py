@@ -195,22 +195,32 @@ class RPMParams:
         if not (2 <= self.max_neighbours <= 4096):
             raise InputError(f"max_neighbours must be in 2..4096, got {self.max_neighbours}")
         if self.meanshift_neighbours is not None and not (2 <= self.meanshift_neighbours <= 4096):
-            raise InputError(f"meanshift_neighbours must be in 2..4096, got {self.meanshift_neighbours}")
+            raise InputError(
+                f"meanshift_neighbours must be in 2..4096, got {self.meanshift_neighbours}"
+            )
         # a shorter meanshift_neighbours list takes min(near, its length) nearest
-        if self.near_neighbours is not None and not (0 <= self.near_neighbours <= self.max_neighbours):
-            raise InputError(f"near_neighbours must be in 0..max_neighbours, got {self.near_neighbours}")
+        if self.near_neighbours is not None and not (
+            0 <= self.near_neighbours <= self.max_neighbours
+        ):
+            raise InputError(
+                f"near_neighbours must be in 0..max_neighbours, got {self.near_neighbours}"
+            )
         if not (0 <= self.meanshift_iters <= 1000):
             raise InputError(f"meanshift_iters must be in 0..1000, got {self.meanshift_iters}")
         if self.meanshift_max_rps < 0:
             raise InputError(f"meanshift_max_rps must be >= 0, got {self.meanshift_max_rps}")
         if self.meanshift_point not in ("argmax", "sphere", "nearest", "mode"):
-            raise InputError("meanshift_point must be 'argmax', 'sphere', 'nearest' or 'mode', got "
-                             f"{self.meanshift_point!r}")
+            raise InputError(
+                "meanshift_point must be 'argmax', 'sphere', 'nearest' or 'mode', got "
+                f"{self.meanshift_point!r}"
+            )
         if self.chunk_slots < 1:
             raise InputError(f"chunk_slots must be >= 1, got {self.chunk_slots}")
         if self.max_cluster_rps < self.min_cluster_rps:
-            raise InputError(f"max_cluster_rps ({self.max_cluster_rps}) must be >= "
-                             f"min_cluster_rps ({self.min_cluster_rps})")
+            raise InputError(
+                f"max_cluster_rps ({self.max_cluster_rps}) must be >= "
+                f"min_cluster_rps ({self.min_cluster_rps})"
+            )
 
 
 @dataclass(frozen=True)
@@ -302,25 +312,27 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
         raise InputError(f"unknown imaging parameter {unknown[0]!r}")
     medium = Medium(**{k: v for k, v in ov.items() if k in medium_names})
     data = preprocess(data, **{k: v for k, v in ov.items() if k in _PREPROCESS})
-    seen = seen_data(data, medium)   # what the decomposition and RPM see
+    seen = seen_data(data, medium)  # what the decomposition and RPM see
     r_echo = _strongest_range(seen)
     if arr.planar:
         sigma_x = 2.5 * max(arr.dx, arr.dz)
     else:
         sigma_x = float(arr.x[-1] - arr.x[0])
-        if r_echo is not None:   # no wider than the echo's reach
+        if r_echo is not None:  # no wider than the echo's reach
             sigma_x = min(sigma_x, max(SIGMA_X_PER_RANGE * r_echo, 2.5 * arr.dx))
     rpm_kw = {"sigma_x": sigma_x, "sigma_r": _derived_sigma_r(seen, r_echo)}
     derived = {k for k in ("sigma_x", "sigma_r") if k not in ov}
     rpm_kw.update({k: v for k, v in ov.items() if k in rpm_names})
     top_kw = {k: v for k, v in ov.items() if k in top}
-    if derived:   # a value the array gave, not the user: say so
+    if derived:  # a value the array gave, not the user: say so
         try:
             RPMParams(**{k: rpm_kw[k] for k in derived})
         except InputError as exc:
-            raise InputError(f"{exc} (derived from the array: {data.array.n} antennas over "
-                             f"{float(np.ptp(data.array.positions()[:, 0])):g} m in x; check the "
-                             f"units of x / z (m), or set sigma_x / sigma_r)") from None
+            raise InputError(
+                f"{exc} (derived from the array: {data.array.n} antennas over "
+                f"{float(np.ptp(data.array.positions()[:, 0])):g} m in x; check the "
+                f"units of x / z (m), or set sigma_x / sigma_r)"
+            ) from None
     ks_kw = {k: v for k, v in ov.items() if k in ks_names}
     if "window_z" in ks_kw and not arr.planar:
         raise InputError("window_z applies to planar arrays only; this array is linear")
@@ -404,8 +416,13 @@ class Image:
 
     def keep(self, mask: np.ndarray) -> Image:
         """The points where ``mask`` (bool, shape (M,)) holds, every column alike."""
-        return Image(self.points[mask], self.cluster[mask], self.score[mask],
-                     self.rp_index[mask], None if self.multipath is None else self.multipath[mask])
+        return Image(
+            self.points[mask],
+            self.cluster[mask],
+            self.score[mask],
+            self.rp_index[mask],
+            None if self.multipath is None else self.multipath[mask],
+        )
 
 
 @dataclass(frozen=True)
@@ -501,25 +518,38 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
         start, count = pair_windows(x, start, count, params.pair_cutoff_2d * params.sigma_x)
         maxc = int(count.max())
         if maxc > params.max_cluster_rps:
-            raise InputError(f"a main RP pairs with {maxc} RPs (its cluster's RPs within "
-                             f"pair_cutoff_2d x sigma_x = {params.pair_cutoff_2d * params.sigma_x:g}"
-                             f" m), more than max_cluster_rps={params.max_cluster_rps}; lower "
-                             f"sigma_x or pair_cutoff_2d, or raise the RP or peak thresholds")
+            raise InputError(
+                f"a main RP pairs with {maxc} RPs (its cluster's RPs within "
+                f"pair_cutoff_2d x sigma_x = {params.pair_cutoff_2d * params.sigma_x:g}"
+                f" m), more than max_cluster_rps={params.max_cluster_rps}; lower "
+                f"sigma_x or pair_cutoff_2d, or raise the RP or peak thresholds"
+            )
         for i0, n in _chunks(idx.size, maxc, params.chunk_slots):
-            parts.append(engine.rpm_circles(x, r, amp, start, count, maxc, params.sigma_x,
-                                            params.sigma_r, i0, n))
+            parts.append(
+                engine.rpm_circles(
+                    x, r, amp, start, count, maxc, params.sigma_x, params.sigma_r, i0, n
+                )
+            )
     else:
         z = np.asarray(rps.z, np.float64)[idx]
         ant = np.asarray(rps.antenna)[idx]
         short = _refined(count, params) & _one_per_antenna(ant, start)
-        kmax = np.where(short, params.meanshift_neighbours or params.max_neighbours,
-                        params.max_neighbours)
-        nbr, nnbr = neighbour_lists(x, z, ant, start, count,
-                                    params.pair_cutoff * params.sigma_x, kmax,
-                                    params.near_neighbours)
+        kmax = np.where(
+            short, params.meanshift_neighbours or params.max_neighbours, params.max_neighbours
+        )
+        nbr, nnbr = neighbour_lists(
+            x,
+            z,
+            ant,
+            start,
+            count,
+            params.pair_cutoff * params.sigma_x,
+            kmax,
+            params.near_neighbours,
+        )
         # runs of main RPs with one list length, each scored with its own width
         cuts = np.flatnonzero(np.diff(kmax)) + 1
-        narrowed = {}   # width -> the lists cut to it (at most two widths)
+        narrowed = {}  # width -> the lists cut to it (at most two widths)
         for a, b in zip(np.r_[0, cuts], np.r_[cuts, idx.size]):
             width = int(nnbr[a:b].max())
             if width < 2:  # no pair to intersect: no point
@@ -530,8 +560,11 @@ def rpm_image(rps: RangePoints, params: RPMParams, engine) -> Image:
             sub, nsub = narrowed[width]
             maxc = width * (width - 1) // 2
             for i0, n in _chunks(int(b - a), maxc, params.chunk_slots):
-                parts.append(engine.rpm_spheres(x, z, r, amp, sub, nsub, params.sigma_x,
-                                                params.sigma_r, int(a) + i0, n))
+                parts.append(
+                    engine.rpm_spheres(
+                        x, z, r, amp, sub, nsub, params.sigma_x, params.sigma_r, int(a) + i0, n
+                    )
+                )
         if parts and params.meanshift_iters > 0:
             parts = _meanshift(parts, x, z, r, amp, start, count, params, engine)
     if not parts:
@@ -555,7 +588,7 @@ def _one_per_antenna(antenna, start):
     dup = np.zeros(a.size, bool)
     dup[1:] = (a[1:] == a[:-1]) & (s[1:] == s[:-1])
     clash = np.zeros(a.size, bool)
-    clash[np.unique(s[dup])] = True   # clusters are indexed by their first RP
+    clash[np.unique(s[dup])] = True  # clusters are indexed by their first RP
     return ~clash[start]
 
 
@@ -581,17 +614,31 @@ def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
     # the scratch holds 5 rows of the largest cluster per main RP
     width = 5 * int(count[small].max())
     runs = np.split(small, np.flatnonzero(np.diff(small) > 1) + 1)
-    for i0, n in ((int(run[0]) + a, b) for run in runs
-                  for a, b in _chunks(run.size, width, params.chunk_slots)):
+    for i0, n in (
+        (int(run[0]) + a, b)
+        for run in runs
+        for a, b in _chunks(run.size, width, params.chunk_slots)
+    ):
         sl = slice(i0, i0 + n)
-        mode, dens, near, cnt = engine.meanshift_spheres(x, z, r, amp, start, count,
-                                                         local[:, sl], params.sigma_x,
-                                                         params.sigma_r, params.meanshift_iters,
-                                                         i0, n)
+        mode, dens, near, cnt = engine.meanshift_spheres(
+            x,
+            z,
+            r,
+            amp,
+            start,
+            count,
+            local[:, sl],
+            params.sigma_x,
+            params.sigma_r,
+            params.meanshift_iters,
+            i0,
+            n,
+        )
         mode, dens, near = (np.asarray(v, np.float64) for v in (mode, dens, near))
         if params.meanshift_point == "argmax":
-            dens, new = _argmax_near(mode, near, np.asarray(cnt), engine, x, z, r, amp, start,
-                                     count, params, i0, n)
+            dens, new = _argmax_near(
+                mode, near, np.asarray(cnt), engine, x, z, r, amp, start, count, params, i0, n
+            )
         elif params.meanshift_point == "sphere":
             norm = np.linalg.norm(mode, axis=0)
             new = mode * (r[sl] / np.where(norm > 0, norm, 1.0))
@@ -612,11 +659,15 @@ def _argmax_near(mode, near, cnt, engine, x, z, r, amp, start, count, params, i0
     the point (3, n)."""
     slot = np.arange(near.shape[1])[:, None]
     d2 = np.where(slot < cnt, np.sum((near - mode[:, None]) ** 2, axis=0), np.inf)
-    pick = np.argsort(d2, axis=0, kind="stable")[:MS_DENSITY_T]          # (T, n)
+    pick = np.argsort(d2, axis=0, kind="stable")[:MS_DENSITY_T]  # (T, n)
     cols = np.arange(n)
-    targets = near[:, pick, cols]                                          # (3, T, n)
-    f = np.asarray(engine.density_spheres(x, z, r, amp, start, count, targets, params.sigma_x,
-                                          params.sigma_r, i0, n), np.float64)
+    targets = near[:, pick, cols]  # (3, T, n)
+    f = np.asarray(
+        engine.density_spheres(
+            x, z, r, amp, start, count, targets, params.sigma_x, params.sigma_r, i0, n
+        ),
+        np.float64,
+    )
     f = np.where(np.isfinite(d2[pick, cols]), f, -np.inf)
     b = np.argmax(f, axis=0)
     return np.where(cnt > 0, f[b, cols], 0.0), targets[:, b, cols]
@@ -631,9 +682,12 @@ def _kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     t2 = time.perf_counter()
     image = _rpm(rps, params, engine)
     t3 = time.perf_counter()
-    return ImageResult("kspace-rpm", rps, image,
-                       {"decompose": t1 - t0, "range_points": t2 - t1, "rpm": t3 - t2,
-                        "total": t3 - t0})
+    return ImageResult(
+        "kspace-rpm",
+        rps,
+        image,
+        {"decompose": t1 - t0, "range_points": t2 - t1, "rpm": t3 - t2, "total": t3 - t0},
+    )
 
 
 def _phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
@@ -653,10 +707,19 @@ def _phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     n_single = len(image.points)
     image = in_reach(data.array, rps, image, params.reach_deg)
     t4 = time.perf_counter()
-    return ImageResult("phase-rpm", rps, image,
-                       {"decompose": t1 - t0, "range_points": t2 - t1, "rpm": t3 - t2,
-                        "multipath": t4 - t3, "total": t4 - t0},
-                       {"multipath": n_rpm - n_single, "reach": n_single - len(image.points)})
+    return ImageResult(
+        "phase-rpm",
+        rps,
+        image,
+        {
+            "decompose": t1 - t0,
+            "range_points": t2 - t1,
+            "rpm": t3 - t2,
+            "multipath": t4 - t3,
+            "total": t4 - t0,
+        },
+        {"multipath": n_rpm - n_single, "reach": n_single - len(image.points)},
+    )
 
 
 def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
@@ -670,8 +733,9 @@ def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
     return rpm_image(rps, params.rpm, engine)
 
 
-def _multipath(data: RadarData, rps: RangePoints, image: Image, mode: str,
-               medium: Medium | None = None) -> Image:
+def _multipath(
+    data: RadarData, rps: RangePoints, image: Image, mode: str, medium: Medium | None = None
+) -> Image:
     """The image without (``"drop"``) or with flags on (``"flag"``) the
     points of double-bounce clusters (:mod:`rpm_cl.rpm.multipath`); above a
     half-space the double bounces' paths refract (``medium``)."""
@@ -680,12 +744,17 @@ def _multipath(data: RadarData, rps: RangePoints, image: Image, mode: str,
     from .rpm.multipath import flag_multipath
 
     resolution = data.waveform.range_resolution
-    if medium is not None and medium.half_space:   # rps of the paraxial scene: back to air
+    if medium is not None and medium.half_space:  # rps of the paraxial scene: back to air
         from .rpm.halfspace import to_air
 
         rps, resolution = to_air(rps, medium), resolution * medium.n
-    flags = flag_multipath(data.array.positions(), rps, image, resolution,
-                           medium if medium is not None and medium.half_space else None)
+    flags = flag_multipath(
+        data.array.positions(),
+        rps,
+        image,
+        resolution,
+        medium if medium is not None and medium.half_space else None,
+    )
     if mode == "flag":
         return replace(image, multipath=flags)
     return image.keep(~flags)
@@ -696,8 +765,11 @@ def reach_angles(array, rps: RangePoints, image: Image) -> np.ndarray:
     the antenna of its main RP, deg, shape (M,)."""
     pos = array.positions()[np.asarray(rps.antenna)[image.rp_index]]
     p = image.points
-    lateral = (np.abs(p[:, 0] - pos[:, 0]) if p.shape[1] == 2
-               else np.hypot(p[:, 0] - pos[:, 0], p[:, 2] - pos[:, 2]))
+    lateral = (
+        np.abs(p[:, 0] - pos[:, 0])
+        if p.shape[1] == 2
+        else np.hypot(p[:, 0] - pos[:, 0], p[:, 2] - pos[:, 2])
+    )
     return np.degrees(np.arctan2(lateral, p[:, 1]))
 
 
@@ -717,8 +789,9 @@ def _mf_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     t1 = time.perf_counter()
     image = _rpm(rps, params, engine)
     t2 = time.perf_counter()
-    return ImageResult("mf-rpm", rps, image,
-                       {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0})
+    return ImageResult(
+        "mf-rpm", rps, image, {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0}
+    )
 
 
 def _capon_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
@@ -729,13 +802,18 @@ def _capon_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     t1 = time.perf_counter()
     image = _rpm(rps, params, engine)
     t2 = time.perf_counter()
-    return ImageResult("capon-rpm", rps, image,
-                       {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0})
+    return ImageResult(
+        "capon-rpm", rps, image, {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0}
+    )
 
 
 #: Imaging methods by name.
-METHODS = {"kspace-rpm": _kspace_rpm, "phase-rpm": _phase_rpm, "mf-rpm": _mf_rpm,
-           "capon-rpm": _capon_rpm}
+METHODS = {
+    "kspace-rpm": _kspace_rpm,
+    "phase-rpm": _phase_rpm,
+    "mf-rpm": _mf_rpm,
+    "capon-rpm": _capon_rpm,
+}
 
 
 #: The method ``rpm-cl image`` and ``batch`` run unless told otherwise: the
@@ -786,7 +864,7 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
     # in a medium the method runs on the scene of rpm_cl.io.medium.seen_data
     # (in air: ``data`` itself)
     result = fn(seen_data(data, medium), params, engine)
-    if not medium.air:   # RPs as measured: air-equivalent ranges
+    if not medium.air:  # RPs as measured: air-equivalent ranges
         from dataclasses import replace
 
         from .rpm.halfspace import to_air
@@ -808,11 +886,14 @@ def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
 
     sl = data.range_sidelobe_db
     if sl is not None and threshold_db < sl:
-        warnings.warn(f"the range compression's sidelobes reach {sl:.1f} dB, above the k-space "
-                      f"peak threshold {threshold_db:g} dB: each strong echo's sidelobes become "
-                      f"clusters of spurious points; use a window with lower sidelobes "
-                      f"(range_window='hann', --range-window hann: -31.5 dB)", DataWarning,
-                      stacklevel=3)
+        warnings.warn(
+            f"the range compression's sidelobes reach {sl:.1f} dB, above the k-space "
+            f"peak threshold {threshold_db:g} dB: each strong echo's sidelobes become "
+            f"clusters of spurious points; use a window with lower sidelobes "
+            f"(range_window='hann', --range-window hann: -31.5 dB)",
+            DataWarning,
+            stacklevel=3,
+        )
 
 
 def timed_run(name: str, data: RadarData, params: ImagingParams, engine, repeats: int = 1):

@@ -20,7 +20,7 @@ class _Lazy:
 
     def __getattr__(self, attr):
         mod = importlib.import_module(self.__dict__["_name"])
-        self.__dict__.update(mod.__dict__)   # later lookups need no import at all
+        self.__dict__.update(mod.__dict__)  # later lookups need no import at all
         return getattr(mod, attr)
 
 

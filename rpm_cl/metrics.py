@@ -97,8 +97,9 @@ def cumulative(errors, threshold: float) -> tuple[int, int]:
 
 def _need_rps(truth: Truth) -> None:
     if not truth.has_rps:
-        raise InputError("the truth has no true RPs (truth_rp_antenna, truth_rp_range): "
-                         "Err_range is unavailable")
+        raise InputError(
+            "the truth has no true RPs (truth_rp_antenna, truth_rp_range): Err_range is unavailable"
+        )
 
 
 def summary(rps, image, truth: Truth) -> dict:
@@ -113,10 +114,10 @@ def summary(rps, image, truth: Truth) -> dict:
         unavailable, Err_RPM is computed).
     """
     e_p = err_rpm(image.points, truth)
-    within = (cumulative(err_range(rps.antenna, rps.range, truth), 0.010)[0]
-              if truth.has_rps else None)
-    out = {"rp_total": len(rps.range), "rp_within_10mm": within,
-           "rpm_total": int(e_p.size)}
+    within = (
+        cumulative(err_range(rps.antenna, rps.range, truth), 0.010)[0] if truth.has_rps else None
+    )
+    out = {"rp_total": len(rps.range), "rp_within_10mm": within, "rpm_total": int(e_p.size)}
     for mm in (10, 50, 100):
         out[f"rpm_within_{mm}mm"] = cumulative(e_p, mm / 1000.0)[0]
     return out

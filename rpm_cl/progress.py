@@ -42,8 +42,14 @@ def _resolve(setting: bool | None) -> bool | None:
     return setting
 
 
-def progress(iterable=None, total: int | None = None, desc: str | None = None,
-             enabled: bool | None = False, unit: str = "it", leave: bool = False):
+def progress(
+    iterable=None,
+    total: int | None = None,
+    desc: str | None = None,
+    enabled: bool | None = False,
+    unit: str = "it",
+    leave: bool = False,
+):
     """A tqdm bar over ``iterable`` (or a manual one with ``total``).
 
     Parameters
@@ -69,8 +75,15 @@ def progress(iterable=None, total: int | None = None, desc: str | None = None,
 
     on = _resolve(enabled)
     # disable=None is tqdm's own "on a terminal only" test (stderr.isatty())
-    return tqdm(iterable, total=total, desc=desc, unit=unit, leave=leave,
-                disable=None if on is None else not on, dynamic_ncols=True)
+    return tqdm(
+        iterable,
+        total=total,
+        desc=desc,
+        unit=unit,
+        leave=leave,
+        disable=None if on is None else not on,
+        dynamic_ncols=True,
+    )
 
 
 @contextlib.contextmanager

@@ -43,13 +43,17 @@ def main():
         ms_ref = ref.meanshift_spheres(x, z, r, amp, st, ct, pt, 0.02, 0.05, 2, 2, 5)
         assert np.abs(ms[0] - ms_ref[0]).max() <= 1e-4 and np.array_equal(ms[1] > 0, ms_ref[1] > 0)
         assert np.array_equal(ms[3], ms_ref[3])
-        near = ms_ref[2][:, :ref.MS_DENSITY_T]  # the density at the nearest candidates
+        near = ms_ref[2][:, : ref.MS_DENSITY_T]  # the density at the nearest candidates
         f = e.density_spheres(x, z, r, amp, st, ct, near, 0.02, 0.05, 2, 5)
         f_ref = ref.density_spheres(x, z, r, amp, st, ct, near, 0.02, 0.05, 2, 5)
         assert np.allclose(f, f_ref, rtol=1e-2, atol=1e-6)
         arr = Array(np.arange(3) * 7.5e-3, np.arange(2) * 7.5e-3)
-        data = RadarData(rng.normal(size=(3, 2, 20)) + 1j * rng.normal(size=(3, 2, 20)), arr,
-                         0.3 + 2.5e-3 * np.arange(20), Waveform(20e9, 3e9))
+        data = RadarData(
+            rng.normal(size=(3, 2, 20)) + 1j * rng.normal(size=(3, 2, 20)),
+            arr,
+            0.3 + 2.5e-3 * np.arange(20),
+            Waveform(20e9, 3e9),
+        )
         g = Grid(np.linspace(-0.01, 0.01, 3), np.array([0.32, 0.33]), np.linspace(-0.01, 0.01, 11))
         a, b = DeviceDAS(env, precision).backproject(data, g), das_numpy(data, g)
         assert np.abs(a - b).max() <= 1e-3 * np.abs(b).max()

@@ -17,8 +17,12 @@ from rpm_cl.simulate import simulate_preset
 
 SEEDS = (11, 12, 13)
 # the paper-2d targets (scene.py: range r at angle a from the array centre), m
-TARGETS = np.array([(r * np.sin(np.radians(a)), r * np.cos(np.radians(a)))
-                    for r, a in ((0.42, -28.0), (0.46, 3.0), (0.49, 25.0))])
+TARGETS = np.array(
+    [
+        (r * np.sin(np.radians(a)), r * np.cos(np.radians(a)))
+        for r, a in ((0.42, -28.0), (0.46, 3.0), (0.49, 25.0))
+    ]
+)
 
 
 @pytest.fixture(scope="module")
@@ -26,7 +30,9 @@ def frames_dir(tmp_path_factory):
     """Three noisy paper-2d frames (different noise seeds)."""
     d = tmp_path_factory.mktemp("frames")
     for seed in SEEDS:
-        save_npz(d / f"scan{seed}.npz", simulate_preset("paper-2d", 20.0, seed, noise="receiver")[0])
+        save_npz(
+            d / f"scan{seed}.npz", simulate_preset("paper-2d", 20.0, seed, noise="receiver")[0]
+        )
     return d
 
 
@@ -37,8 +43,9 @@ def _local_cluster(workers=1):
 
     with warnings.catch_warnings():  # "Port 8787 is already in use": another port is taken
         warnings.filterwarnings("ignore", message="Port .* is already in use")
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                            dashboard_address=None)
+        return LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+        )
 
 
 @pytest.fixture(scope="module")
@@ -54,8 +61,9 @@ def _summary(out):
     return json.loads((out / "summary.json").read_text())
 
 
-def test_cli_batch_equals_single_runs_and_reports_corrupt_frame(frames_dir, tmp_path, dev32,
-                                                                capsys):
+def test_cli_batch_equals_single_runs_and_reports_corrupt_frame(
+    frames_dir, tmp_path, dev32, capsys
+):
     inp = tmp_path / "in"
     inp.mkdir()
     for f in frames_dir.iterdir():
@@ -110,8 +118,10 @@ def test_cli_on_an_existing_scheduler(frames_dir, tmp_path, client, capsys):
     from rpm_cl.cli.batch import PLUGIN_NAME
 
     out = tmp_path / "out"
-    assert main(["batch", str(frames_dir), "-o", str(out), "--scheduler",
-                 client.scheduler.address]) == 0
+    assert (
+        main(["batch", str(frames_dir), "-o", str(out), "--scheduler", client.scheduler.address])
+        == 0
+    )
     assert "3 done" in capsys.readouterr().out
     s = _summary(out)
     assert s["scheduler"] == client.scheduler.address and s["workers"] == 1 and s["done"] == 3
@@ -127,9 +137,13 @@ def test_das_per_frame_with_reuse_tables(frames_dir, tmp_path, client, cl_env):
     grid = "-0.3:0.3:0.01,0.3:0.6:0.01"
     data = load_npz(frames_dir / "scan13.npz")
     want = DeviceDAS(cl_env).backproject(data, parse_grid(grid))
-    cases = [("plan", {"das_reuse": "plan"}), ("direct", {"das_reuse": "direct"}),
-             # tables over the budget: direct whatever asked
-             ("direct", {"das_reuse": "plan", "memory_budget": 1e3}), (None, {})]
+    cases = [
+        ("plan", {"das_reuse": "plan"}),
+        ("direct", {"das_reuse": "direct"}),
+        # tables over the budget: direct whatever asked
+        ("direct", {"das_reuse": "plan", "memory_budget": 1e3}),
+        (None, {}),
+    ]
     for k, (mode, kw) in enumerate(cases):
         out = tmp_path / f"out{k}"
         s = run_batch(frames_dir, out, BatchConfig(das_grid=grid, **kw), client=client)
@@ -149,9 +163,21 @@ def _err(capsys, argv):
     return code, capsys.readouterr().err.strip()
 
 
-@pytest.mark.parametrize("case", ["no-input", "empty-dir", "out-parent", "out-file", "out-is-in",
-                                  "workers-0", "workers-and-scheduler", "bad-scheduler",
-                                  "bad-grid", "bad-sigma"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "no-input",
+        "empty-dir",
+        "out-parent",
+        "out-file",
+        "out-is-in",
+        "workers-0",
+        "workers-and-scheduler",
+        "bad-scheduler",
+        "bad-grid",
+        "bad-sigma",
+    ],
+)
 def test_user_errors_are_one_line(case, frames_dir, tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     (tmp_path / "file").write_text("x")
@@ -261,13 +287,18 @@ def test_halfspace_frames(tmp_path, client, dev32):
     data = load_data(frames / "hs.npz")
     grid = "-0.3:0.3:0.004,0.1:0.4:0.004"
     medium = (("medium", "eps_r"), EPS), (("medium", "antenna_height"), H)
-    want_pts = run_method(DEFAULT_METHOD, data, default_params(data, eps_r=EPS, antenna_height=H),
-                          dev32).image.points
+    want_pts = run_method(
+        DEFAULT_METHOD, data, default_params(data, eps_r=EPS, antenna_height=H), dev32
+    ).image.points
     want = das_numpy(data, parse_grid(grid), medium=Medium(EPS, H))
     for k, reuse in enumerate(("plan", "direct")):
         out = tmp_path / f"out{k}"
-        s = run_batch(frames, out, BatchConfig(overrides=medium, das_grid=grid, das_reuse=reuse),
-                      client=client)
+        s = run_batch(
+            frames,
+            out,
+            BatchConfig(overrides=medium, das_grid=grid, das_reuse=reuse),
+            client=client,
+        )
         assert s.done == 1 and s.das_modes == [reuse]
         np.testing.assert_allclose(np.load(out / "hs.npz")["points"], want_pts, atol=1e-6)
         with np.load(out / "hs_das.npz") as f:

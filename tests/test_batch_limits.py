@@ -46,6 +46,7 @@ class _Hooks(distributed.WorkerPlugin):
         def hooked(path, result, meta):
             name = os.path.basename(path)
             if name.startswith("stall"):
+
                 def hang(tmp):
                     with open(tmp, "wb") as fh:
                         fh.write(b"partial")
@@ -75,8 +76,9 @@ def _local_cluster():
 
     with warnings.catch_warnings():  # "Port 8787 is already in use": another port is taken
         warnings.filterwarnings("ignore", message="Port .* is already in use")
-        return LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                            dashboard_address=None)
+        return LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None
+        )
 
 
 @pytest.fixture(scope="module")
@@ -105,8 +107,9 @@ def test_frames_over_their_limits_fail_and_the_rest_are_done(frames_dir, tmp_pat
     reached.mkdir()
     grid = "-0.3:0.3:0.02,0.2:0.6:0.02"
     timed = BatchConfig(das_grid=grid, das_reuse="plan", frame_timeout=TIMEOUT_S)
-    sized = BatchConfig(das_grid=grid, das_reuse="plan", frame_timeout=float("inf"),
-                        frame_memory=MEMORY)
+    sized = BatchConfig(
+        das_grid=grid, das_reuse="plan", frame_timeout=float("inf"), frame_memory=MEMORY
+    )
     t0 = time.perf_counter()
     with _local_cluster() as cluster, Client(cluster) as c:
         c.register_plugin(_Hooks(reached), name="limit-hooks")
@@ -117,23 +120,33 @@ def test_frames_over_their_limits_fail_and_the_rest_are_done(frames_dir, tmp_pat
     assert sorted(os.listdir(reached)) == ["bloat.npz", "stall.npz"]
     assert (s_time.done, s_mem.done) == (2, 1)
     assert [(f["frame"], f["error"]) for f in s_time.failed] == [
-        ("stall", limit_reason("time", TIMEOUT_S))]
+        ("stall", limit_reason("time", TIMEOUT_S))
+    ]
     assert [f["frame"] for f in s_mem.failed] == ["bloat"]
     assert s_mem.failed[0]["error"].startswith(limit_reason("memory", MEMORY)[:-1])
     assert "1 GB per-frame memory limit" in s_mem.failed[0]["error"]
     assert wall < 40  # the stall (60 s) was cut short
     # nothing of the stopped frames is left (hidden temporary files and markers included)
     assert sorted(os.listdir(tmp_path / "time")) == [
-        "scan11.npz", "scan11_das.npz", "scan12.npz", "scan12_das.npz", "summary.json"]
+        "scan11.npz",
+        "scan11_das.npz",
+        "scan12.npz",
+        "scan12_das.npz",
+        "summary.json",
+    ]
     assert sorted(os.listdir(tmp_path / "memory")) == [
-        "scan13.npz", "scan13_das.npz", "summary.json"]
+        "scan13.npz",
+        "scan13_das.npz",
+        "summary.json",
+    ]
 
 
 def test_watchdog_stops_a_process_that_holds_the_gil(tmp_path):
     """A catastrophic regular expression runs in C with the GIL held: only a
     watchdog outside the process can stop it."""
-    child = subprocess.Popen([sys.executable, "-c",
-                              "import re; re.match(r'(a+)+$', 'a' * 64 + 'b')"])
+    child = subprocess.Popen(
+        [sys.executable, "-c", "import re; re.match(r'(a+)+$', 'a' * 64 + 'b')"]
+    )
     marker = tmp_path / "reason"
     dog = Watchdog(child.pid)
     try:
@@ -162,15 +175,24 @@ def test_watchdog_disarmed_leaves_the_process_alone(tmp_path):
         dog.close()
 
 
-@pytest.mark.parametrize("field, value", [("frame_timeout", 0.0), ("frame_timeout", float("nan")),
-                                          ("frame_memory", -1.0)])
+@pytest.mark.parametrize(
+    "field, value",
+    [("frame_timeout", 0.0), ("frame_timeout", float("nan")), ("frame_memory", -1.0)],
+)
 def test_config_refuses_limits_that_are_not_positive(field, value):
     with pytest.raises(InputError, match=field):
         BatchConfig(**{field: value})
 
 
-@pytest.mark.parametrize("flag, value", [("--frame-timeout", "0"), ("--frame-timeout", "soon"),
-                                         ("--frame-memory", "-2G"), ("--frame-memory", "lots")])
+@pytest.mark.parametrize(
+    "flag, value",
+    [
+        ("--frame-timeout", "0"),
+        ("--frame-timeout", "soon"),
+        ("--frame-memory", "-2G"),
+        ("--frame-memory", "lots"),
+    ],
+)
 def test_bad_limit_flags_are_one_line(flag, value, frames_dir, tmp_path, capsys):
     code = main(["batch", str(frames_dir / "time"), "-o", str(tmp_path / "out"), flag, value])
     err = capsys.readouterr().err.strip()
@@ -188,8 +210,18 @@ def test_limit_flags_reach_the_config(monkeypatch, frames_dir, tmp_path):
         raise InputError("stop here")
 
     monkeypatch.setattr(rpm_cl.cli.batch, "run_batch", fake_run)
-    main(["batch", str(frames_dir / "time"), "-o", str(tmp_path / "o"), "--frame-timeout", "2m",
-          "--frame-memory", "1.5GiB"])
+    main(
+        [
+            "batch",
+            str(frames_dir / "time"),
+            "-o",
+            str(tmp_path / "o"),
+            "--frame-timeout",
+            "2m",
+            "--frame-memory",
+            "1.5GiB",
+        ]
+    )
     assert (seen["config"].frame_timeout, seen["config"].frame_memory) == (120.0, 1.5 * 2**30)
     main(["batch", str(frames_dir / "time"), "-o", str(tmp_path / "o"), "--frame-timeout", "none"])
     assert seen["config"].frame_timeout == float("inf") and seen["config"].frame_memory is None

@@ -12,12 +12,15 @@ def test_pareto_front_with_a_time_tolerance():
     by more than the tolerance, or by one more accurate and no slower than
     the tolerance allows; the same error within the tolerance beats
     nothing, so run-to-run noise alone does not decide the front."""
-    pts = [(100.0, 0.02), (110.0, 0.02),    # same error, 10 % apart
-           (50.0, 0.10),                    # faster, worse: on the front
-           (130.0, 0.02),                   # same error, 30 % slower than the first
-           (200.0, 0.05)]                   # slower and worse than the first
-    assert pareto(pts) == [0, 2]             # exact: 110 ms loses to 100 ms
-    assert pareto(pts, 0.15) == [0, 1, 2]    # within 15 %: neither beats the other
+    pts = [
+        (100.0, 0.02),
+        (110.0, 0.02),  # same error, 10 % apart
+        (50.0, 0.10),  # faster, worse: on the front
+        (130.0, 0.02),  # same error, 30 % slower than the first
+        (200.0, 0.05),
+    ]  # slower and worse than the first
+    assert pareto(pts) == [0, 2]  # exact: 110 ms loses to 100 ms
+    assert pareto(pts, 0.15) == [0, 1, 2]  # within 15 %: neither beats the other
     # more accurate and within the tolerance beats a faster one; beyond it, not
     assert pareto([(100.0, 0.02), (112.0, 0.01)], 0.15) == [1]
     assert pareto([(100.0, 0.02), (120.0, 0.01)], 0.15) == [0, 1]
@@ -48,13 +51,17 @@ def test_eq10_density_is_the_untruncated_reference_density(rng):
     local = (pts - np.column_stack([x[main], np.zeros(main.size), z[main]])).T[:, None, :]
 
     def reference(sd, sr):
-        return np.array([ref.density_spheres(x, z, r, amp, st, ct, local[:, :, [q]], sd, sr,
-                                             int(i), 1)[0, 0] for q, i in enumerate(main)])
+        return np.array(
+            [
+                ref.density_spheres(x, z, r, amp, st, ct, local[:, :, [q]], sd, sr, int(i), 1)[0, 0]
+                for q, i in enumerate(main)
+            ]
+        )
 
-    np.testing.assert_allclose(eq10_density(rps, main, pts, 1.0, 1.5), reference(1.0, 1.5),
-                               rtol=1e-12)
-    assert not np.allclose(eq10_density(rps, main, pts, 1.5, 1.0), reference(1.0, 1.5),
-                           rtol=1e-6)
+    np.testing.assert_allclose(
+        eq10_density(rps, main, pts, 1.0, 1.5), reference(1.0, 1.5), rtol=1e-12
+    )
+    assert not np.allclose(eq10_density(rps, main, pts, 1.5, 1.0), reference(1.0, 1.5), rtol=1e-6)
     for sd, sr in ((1.0, 0.05), (0.05, 1.5)):
         got, want = eq10_density(rps, main, pts, sd, sr), reference(sd, sr)
         # the same sums in another order: equal to rounding where nothing is cut
@@ -84,16 +91,21 @@ def test_exhaustive_ties_tells_a_tie_from_another_point(rng):
     sizes = [15, 12]
     x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=1e-3, dup=False)
     rps = RangePoints(ant, x, z, r, amp, np.repeat([0, 1], sizes))
-    rpm = replace(RPMParams(sigma_x=0.1, sigma_r=0.05), pair_cutoff=np.inf, max_neighbours=4096,
-                  meanshift_iters=0)
+    rpm = replace(
+        RPMParams(sigma_x=0.1, sigma_r=0.05),
+        pair_cutoff=np.inf,
+        max_neighbours=4096,
+        meanshift_iters=0,
+    )
     exh = rpm_image(rps, rpm, ref)
     params = SimpleNamespace(rpm=rpm)
-    keep = rng.permutation(exh.rp_index.size)[:20]   # a shuffled subset of the main RPs
+    keep = rng.permutation(exh.rp_index.size)[:20]  # a shuffled subset of the main RPs
 
     def moved(dy):
         pts = exh.points[keep] + np.array([0.0, dy, 0.0])
-        return SimpleNamespace(rps=rps, image=SimpleNamespace(rp_index=exh.rp_index[keep],
-                                                              points=pts))
+        return SimpleNamespace(
+            rps=rps, image=SimpleNamespace(rp_index=exh.rp_index[keep], points=pts)
+        )
 
     tie = TIE_REL["float32"]
     same, rel = exhaustive_ties(moved(0.0), exh, params)

@@ -19,8 +19,14 @@ WF = Waveform(20e9, 3e9)  # 50 mm range resolution
 
 
 def _data(antenna, ranges, amps, range_axis, waveform=WF, n=2):
-    sig = synthesize(np.asarray(antenna), np.asarray(ranges, float), np.asarray(amps, float),
-                     n, waveform, range_axis)
+    sig = synthesize(
+        np.asarray(antenna),
+        np.asarray(ranges, float),
+        np.asarray(amps, float),
+        n,
+        waveform,
+        range_axis,
+    )
     return RadarData(sig, Array(np.arange(n) * 5e-3), range_axis, waveform)
 
 
@@ -70,16 +76,31 @@ def test_short_window_needs_the_band_limited_fit():
 
 def test_frequency_samples_rejects_bad_options():
     data = _data([0], [1.0], [1.0], 0.5 + np.arange(400) * 2.5e-3)
-    for kw in ({"min_weight": 0.0}, {"min_weight": 1.5}, {"min_period_cells": -1.0},
-               {"zero_pad": 0}, {"zero_pad": 1.5}, {"min_weight": 1.0}):
+    for kw in (
+        {"min_weight": 0.0},
+        {"min_weight": 1.5},
+        {"min_period_cells": -1.0},
+        {"zero_pad": 0},
+        {"zero_pad": 1.5},
+        {"min_weight": 1.0},
+    ):
         with pytest.raises(InputError):
             frequency_samples(data, **kw)
 
 
 # ---------------------------------------------------------------- params
-@pytest.mark.parametrize("kw", [{"n_sub": 1}, {"n_sub": 2.5}, {"n_sub": True},
-                                {"loading": -1e-3}, {"loading": np.inf},
-                                {"min_weight": 0.0}, {"min_period_cells": np.nan}])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"n_sub": 1},
+        {"n_sub": 2.5},
+        {"n_sub": True},
+        {"loading": -1e-3},
+        {"loading": np.inf},
+        {"min_weight": 0.0},
+        {"min_period_cells": np.nan},
+    ],
+)
 def test_capon_params_validation(kw):
     with pytest.raises(InputError):
         CaponParams(**kw)
@@ -100,14 +121,15 @@ def test_capon_profiles_match_a_per_gate_reference(rng):
     matrices well conditioned, so the two agree to rounding: rtol 1e-8)."""
     n = 3
     ranges = 0.9 + 0.2 * rng.random(6)
-    data = _data(np.repeat(np.arange(n), 2), ranges, 0.5 + rng.random(6),
-                 0.5 + np.arange(400) * 2.5e-3, n=n)
+    data = _data(
+        np.repeat(np.arange(n), 2), ranges, 0.5 + rng.random(6), 0.5 + np.arange(400) * 2.5e-3, n=n
+    )
     params = CaponParams(n_sub=7, loading=1e-3)
     got = capon_profiles(data, params)
     f, y = frequency_samples(data)
     m, k = 7, f.size - 7 + 1
     for ant in range(n):
-        rxx = sum(np.outer(y[ant, i:i + m], y[ant, i:i + m].conj()) for i in range(k)) / k
+        rxx = sum(np.outer(y[ant, i : i + m], y[ant, i : i + m].conj()) for i in range(k)) / k
         rxx += 1e-3 * np.real(np.trace(rxx)) / m * np.eye(m)
         rinv = np.linalg.inv(rxx)
         for g in range(0, data.range.size, 37):
@@ -139,8 +161,7 @@ def test_two_echoes_within_a_resolution_cell_resolved():
     rax = 0.5 + np.arange(400) * 2.5e-3
     r1 = 1.0012
     truth = {0: (r1, r1 + 0.6 * res), 1: (r1, r1 + 0.4 * res)}
-    data = _data([0, 0, 1, 1], [r1, r1 + 0.6 * res, r1, r1 + 0.4 * res],
-                 [1.0, 0.8, 1.0, 0.8], rax)
+    data = _data([0, 0, 1, 1], [r1, r1 + 0.6 * res, r1, r1 + 0.4 * res], [1.0, 0.8, 1.0, 0.8], rax)
     row, pos, _ = profile_peaks(np.abs(data.signal), 0.0)
     near = np.abs(rax[0] + pos * data.dr - r1) < res
     assert sorted(row[near].tolist()) == [0, 1]  # one matched-filter peak each

@@ -40,10 +40,17 @@ print(json.dumps(out))
 
 
 def _rps_with_threads(n: int):
-    env = dict(os.environ, OPENBLAS_NUM_THREADS=str(n), OMP_NUM_THREADS=str(n),
-               MKL_NUM_THREADS=str(n))
-    res = subprocess.run([sys.executable, "-c", _PRINT_RPS], env=env, capture_output=True, check=False,
-                         text=True, timeout=300)
+    env = dict(
+        os.environ, OPENBLAS_NUM_THREADS=str(n), OMP_NUM_THREADS=str(n), MKL_NUM_THREADS=str(n)
+    )
+    res = subprocess.run(
+        [sys.executable, "-c", _PRINT_RPS],
+        env=env,
+        capture_output=True,
+        check=False,
+        text=True,
+        timeout=300,
+    )
     assert res.returncode == 0, res.stderr
     return json.loads(res.stdout)
 
@@ -105,7 +112,7 @@ def test_complex64_data_keep_their_rps():
 
     data = simulate_preset("paper-2d")[0]
     d64 = dataclasses.replace(data, signal=data.signal.astype(np.complex64))
-    assert capon._fit_rcond(np.complex64) == pytest.approx(2.0 ** -23)
+    assert capon._fit_rcond(np.complex64) == pytest.approx(2.0**-23)
     assert capon._fit_rcond(np.complex128) == capon.FIT_RCOND
     rps = capon.rps_from_capon(d64)
     k, n = cumulative(err_range(rps.antenna, rps.range, data.truth), 0.010)

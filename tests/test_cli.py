@@ -15,8 +15,23 @@ from rpm_cl.imaging import DEFAULT_METHOD
 @pytest.fixture(scope="module")
 def sim_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("sim") / "paper.npz"
-    assert main(["simulate", "paper-2d", "-o", str(path), "--snr", "20", "--seed", "1",
-                 "--noise", "receiver"]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "paper-2d",
+                "-o",
+                str(path),
+                "--snr",
+                "20",
+                "--seed",
+                "1",
+                "--noise",
+                "receiver",
+            ]
+        )
+        == 0
+    )
     return path
 
 
@@ -52,8 +67,17 @@ def test_reproduce_json_schema(tmp_path, capsys):
     out = tmp_path / "r.json"
     assert main(["reproduce", "paper-2d", "--json", str(out), "--trials", "1"]) == 0
     rows = json.loads(out.read_text())["rows"]
-    want = {"case", "method", "snr_db", "rp_total", "rp_within_10mm", "rpm_total",
-            "rpm_within_50mm", "rpm_within_100mm", "seconds"}
+    want = {
+        "case",
+        "method",
+        "snr_db",
+        "rp_total",
+        "rp_within_10mm",
+        "rpm_total",
+        "rpm_within_50mm",
+        "rpm_within_100mm",
+        "seconds",
+    }
     assert all(want <= set(r) for r in rows)
     cases = {(r["case"], r["method"], r["snr_db"]) for r in rows}
     for snr in (None, 20.0, 10.0, 0.0):
@@ -74,21 +98,29 @@ def write_npz(path, **arrays):
 
 
 def good_arrays():
-    return {"signal": np.ones((4, 8), complex), "x": np.arange(4) * 5e-3,
-                "range": np.arange(8) * 0.01, "fc": 20e9, "bandwidth": 0.2e9}
+    return {
+        "signal": np.ones((4, 8), complex),
+        "x": np.arange(4) * 5e-3,
+        "range": np.arange(8) * 0.01,
+        "fc": 20e9,
+        "bandwidth": 0.2e9,
+    }
 
 
-@pytest.mark.parametrize("change, words", [
-    ({"signal": None}, "missing key 'signal'"),
-    ({"x": np.array([0, 1, 3, 4.0]) * 1e-3}, "uniformly spaced"),
-    ({"x": np.array([3, 2, 1, 0.0])}, "strictly increasing"),
-    ({"range": np.arange(7) * 0.01}, "signal must have shape"),
-    ({"signal": np.full((4, 8), np.nan, complex)}, "NaN or Inf"),
-    ({"fc": -1.0}, "fc must be > 0"),
-    ({"bandwidth": 0.0}, "bandwidth must be > 0"),
-    ({"signal": np.array(["a"] * 32).reshape(4, 8)}, "complex"),
-    ({"x": np.zeros(0)}, "at least 2"),
-])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        ({"signal": None}, "missing key 'signal'"),
+        ({"x": np.array([0, 1, 3, 4.0]) * 1e-3}, "uniformly spaced"),
+        ({"x": np.array([3, 2, 1, 0.0])}, "strictly increasing"),
+        ({"range": np.arange(7) * 0.01}, "signal must have shape"),
+        ({"signal": np.full((4, 8), np.nan, complex)}, "NaN or Inf"),
+        ({"fc": -1.0}, "fc must be > 0"),
+        ({"bandwidth": 0.0}, "bandwidth must be > 0"),
+        ({"signal": np.array(["a"] * 32).reshape(4, 8)}, "complex"),
+        ({"x": np.zeros(0)}, "at least 2"),
+    ],
+)
 def test_bad_input_one_line_exit_2(tmp_path, capsys, change, words):
     arrays = good_arrays()
     for k, v in change.items():
@@ -123,10 +155,13 @@ def test_unwritable_output_leaves_nothing(tmp_path, capsys, sim_file):
 
 
 def test_bad_options_one_line(capsys, sim_file, tmp_path):
-    for argv in (["simulate", "nope", "-o", "x.npz"], ["image"], ["simulate", "paper-2d",
-                 "-o", str(tmp_path / "a.npz"), "--snr", "loud"],
-                 ["image", str(sim_file), "-o", str(tmp_path / "b.npz"), "--sigma-x", "-1"],
-                 ["info", "--device", "no-such-device"]):
+    for argv in (
+        ["simulate", "nope", "-o", "x.npz"],
+        ["image"],
+        ["simulate", "paper-2d", "-o", str(tmp_path / "a.npz"), "--snr", "loud"],
+        ["image", str(sim_file), "-o", str(tmp_path / "b.npz"), "--sigma-x", "-1"],
+        ["info", "--device", "no-such-device"],
+    ):
         code, err = run_err(capsys, argv)
         assert code == 2 and err.count("\n") == 0 and err.startswith("rpm-cl: error:"), (argv, err)
 
@@ -145,8 +180,13 @@ def test_no_opencl_platform_says_how_to_install(monkeypatch, capsys):
 def test_installed_entry_point_runs(tmp_path):
     """The console script exists and errors cleanly (no traceback)."""
     exe = os.path.join(os.path.dirname(sys.executable), "rpm-cl")
-    r = subprocess.run([exe, "image", str(tmp_path / "none.npz"), "-o", str(tmp_path / "o.npz")],
-                       check=False, capture_output=True, text=True, timeout=120)
+    r = subprocess.run(
+        [exe, "image", str(tmp_path / "none.npz"), "-o", str(tmp_path / "o.npz")],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert r.returncode == 2
     assert "Traceback" not in r.stderr and r.stderr.strip().count("\n") == 0
 
@@ -157,39 +197,66 @@ def test_simulate_noise_model_flag(tmp_path, capsys):
     from rpm_cl.simulate import simulate_preset
 
     sig = {}
-    for name, tail in (("default", []), ("in-band", ["--noise", "in-band"]),
-                       ("receiver", ["--noise", "receiver"])):
+    for name, tail in (
+        ("default", []),
+        ("in-band", ["--noise", "in-band"]),
+        ("receiver", ["--noise", "receiver"]),
+    ):
         out = tmp_path / f"{name}.npz"
-        assert main(["simulate", "paper-2d", "-o", str(out), "--snr", "10", "--seed", "2",
-                     *tail]) == 0
+        assert (
+            main(["simulate", "paper-2d", "-o", str(out), "--snr", "10", "--seed", "2", *tail]) == 0
+        )
         sig[name] = np.load(out)["signal"]
     assert "(receiver noise)" in capsys.readouterr().out
     np.testing.assert_array_equal(sig["default"], sig["in-band"])
-    np.testing.assert_array_equal(sig["receiver"],
-                                  simulate_preset("paper-2d", 10.0, 2, noise="receiver")[0].signal)
+    np.testing.assert_array_equal(
+        sig["receiver"], simulate_preset("paper-2d", 10.0, 2, noise="receiver")[0].signal
+    )
     np.testing.assert_array_equal(sig["in-band"], simulate_preset("paper-2d", 10.0, 2)[0].signal)
-    code, err = run_err(capsys, ["simulate", "paper-2d", "-o", str(tmp_path / "x.npz"),
-                                 "--noise", "thermal"])
+    code, err = run_err(
+        capsys, ["simulate", "paper-2d", "-o", str(tmp_path / "x.npz"), "--noise", "thermal"]
+    )
     assert code == 2 and "--noise" in err and err.count("\n") == 0
 
 
-@pytest.mark.parametrize("argv_tail, words", [
-    (["--seed", "-1"], "seed"), (["--snr", "nan"], "S/N"), (["--snr", "4000"], "S/N"),
-    (["--snr=-1e300"], "S/N")])
+@pytest.mark.parametrize(
+    "argv_tail, words",
+    [
+        (["--seed", "-1"], "seed"),
+        (["--snr", "nan"], "S/N"),
+        (["--snr", "4000"], "S/N"),
+        (["--snr=-1e300"], "S/N"),
+    ],
+)
 def test_bad_simulate_numbers(tmp_path, capsys, argv_tail, words):
     code, err = run_err(capsys, ["simulate", "paper-2d", "-o", str(tmp_path / "s.npz"), *argv_tail])
     assert code == 2 and words in err and err.count("\n") == 0
 
 
-@pytest.mark.parametrize("change, words", [
-    ({"signal": np.ones((4, 8))}, "complex"),
-    ({"bandwidth": 1e-300}, "range resolution"),
-    ({"range": np.arange(8) * 1e-300}, "range resolution"),
-    ({"truth_boundary": np.zeros((3, 3)), "truth_rp_antenna": np.zeros(1, int),
-      "truth_rp_range": np.ones(1)}, "truth_boundary"),
-    ({"truth_boundary": np.zeros((3, 2)), "truth_rp_antenna": np.array([9]),
-      "truth_rp_range": np.ones(1)}, "truth_rp_antenna"),
-])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        ({"signal": np.ones((4, 8))}, "complex"),
+        ({"bandwidth": 1e-300}, "range resolution"),
+        ({"range": np.arange(8) * 1e-300}, "range resolution"),
+        (
+            {
+                "truth_boundary": np.zeros((3, 3)),
+                "truth_rp_antenna": np.zeros(1, int),
+                "truth_rp_range": np.ones(1),
+            },
+            "truth_boundary",
+        ),
+        (
+            {
+                "truth_boundary": np.zeros((3, 2)),
+                "truth_rp_antenna": np.array([9]),
+                "truth_rp_range": np.ones(1),
+            },
+            "truth_rp_antenna",
+        ),
+    ],
+)
 def test_inconsistent_input_rejected(tmp_path, capsys, change, words):
     arrays = {**good_arrays(), **change}
     path = write_npz(tmp_path / "bad.npz", **arrays)
@@ -221,11 +288,14 @@ def test_rma_and_das_cli_write_images(sim_file, tmp_path, capsys):
     assert "back-projections/s" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("argv, words", [
-    (["das", "{sim}", "-o", "{tmp}/a.npz", "--grid", "0:1:0.1,0:1:0.1,0:1:0.1"], "needs 2"),
-    (["das", "{sim}", "-o", "{tmp}/a.npz", "--grid", "0:1"], "--grid needs"),
-    (["das", "{sim}", "-o", "{tmp}/a.npz", "--grid", "0:1:-1,0:1:1"], "step > 0"),
-])
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["das", "{sim}", "-o", "{tmp}/a.npz", "--grid", "0:1:0.1,0:1:0.1,0:1:0.1"], "needs 2"),
+        (["das", "{sim}", "-o", "{tmp}/a.npz", "--grid", "0:1"], "--grid needs"),
+        (["das", "{sim}", "-o", "{tmp}/a.npz", "--grid", "0:1:-1,0:1:1"], "step > 0"),
+    ],
+)
 def test_das_bad_grid_one_line_exit_2(argv, words, sim_file, tmp_path, capsys):
     argv = [a.format(sim=sim_file, tmp=tmp_path) for a in argv]
     assert main(argv) == 2
@@ -239,8 +309,13 @@ def test_das_bad_grid_one_line_exit_2(argv, words, sim_file, tmp_path, capsys):
 def test_all_zero_input_is_valid_and_empty(method, planar, tmp_path, capsys):
     """A target-free (all-zero) file images to nothing, with every method."""
     shape = (11, 17, 300) if planar else (21, 300)
-    arrays = {"signal": np.zeros(shape, complex), "x": (np.arange(shape[0]) - 5) * 7.5e-3,
-                  "range": 0.5 + np.arange(300) * 2.5e-3, "fc": 20e9, "bandwidth": 3e9}
+    arrays = {
+        "signal": np.zeros(shape, complex),
+        "x": (np.arange(shape[0]) - 5) * 7.5e-3,
+        "range": 0.5 + np.arange(300) * 2.5e-3,
+        "fc": 20e9,
+        "bandwidth": 3e9,
+    }
     if planar:
         arrays["z"] = (np.arange(17) - 8) * 7.5e-3
     src = write_npz(tmp_path / "zero.npz", **arrays)
@@ -260,8 +335,16 @@ def test_bad_values_one_line_exit_2(sim_file, tmp_path, capsys):
     cases = [
         ["image", bad_scene, "-o", str(tmp_path / "a.npz")],
         ["das", str(sim_file), "-o", str(tmp_path / "a.npz"), "--grid", "0:1e308:1e-10,0:1:1"],
-        ["das", str(sim_file), "-o", str(tmp_path / "a.npz"), "--grid", "0:1:0.1,0:1:0.1",
-         "--memory-budget", "nan"],
+        [
+            "das",
+            str(sim_file),
+            "-o",
+            str(tmp_path / "a.npz"),
+            "--grid",
+            "0:1:0.1,0:1:0.1",
+            "--memory-budget",
+            "nan",
+        ],
         ["das", str(sim_file), "-o", str(tmp_path), "--grid", "0:0.1:0.1,0.3:0.4:0.1"],
         ["rma", str(sim_file), "-o", str(tmp_path / "a.npz"), "--y-min", "1e300"],
         ["rma", str(sim_file), "-o", str(tmp_path / "a.npz"), "--y-min", "0.6", "--y-max", "0.5"],
@@ -286,9 +369,14 @@ def test_negative_values_bind_to_their_flag(sim_file, tmp_path):
 def test_constant_planar_input_gives_no_clusters(tmp_path):
     """A flat signal has no k-space peak (plateaus are not maxima) and the
     alignment keeps the principal alias on a tie: no clusters, no points."""
-    arrays = {"signal": np.ones((11, 17, 200), complex), "x": (np.arange(11) - 5) * 7.5e-3,
-                  "z": (np.arange(17) - 8) * 7.5e-3, "range": 0.7 + np.arange(200) * 2.5e-3,
-                  "fc": 20e9, "bandwidth": 3e9}
+    arrays = {
+        "signal": np.ones((11, 17, 200), complex),
+        "x": (np.arange(11) - 5) * 7.5e-3,
+        "z": (np.arange(17) - 8) * 7.5e-3,
+        "range": 0.7 + np.arange(200) * 2.5e-3,
+        "fc": 20e9,
+        "bandwidth": 3e9,
+    }
     src = write_npz(tmp_path / "c.npz", **arrays)
     out = tmp_path / "o.npz"
     assert main(["image", src, "-o", str(out)]) == 0
@@ -355,16 +443,27 @@ def test_boundary_only_truth_round_trips_and_summary(tmp_path):
     from rpm_cl.simulate import simulate_preset
 
     data = simulate_preset("paper-2d")[0]
-    bare = type(data)(data.signal, data.array, data.range, data.waveform,
-                      Truth(None, None, data.truth.boundary, data.truth.scene))
+    bare = type(data)(
+        data.signal,
+        data.array,
+        data.range,
+        data.waveform,
+        Truth(None, None, data.truth.boundary, data.truth.scene),
+    )
     for path in (tmp_path / "t.npz", tmp_path / "t.h5"):
         save_data(path, bare)
         for back in (load_data(path),) + ((load_npz(path),) if path.suffix == ".npz" else ()):
             assert not back.truth.has_rps and back.truth.rp_antenna is None
             np.testing.assert_array_equal(back.truth.boundary, data.truth.boundary)
     pts = data.truth.boundary[:2] + [[0.0, 0.03], [0.0, 0.2]]
-    rps = RangePoints(np.array([10, 12]), data.array.x[[10, 12]], None, np.array([0.4, 0.5]),
-                      np.ones(2), np.zeros(2, int))
+    rps = RangePoints(
+        np.array([10, 12]),
+        data.array.x[[10, 12]],
+        None,
+        np.array([0.4, 0.5]),
+        np.ones(2),
+        np.zeros(2, int),
+    )
     img = Image(pts, np.zeros(2, int), np.ones(2), np.arange(2))
     s = summary(rps, img, bare.truth)
     assert s["rp_within_10mm"] is None and s["rp_total"] == 2

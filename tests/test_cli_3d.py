@@ -14,8 +14,23 @@ PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 def body_result(tmp_path_factory):
     d = tmp_path_factory.mktemp("body")
     sim, out = d / "hb.npz", d / "out.npz"
-    assert main(["simulate", "human-body", "-o", str(sim), "--snr", "20", "--seed", "3",
-                 "--noise", "receiver"]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "human-body",
+                "-o",
+                str(sim),
+                "--snr",
+                "20",
+                "--seed",
+                "3",
+                "--noise",
+                "receiver",
+            ]
+        )
+        == 0
+    )
     assert main(["image", str(sim), "-o", str(out)]) == 0
     return sim, out
 
@@ -65,10 +80,12 @@ def test_view_renders_2d_with_matplotlib(tmp_path):
 @pytest.mark.parametrize("case", ["missing", "not-a-result", "bad-suffix", "no-folder"])
 def test_view_bad_input_one_line_exit_2(case, body_result, tmp_path, capsys):
     sim, out = body_result
-    args = {"missing": [str(tmp_path / "nope.npz"), "--png", str(tmp_path / "a.png")],
-            "not-a-result": [str(sim), "--png", str(tmp_path / "a.png")],
-            "bad-suffix": [str(out), "--png", str(tmp_path / "a.jpg")],
-            "no-folder": [str(out), "--png", str(tmp_path / "no" / "a.png")]}[case]
+    args = {
+        "missing": [str(tmp_path / "nope.npz"), "--png", str(tmp_path / "a.png")],
+        "not-a-result": [str(sim), "--png", str(tmp_path / "a.png")],
+        "bad-suffix": [str(out), "--png", str(tmp_path / "a.jpg")],
+        "no-folder": [str(out), "--png", str(tmp_path / "no" / "a.png")],
+    }[case]
     assert main(["view", *args]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("rpm-cl: error:") and "\n" not in err
@@ -77,7 +94,9 @@ def test_view_bad_input_one_line_exit_2(case, body_result, tmp_path, capsys):
 
 def test_reproduce_paper_3d_json(tmp_path, capsys):
     out = tmp_path / "r3.json"
-    assert main(["reproduce", "paper-3d", "--trials", "1", "--skip-volume", "--json", str(out)]) == 0
+    assert (
+        main(["reproduce", "paper-3d", "--trials", "1", "--skip-volume", "--json", str(out)]) == 0
+    )
     rows = json.loads(out.read_text())["rows"]
     ks = [r for r in rows if r["method"] == "kspace-rpm"]
     das = [r for r in rows if r["method"] == "das"]

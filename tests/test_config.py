@@ -24,8 +24,10 @@ except ModuleNotFoundError:  # Python 3.10
 def files(tmp_path_factory):
     d = tmp_path_factory.mktemp("cfg")
     lin, pla = d / "p2.npz", d / "hb.npz"
-    assert main(["simulate", "paper-2d", "-o", str(lin), "--snr", "20", "--noise", "receiver",
-                 "-q"]) == 0
+    assert (
+        main(["simulate", "paper-2d", "-o", str(lin), "--snr", "20", "--noise", "receiver", "-q"])
+        == 0
+    )
     assert main(["simulate", "human-body", "-o", str(pla), "-q"]) == 0
     return lin, pla
 
@@ -43,8 +45,11 @@ def test_every_dataclass_field_is_a_setting():
     want = {("kspace", f.name) for f in dataclasses.fields(KSpaceParams)}
     want |= {("rpm", f.name) for f in dataclasses.fields(RPMParams)}
     want |= {("medium", f.name) for f in dataclasses.fields(Medium)}
-    want |= {("imaging", f.name) for f in dataclasses.fields(ImagingParams)
-             if f.name not in ("kspace", "rpm", "medium")}
+    want |= {
+        ("imaging", f.name)
+        for f in dataclasses.fields(ImagingParams)
+        if f.name not in ("kspace", "rpm", "medium")
+    }
     want |= {("engine", f.name) for f in dataclasses.fields(EngineParams)}
     assert want == have
     image = build_parser()._subparsers._group_actions[0].choices["image"]
@@ -66,7 +71,7 @@ def _other_value(s):
         return 123 if s.kind is int else 123.0
     if s.kind is int:
         return s.default + 1
-    if s.name in ("eps_r",):   # bounded below by its default (air): above it
+    if s.name in ("eps_r",):  # bounded below by its default (air): above it
         return s.default * 1.5
     return s.default * 0.75 if s.default != 0 else 0.5
 
@@ -99,17 +104,40 @@ def test_params_round_trip(files, tmp_path, capsys, which):
     parameters exactly, and printing them again gives the same text."""
     src = files[which]
     out1 = tmp_path / "a.toml"
-    assert main(["params", str(src), "-o", str(out1), "--sigma-r", "0.0123456789012345",
-                 "--near-neighbours", "auto", "--pair-cutoff", "inf", "--meanshift-iters", "0",
-                 "--meanshift-point", "nearest"]) == 0
+    assert (
+        main(
+            [
+                "params",
+                str(src),
+                "-o",
+                str(out1),
+                "--sigma-r",
+                "0.0123456789012345",
+                "--near-neighbours",
+                "auto",
+                "--pair-cutoff",
+                "inf",
+                "--meanshift-iters",
+                "0",
+                "--meanshift-point",
+                "nearest",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     assert main(["params", str(src), "--config", str(out1)]) == 0
     text2 = capsys.readouterr().out
     assert text2.split("\n", 1)[1] == out1.read_text().split("\n", 1)[1]  # all but the file name
     data = load_npz(src)
     p1 = resolve(data, load_config(out1))
-    want = default_params(data, sigma_r=0.0123456789012345, pair_cutoff=float("inf"),
-                          meanshift_iters=0, meanshift_point="nearest")
+    want = default_params(
+        data,
+        sigma_r=0.0123456789012345,
+        pair_cutoff=float("inf"),
+        meanshift_iters=0,
+        meanshift_point="nearest",
+    )
     want = dataclasses.replace(want, rpm=dataclasses.replace(want.rpm, near_neighbours=None))
     assert p1 == want
     assert p1.rpm.near_neighbours is None and p1.rpm.pair_cutoff == np.inf
@@ -135,14 +163,26 @@ def test_derived_defaults_follow_the_array(files, capsys):
 
 def test_flag_beats_file_beats_default(files, tmp_path, capsys):
     cfg = tmp_path / "c.toml"
-    cfg.write_text('[rpm]\nsigma_r = 0.03\nmax_neighbours = 30\n[kspace]\nwindow_x = 300.0\n'
-                   'align = false\n[engine]\nprecision = "float64"\n')
-    got = params_toml(capsys, files[0], "--config", cfg, "--sigma-r", "0.02",
-                      "--precision", "float32", "--align", "auto")
-    assert got["rpm"]["sigma_r"] == 0.02          # flag over file
+    cfg.write_text(
+        "[rpm]\nsigma_r = 0.03\nmax_neighbours = 30\n[kspace]\nwindow_x = 300.0\n"
+        'align = false\n[engine]\nprecision = "float64"\n'
+    )
+    got = params_toml(
+        capsys,
+        files[0],
+        "--config",
+        cfg,
+        "--sigma-r",
+        "0.02",
+        "--precision",
+        "float32",
+        "--align",
+        "auto",
+    )
+    assert got["rpm"]["sigma_r"] == 0.02  # flag over file
     assert got["engine"]["precision"] == "float32"
-    assert got["kspace"]["align"] == "auto"       # a flag may set None back
-    assert got["kspace"]["window_x"] == 300.0     # file over default (417)
+    assert got["kspace"]["align"] == "auto"  # a flag may set None back
+    assert got["kspace"]["window_x"] == 300.0  # file over default (417)
     assert got["rpm"]["max_neighbours"] == 30
     assert got["rpm"]["sigma_x"] == pytest.approx(0.10)  # derived default
     got = params_toml(capsys, files[0], "--config", cfg)
@@ -150,15 +190,15 @@ def test_flag_beats_file_beats_default(files, tmp_path, capsys):
 
 
 BAD = [
-    ("[rpm]\nsigma_q = 1.0\n", "sigma_q"),                        # unknown key
-    ("[rpmm]\nsigma_r = 1.0\n", "rpmm"),                          # unknown section
-    ("sigma_r = 0.05\n", "sigma_r"),                              # outside a section
-    ('[rpm]\nsigma_r = "wide"\n', "sigma_r"),                     # wrong type
-    ("[rpm]\nsigma_r = true\n", "sigma_r"),                       # bool is not a number
-    ("[kspace]\npad = 2.5\n", "pad"),                             # float for an int
-    ("[kspace]\ndetect_taper = 1\n", "detect_taper"),             # int for a bool
-    ("[kspace]\nnear_field = \"maybe\"\n", "near_field"),
-    ("[rpm]\nsigma_r = -0.01\n", "sigma_r"),                      # out of range
+    ("[rpm]\nsigma_q = 1.0\n", "sigma_q"),  # unknown key
+    ("[rpmm]\nsigma_r = 1.0\n", "rpmm"),  # unknown section
+    ("sigma_r = 0.05\n", "sigma_r"),  # outside a section
+    ('[rpm]\nsigma_r = "wide"\n', "sigma_r"),  # wrong type
+    ("[rpm]\nsigma_r = true\n", "sigma_r"),  # bool is not a number
+    ("[kspace]\npad = 2.5\n", "pad"),  # float for an int
+    ("[kspace]\ndetect_taper = 1\n", "detect_taper"),  # int for a bool
+    ('[kspace]\nnear_field = "maybe"\n', "near_field"),
+    ("[rpm]\nsigma_r = -0.01\n", "sigma_r"),  # out of range
     ("[rpm]\nsigma_x = 5000.0\n", "sigma_x"),
     ("[kspace]\npad = 0\n", "pad"),
     ("[kspace]\npeak_threshold_db = 3.0\n", "peak_threshold_db"),
@@ -167,9 +207,9 @@ BAD = [
     ('[rpm]\nmeanshift_point = "centre"\n', "meanshift_point"),
     ("[rpm]\nmeanshift_max_rps = -1\n", "meanshift_max_rps"),
     ("[imaging]\nrp_threshold_db = 0.0\n", "rp_threshold_db"),
-    ("[kspace]\nwindow_z = 100.0\n", "window_z"),                 # linear array
+    ("[kspace]\nwindow_z = 100.0\n", "window_z"),  # linear array
     ('[engine]\nprecision = "float16"\n', "precision"),
-    ("[rpm]\nsigma_r = 0.05\nsigma_r = 0.06\n", "TOML"),          # invalid TOML
+    ("[rpm]\nsigma_r = 0.05\nsigma_r = 0.06\n", "TOML"),  # invalid TOML
     ("[rpm\n", "TOML"),
 ]
 
@@ -186,16 +226,19 @@ def test_bad_config_one_line_exit_2(files, tmp_path, capsys, text, key):
     assert not (tmp_path / "o.npz").exists()
 
 
-@pytest.mark.parametrize("argv, key", [
-    (["--sigma-r", "wide"], "--sigma-r"),
-    (["--sigma-r", "-1"], "sigma_r"),
-    (["--pad", "2.5"], "--pad"),
-    (["--align", "perhaps"], "--align"),
-    (["--near-neighbours", "4096"], "near_neighbours"),
-    (["--meanshift-iters", "1.5"], "--meanshift-iters"),
-    (["--window-z", "90"], "window_z"),
-    (["--precision", "float16"], "--precision"),
-])
+@pytest.mark.parametrize(
+    "argv, key",
+    [
+        (["--sigma-r", "wide"], "--sigma-r"),
+        (["--sigma-r", "-1"], "sigma_r"),
+        (["--pad", "2.5"], "--pad"),
+        (["--align", "perhaps"], "--align"),
+        (["--near-neighbours", "4096"], "near_neighbours"),
+        (["--meanshift-iters", "1.5"], "--meanshift-iters"),
+        (["--window-z", "90"], "window_z"),
+        (["--precision", "float16"], "--precision"),
+    ],
+)
 def test_bad_flag_one_line_exit_2(files, capsys, argv, key):
     assert main(["params", str(files[0]), *argv]) == 2
     out, err = capsys.readouterr()
@@ -259,8 +302,17 @@ def test_das_takes_engine_from_config(files, tmp_path, capsys, cl_env):
     cfg = tmp_path / "e.toml"
     cfg.write_text('[engine]\nprecision = "float64"\n')
     out = tmp_path / "das.npz"
-    base = ["das", str(files[0]), "-o", str(out), "--grid", "-0.05:0.05:0.01,0.4:0.5:0.01",
-            "--config", str(cfg), "-q"]
+    base = [
+        "das",
+        str(files[0]),
+        "-o",
+        str(out),
+        "--grid",
+        "-0.05:0.05:0.01,0.4:0.5:0.01",
+        "--config",
+        str(cfg),
+        "-q",
+    ]
     assert main(base) == 0
     with np.load(out) as f:
         assert json.loads(str(f["meta"]))["precision"] == "float64"
@@ -304,11 +356,13 @@ def test_derived_sigma_r_ignores_an_echo_at_zero_range(coupling):
     axis = np.arange(0.0, 1.0, 2.5e-3)
     data = simulate(Scene((PointTarget((0.02, 0.51)),)), arr, Waveform(20e9, 3e9), axis)
     peak = np.abs(data.signal).max()
-    leak = synthesize(np.arange(21), np.full(21, 1e-3), np.full(21, coupling * peak), 21,
-                      data.waveform, axis)
+    leak = synthesize(
+        np.arange(21), np.full(21, 1e-3), np.full(21, coupling * peak), 21, data.waveform, axis
+    )
     data = dataclasses.replace(data, signal=data.signal + leak)
-    assert default_params(data).rpm.sigma_r == pytest.approx(0.01 * np.hypot(0.02, 0.51) / 0.1,
-                                                             abs=3e-4)
+    assert default_params(data).rpm.sigma_r == pytest.approx(
+        0.01 * np.hypot(0.02, 0.51) / 0.1, abs=3e-4
+    )
 
 
 def test_derived_sigma_r_of_a_narrow_band_scene_inside_half_a_resolution():
@@ -345,8 +399,12 @@ def test_derived_sigma_x_of_a_long_scan_is_the_echo_reach():
     from rpm_cl.simulate.scene import PointTarget, Scene
 
     xs = np.arange(200) * 0.02 - 2.0
-    scene = Scene(tuple(PointTarget((t, 0.30 + 0.02 * (i % 3)))
-                        for i, t in enumerate((-1.5, -0.9, -0.3, 0.4, 1.0, 1.6))))
+    scene = Scene(
+        tuple(
+            PointTarget((t, 0.30 + 0.02 * (i % 3)))
+            for i, t in enumerate((-1.5, -0.9, -0.3, 0.4, 1.0, 1.6))
+        )
+    )
     data = simulate(scene, Array(xs), Waveform(1.5e9, 1.0e9), np.arange(0, 1.5, 0.005))
     sx = default_params(data).rpm.sigma_x
     assert SIGMA_X_PER_RANGE * 0.295 <= sx <= SIGMA_X_PER_RANGE * 0.4

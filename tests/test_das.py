@@ -41,8 +41,11 @@ def random_data(rng, planar, nr=120, fc=20e9, bw=3e9):
 @pytest.mark.parametrize("planar", [False, True])
 def test_kernel_matches_numpy_on_random_input(planar, das32, das64, rng):
     data = random_data(rng, planar)
-    g = (Grid(np.linspace(-0.1, 0.1, 13), np.linspace(0.32, 0.55, 29)) if not planar else
-         Grid(np.linspace(-0.1, 0.1, 7), np.linspace(0.35, 0.5, 5), np.linspace(-0.1, 0.1, 11)))
+    g = (
+        Grid(np.linspace(-0.1, 0.1, 13), np.linspace(0.32, 0.55, 29))
+        if not planar
+        else Grid(np.linspace(-0.1, 0.1, 7), np.linspace(0.35, 0.5, 5), np.linspace(-0.1, 0.1, 11))
+    )
     want = das_numpy(data, g)
     scale = np.abs(want).max()
     # float64: the kernel's Taylor phasor (|x| <= 1.05, truncation 4e-8 per
@@ -81,8 +84,9 @@ def test_point_target_peak_within_one_resolution_cell(das32):
     """2-D, 3 GHz: range cell c/2B = 50 mm; cross-range lambda R / 2L."""
     tgt = np.array([0.04, 0.62])
     arr = Array((np.arange(41) - 20) * 5e-3)
-    data = simulate(Scene((PointTarget(tgt),)), arr, Waveform(20e9, 3e9),
-                    np.arange(0.3, 1.0, 2.5e-3))
+    data = simulate(
+        Scene((PointTarget(tgt),)), arr, Waveform(20e9, 3e9), np.arange(0.3, 1.0, 2.5e-3)
+    )
     g = parse_grid("-0.2:0.2:0.002,0.4:0.8:0.002")
     img = das32.backproject(data, g)
     i, j = np.unravel_index(np.argmax(np.abs(img)), img.shape)
@@ -95,8 +99,9 @@ def test_point_target_peak_within_one_resolution_cell(das32):
 def test_point_target_3d(das32):
     tgt = np.array([-0.03, 0.8, 0.05])
     arr = Array((np.arange(11) - 5) * 7.5e-3, (np.arange(17) - 8) * 7.5e-3)
-    data = simulate(Scene((PointTarget(tgt),)), arr, Waveform(20e9, 3e9),
-                    np.arange(0.5, 1.1, 2.5e-3))
+    data = simulate(
+        Scene((PointTarget(tgt),)), arr, Waveform(20e9, 3e9), np.arange(0.5, 1.1, 2.5e-3)
+    )
     g = parse_grid("-0.15:0.15:0.01,0.7:0.9:0.005,-0.1:0.2:0.01")
     img = das32.backproject(data, g)
     i = np.unravel_index(np.argmax(np.abs(img)), img.shape)
@@ -110,8 +115,13 @@ def test_point_target_3d(das32):
 def test_adjoint_dot_product(planar, das32, rng):
     """<A x, s> = <x, DAS s>, A = das_adjoint (the discretised forward model)."""
     data = random_data(rng, planar, nr=80)
-    g = (Grid(np.linspace(-0.05, 0.05, 9), np.linspace(0.33, 0.45, 11)) if not planar else
-         Grid(np.linspace(-0.05, 0.05, 5), np.linspace(0.35, 0.45, 4), np.linspace(-0.05, 0.05, 6)))
+    g = (
+        Grid(np.linspace(-0.05, 0.05, 9), np.linspace(0.33, 0.45, 11))
+        if not planar
+        else Grid(
+            np.linspace(-0.05, 0.05, 5), np.linspace(0.35, 0.45, 4), np.linspace(-0.05, 0.05, 6)
+        )
+    )
     x = rng.normal(size=g.shape) + 1j * rng.normal(size=g.shape)
     lhs = np.vdot(das_adjoint(x, data, g), data.signal)
     rhs = np.vdot(x, das_numpy(data, g))

@@ -70,9 +70,15 @@ def test_measured_data_hand_made_scan_images_its_targets(tmp_path, monkeypatch):
 def test_example_main_block_runs(tmp_path):
     """The __main__ block of an example (the others share its shape)."""
     env = dict(os.environ, POCL_MAX_PTHREAD_COUNT=os.environ.get("POCL_MAX_PTHREAD_COUNT", "1"))
-    p = subprocess.run([sys.executable, str(EXAMPLES / "measured_data.py"), "--quick"],
-                       check=False, cwd=tmp_path, env=env, capture_output=True, text=True,
-                       timeout=300)
+    p = subprocess.run(
+        [sys.executable, str(EXAMPLES / "measured_data.py"), "--quick"],
+        check=False,
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert p.returncode == 0, p.stderr
     assert "2 clusters" in p.stdout and (tmp_path / "measured_result.npz").exists()
 

@@ -132,8 +132,22 @@ def test_compare_figure_rpm_on_targets_and_das_is_das(files, tmp_path, cl_env, d
 
 def test_compare_cli_numpy_backend_and_grid(files, tmp_path, capsys):
     png = tmp_path / "c.png"
-    assert main(["figure", "compare", str(files["paper-2d"]), "--png", str(png), "--backend",
-                 "numpy", "--grid", "-0.3:0.3:0.004,0.2:0.6:0.004"]) == 0
+    assert (
+        main(
+            [
+                "figure",
+                "compare",
+                str(files["paper-2d"]),
+                "--png",
+                str(png),
+                "--backend",
+                "numpy",
+                "--grid",
+                "-0.3:0.3:0.004,0.2:0.6:0.004",
+            ]
+        )
+        == 0
+    )
     assert "wrote" in capsys.readouterr().out and _colours(png) > 50
 
 
@@ -142,8 +156,11 @@ def _blob_volume(path, centre, shape=(40, 30, 50)):
     """A 3-D image with one Gaussian blob (complex) at ``centre``, m."""
     from rpm_cl.baselines.das import Grid, write_image
 
-    g = Grid(np.linspace(-0.2, 0.2, shape[0]), np.linspace(0.8, 1.1, shape[1]),
-             np.linspace(0.5, 1.5, shape[2]))
+    g = Grid(
+        np.linspace(-0.2, 0.2, shape[0]),
+        np.linspace(0.8, 1.1, shape[1]),
+        np.linspace(0.5, 1.5, shape[2]),
+    )
 
     def fill(out):
         p = g.points().reshape(shape + (3,))
@@ -194,8 +211,21 @@ def test_view_das_2d_image_draws_the_image_in_db(files, tmp_path, capsys):
     from rpm_cl.viz.view import _block_max, load_das_image
 
     das = tmp_path / "d.npz"
-    assert main(["das", str(files["paper-2d"]), "-o", str(das), "--backend", "numpy",
-                 "--grid", "-0.3:0.3:0.005,0.2:0.6:0.005"]) == 0
+    assert (
+        main(
+            [
+                "das",
+                str(files["paper-2d"]),
+                "-o",
+                str(das),
+                "--backend",
+                "numpy",
+                "--grid",
+                "-0.3:0.3:0.005,0.2:0.6:0.005",
+            ]
+        )
+        == 0
+    )
     png = tmp_path / "d.png"
     assert main(["view", str(das), "--png", str(png), "--dynamic-range", "30"]) == 0
     assert _colours(png) > 50
@@ -209,8 +239,12 @@ def test_view_das_2d_image_draws_the_image_in_db(files, tmp_path, capsys):
 
 # ---------------------------------------------------------------- errors
 def _bad_image(path, **over):
-    arrs = {"image": np.ones((4, 5), np.complex64), "x": np.arange(4.0), "y": np.arange(5.0),
-            "meta": np.array(json.dumps({"method": "das"}))}
+    arrs = {
+        "image": np.ones((4, 5), np.complex64),
+        "x": np.arange(4.0),
+        "y": np.arange(5.0),
+        "meta": np.array(json.dumps({"method": "das"})),
+    }
     arrs.update(over)
     np.savez(path, **arrs)
     return str(path)
@@ -225,35 +259,77 @@ def _cases(files, d):
         "fig-no-folder": ["figure", "rps", sim, "--png", str(d / "no" / "a.png")],
         "fig-range": ["figure", "kspace", sim, "--png", str(d / "a.png"), "--dynamic-range", "-3"],
         "fig-not-input": ["figure", "kspace", _bad_image(d / "img.npz"), "--png", str(d / "a.png")],
-        "fig-compare-planar": ["figure", "compare", str(files["human-body"]), "--png",
-                               str(d / "a.png")],
-        "fig-compare-3-axes": ["figure", "compare", sim, "--png", str(d / "a.png"), "--grid",
-                               "0:1:0.1,0:1:0.1,0:1:0.1"],
+        "fig-compare-planar": [
+            "figure",
+            "compare",
+            str(files["human-body"]),
+            "--png",
+            str(d / "a.png"),
+        ],
+        "fig-compare-3-axes": [
+            "figure",
+            "compare",
+            sim,
+            "--png",
+            str(d / "a.png"),
+            "--grid",
+            "0:1:0.1,0:1:0.1,0:1:0.1",
+        ],
         "view-iso-2d": ["view", _bad_image(d / "i2.npz"), "--png", str(d / "a.png"), "--iso", "-6"],
-        "view-iso-positive": ["view", _bad_image(d / "i3.npz"), "--png", str(d / "a.png"),
-                              "--iso", "6"],
-        "view-axis-length": ["view", _bad_image(d / "i4.npz", x=np.arange(3.0)), "--png",
-                             str(d / "a.png")],
-        "view-axis-unsorted": ["view", _bad_image(d / "i5.npz", y=np.array([0, 2, 1, 3, 4.0])),
-                               "--png", str(d / "a.png")],
-        "view-image-nan": ["view", _bad_image(d / "i6.npz", image=np.full((4, 5), np.nan)),
-                           "--png", str(d / "a.png")],
-        "view-image-text": ["view", _bad_image(d / "i7.npz", image=np.full((4, 5), "a")),
-                            "--png", str(d / "a.png")],
+        "view-iso-positive": [
+            "view",
+            _bad_image(d / "i3.npz"),
+            "--png",
+            str(d / "a.png"),
+            "--iso",
+            "6",
+        ],
+        "view-axis-length": [
+            "view",
+            _bad_image(d / "i4.npz", x=np.arange(3.0)),
+            "--png",
+            str(d / "a.png"),
+        ],
+        "view-axis-unsorted": [
+            "view",
+            _bad_image(d / "i5.npz", y=np.array([0, 2, 1, 3, 4.0])),
+            "--png",
+            str(d / "a.png"),
+        ],
+        "view-image-nan": [
+            "view",
+            _bad_image(d / "i6.npz", image=np.full((4, 5), np.nan)),
+            "--png",
+            str(d / "a.png"),
+        ],
+        "view-image-text": [
+            "view",
+            _bad_image(d / "i7.npz", image=np.full((4, 5), "a")),
+            "--png",
+            str(d / "a.png"),
+        ],
         "view-no-y": ["view", str(d / "i8.npz"), "--png", str(d / "a.png")],
     }
 
 
 #: case -> what the one line must say
-CASES = {"fig-unknown-name": "invalid choice", "fig-missing-file": "no such file",
-         "fig-bad-suffix": "must be a .png", "fig-no-folder": "does not exist",
-         "fig-range": "dynamic range", "fig-not-input": "missing key",
-         "fig-compare-planar": "needs a linear-array file", "fig-compare-3-axes": "2 axes",
-         "view-iso-2d": "needs a 3-D image", "view-iso-positive": "below the maximum",
-         "view-axis-length": "x must be a finite, strictly increasing axis of 4",
-         "view-axis-unsorted": "y must be a finite, strictly increasing",
-         "view-image-nan": "i6.npz: the image contains NaN", "view-image-text": "numeric",
-         "view-no-y": "missing 'y'"}
+CASES = {
+    "fig-unknown-name": "invalid choice",
+    "fig-missing-file": "no such file",
+    "fig-bad-suffix": "must be a .png",
+    "fig-no-folder": "does not exist",
+    "fig-range": "dynamic range",
+    "fig-not-input": "missing key",
+    "fig-compare-planar": "needs a linear-array file",
+    "fig-compare-3-axes": "2 axes",
+    "view-iso-2d": "needs a 3-D image",
+    "view-iso-positive": "below the maximum",
+    "view-axis-length": "x must be a finite, strictly increasing axis of 4",
+    "view-axis-unsorted": "y must be a finite, strictly increasing",
+    "view-image-nan": "i6.npz: the image contains NaN",
+    "view-image-text": "numeric",
+    "view-no-y": "missing 'y'",
+}
 
 
 @pytest.mark.parametrize("case", sorted(CASES))

@@ -31,13 +31,22 @@ from rpm_cl.simulate.scene import get_preset
 
 def _contract(data) -> dict:
     """The input-contract arrays of a RadarData, by name."""
-    out = {"signal": data.signal, "x": data.array.x, "range": data.range,
-           "fc": np.float64(data.waveform.fc), "bandwidth": np.float64(data.waveform.bandwidth)}
+    out = {
+        "signal": data.signal,
+        "x": data.array.x,
+        "range": data.range,
+        "fc": np.float64(data.waveform.fc),
+        "bandwidth": np.float64(data.waveform.bandwidth),
+    }
     if data.array.z is not None:
         out["z"] = data.array.z
     if data.truth is not None:
-        out.update(truth_rp_antenna=data.truth.rp_antenna, truth_rp_range=data.truth.rp_range,
-                   truth_boundary=data.truth.boundary, truth_scene=np.array(data.truth.scene))
+        out.update(
+            truth_rp_antenna=data.truth.rp_antenna,
+            truth_rp_range=data.truth.rp_range,
+            truth_boundary=data.truth.boundary,
+            truth_scene=np.array(data.truth.scene),
+        )
     return out
 
 
@@ -111,11 +120,17 @@ def test_npz_and_h5_same_cli_result(paper, tmp_path, capsys):
 def test_planar_complex64_float32_axes(tmp_path, rng):
     """A planar file with complex64 samples and float32 axes (typical of
     measured data) reads the same from either container."""
-    sig = (rng.standard_normal((5, 4, 64)) + 1j * rng.standard_normal((5, 4, 64))).astype(np.complex64)
-    arrays = {"signal": sig, "x": np.arange(5, dtype=np.float32) * np.float32(0.0075),
-              "z": np.arange(4, dtype=np.float32) * np.float32(0.0075),
-              "range": (0.5 + 0.005 * np.arange(64)).astype(np.float32),
-              "fc": np.float32(20e9), "bandwidth": np.float32(3e9)}
+    sig = (rng.standard_normal((5, 4, 64)) + 1j * rng.standard_normal((5, 4, 64))).astype(
+        np.complex64
+    )
+    arrays = {
+        "signal": sig,
+        "x": np.arange(5, dtype=np.float32) * np.float32(0.0075),
+        "z": np.arange(4, dtype=np.float32) * np.float32(0.0075),
+        "range": (0.5 + 0.005 * np.arange(64)).astype(np.float32),
+        "fc": np.float32(20e9),
+        "bandwidth": np.float32(3e9),
+    }
     np.savez(tmp_path / "p.npz", **arrays)
     _write_h5(tmp_path / "p.h5", arrays)
     a, b = load_data(tmp_path / "p.npz"), load_data(tmp_path / "p.h5")
@@ -145,8 +160,12 @@ def test_stack_frames(stack, name):
     assert frame_count(path) == 3
     for i, want in enumerate(frames):
         _same_data(load_data(path, frame=i), want)
-    for bad, words in ((None, "stack of 3 frames"), (3, "out of range"), (-1, "out of range"),
-                       (1.0, "integer")):
+    for bad, words in (
+        (None, "stack of 3 frames"),
+        (3, "out of range"),
+        (-1, "out of range"),
+        (1.0, "integer"),
+    ):
         with pytest.raises(InputError, match=words) as exc:
             load_data(path, frame=bad)
         assert str(exc.value).startswith(str(path))
@@ -177,7 +196,9 @@ def test_single_frame_file(paper, tmp_path):
 
 def test_cli_stack(stack, tmp_path, capsys):
     folder, _ = stack
-    assert main(["image", str(folder / "s.h5"), "-o", str(tmp_path / "f1.npz"), "--frame", "1"]) == 0
+    assert (
+        main(["image", str(folder / "s.h5"), "-o", str(tmp_path / "f1.npz"), "--frame", "1"]) == 0
+    )
     capsys.readouterr()
     assert main(["image", str(folder / "s.h5"), "-o", str(tmp_path / "f.npz")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -196,8 +217,10 @@ def _band(nf: int) -> np.ndarray:
 
 def _echoes_spectrum(f, ranges, amps) -> np.ndarray:
     """Y(f) = sum_e a_e exp(-j 4 pi f R_e / c): echoes at known ranges."""
-    return (np.asarray(amps)[:, None]
-            * np.exp(-4j * np.pi * f[None, :] * np.asarray(ranges)[:, None] / C0)).sum(0)
+    return (
+        np.asarray(amps)[:, None]
+        * np.exp(-4j * np.pi * f[None, :] * np.asarray(ranges)[:, None] / C0)
+    ).sum(0)
 
 
 def _peaks(s, rng, rel=0.1):
@@ -268,8 +291,9 @@ def test_spectrum_file_rule_and_dtypes(tmp_path):
         assert d.signal.dtype == np.complex64
         assert d.waveform.fc == pytest.approx((f[0] + f[-1]) / 2, rel=1e-12)
         assert d.waveform.bandwidth == pytest.approx(f.size * df / 2, rel=2e-3)
-        assert load_data(tmp_path / name, range_window="rect").waveform.bandwidth == \
-            pytest.approx(f.size * df, rel=1e-9)
+        assert load_data(tmp_path / name, range_window="rect").waveform.bandwidth == pytest.approx(
+            f.size * df, rel=1e-9
+        )
         pos, _ = _peaks(d.signal, d.range, 0.5)
         np.testing.assert_allclose(np.sort(pos), 1.5 + 0.01 * np.arange(4), atol=2e-4)
     _same_data(load_data(tmp_path / "f.npz"), load_data(tmp_path / "f.h5"))
@@ -288,8 +312,21 @@ def test_image_of_frequency_domain_paper_2d(tmp_path, capsys):
     y = np.zeros((preset.array.n, f.size), complex)
     np.add.at(y, ant, a_e[:, None] * np.exp(-4j * np.pi * f[None] * r_e[:, None] / C0))
     _write_h5(tmp_path / "fd.h5", {"spectrum": y, "frequency": f, "x": preset.array.x})
-    assert main(["image", str(tmp_path / "fd.h5"), "-o", str(tmp_path / "img.h5"),
-                 "--sigma-x", "0.1", "--window-x", "417"]) == 0
+    assert (
+        main(
+            [
+                "image",
+                str(tmp_path / "fd.h5"),
+                "-o",
+                str(tmp_path / "img.h5"),
+                "--sigma-x",
+                "0.1",
+                "--window-x",
+                "417",
+            ]
+        )
+        == 0
+    )
     with h5py.File(tmp_path / "img.h5") as g:
         pts = g["points"][()]
         meta = json.loads(g["meta"][()])
@@ -313,10 +350,15 @@ def _result_3d(rng):
     from rpm_cl.imaging import Image, ImageResult
 
     m, k = 40, 60
-    rps = RangePoints(np.arange(k), rng.normal(size=k), rng.normal(size=k),
-                      rng.uniform(0.5, 1.5, k), rng.uniform(size=k), np.sort(rng.integers(0, 4, k)))
-    img = Image(rng.normal(size=(m, 3)), rng.integers(0, 4, m), rng.uniform(size=m),
-                np.arange(m))
+    rps = RangePoints(
+        np.arange(k),
+        rng.normal(size=k),
+        rng.normal(size=k),
+        rng.uniform(0.5, 1.5, k),
+        rng.uniform(size=k),
+        np.sort(rng.integers(0, 4, k)),
+    )
+    img = Image(rng.normal(size=(m, 3)), rng.integers(0, 4, m), rng.uniform(size=m), np.arange(m))
     return ImageResult("kspace-rpm", rps, img, {"total": 0.5})
 
 
@@ -327,8 +369,11 @@ def test_result_npz_h5_same_content(result, tmp_path):
     imaging_save_result(tmp_path / "ref.npz", result, meta)
     save_result(tmp_path / "r.npz", result, meta)
     save_result(tmp_path / "r.h5", result, meta)
-    with np.load(tmp_path / "ref.npz") as ref, np.load(tmp_path / "r.npz") as r, \
-            h5py.File(tmp_path / "r.h5") as h:
+    with (
+        np.load(tmp_path / "ref.npz") as ref,
+        np.load(tmp_path / "r.npz") as r,
+        h5py.File(tmp_path / "r.h5") as h,
+    ):
         assert set(ref.files) == set(r.files) == set(h.keys())
         for k in ref.files:
             if k == "meta":
@@ -423,14 +468,28 @@ def test_cli_das_h5_and_vti(paper, tmp_path, capsys):
     save_data(tmp_path / "d.h5", data)
     grid = "-0.3:0.3:0.01,0.3:0.6:0.01"
     for ext in ("npz", "h5", "vti"):
-        assert main(["das", str(tmp_path / "d.h5"), "-o", str(tmp_path / f"o.{ext}"), "--grid",
-                     grid, "--backend", "numpy"]) == 0
+        assert (
+            main(
+                [
+                    "das",
+                    str(tmp_path / "d.h5"),
+                    "-o",
+                    str(tmp_path / f"o.{ext}"),
+                    "--grid",
+                    grid,
+                    "--backend",
+                    "numpy",
+                ]
+            )
+            == 0
+        )
     with np.load(tmp_path / "o.npz") as f, h5py.File(tmp_path / "o.h5") as g:
         np.testing.assert_array_equal(f["image"], g["image"][()])
         mag = np.abs(f["image"])
     vol = pv.read(tmp_path / "o.vti")
-    np.testing.assert_allclose(vol.point_data["magnitude"], mag.ravel(order="F")
-                               .astype(np.float64), rtol=1e-12)
+    np.testing.assert_allclose(
+        vol.point_data["magnitude"], mag.ravel(order="F").astype(np.float64), rtol=1e-12
+    )
 
 
 # --------------------------------------------------------------------------
@@ -508,12 +567,26 @@ def test_bad_input_one_line(bad_folder, command, name, extra, words, capsys, tmp
 def test_bad_window_and_output_extension(paper, tmp_path, capsys):
     data, _ = paper
     save_data(tmp_path / "d.h5", data)
-    assert main(["image", str(tmp_path / "d.h5"), "-o", str(tmp_path / "o.npz"),
-                 "--range-window", "kaiser"]) == 2
+    assert (
+        main(
+            [
+                "image",
+                str(tmp_path / "d.h5"),
+                "-o",
+                str(tmp_path / "o.npz"),
+                "--range-window",
+                "kaiser",
+            ]
+        )
+        == 2
+    )
     assert "invalid choice" in capsys.readouterr().err
-    for cmd, out, extra in (("image", "o.xyz", []), ("das", "o.ply", ["--grid", "0:0.1:0.05,0.3:0.4:0.05"]),
-                            ("simulate", "o.vtp", [])):
-        argv = ([cmd, "paper-2d"] if cmd == "simulate" else [cmd, str(tmp_path / "d.h5")])
+    for cmd, out, extra in (
+        ("image", "o.xyz", []),
+        ("das", "o.ply", ["--grid", "0:0.1:0.05,0.3:0.4:0.05"]),
+        ("simulate", "o.vtp", []),
+    ):
+        argv = [cmd, "paper-2d"] if cmd == "simulate" else [cmd, str(tmp_path / "d.h5")]
         assert main(argv + ["-o", str(tmp_path / out), *extra]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "supported:" in err[0] and ".npz" in err[0], err
@@ -524,8 +597,9 @@ def test_bad_window_and_output_extension(paper, tmp_path, capsys):
 
 # --------------------------------------------------------------------------
 # interrupted writes leave nothing behind
-@pytest.mark.parametrize("ext,writer", [(".h5", "_h5_write_arrays"), (".ply", "_write_ply"),
-                                        (".vtp", "_write_vtp")])
+@pytest.mark.parametrize(
+    "ext,writer", [(".h5", "_h5_write_arrays"), (".ply", "_write_ply"), (".vtp", "_write_vtp")]
+)
 def test_interrupted_result_write_leaves_no_file(ext, writer, result, tmp_path, monkeypatch):
     def broken(tmp, arrays):
         with open(tmp, "wb") as fh:

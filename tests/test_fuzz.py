@@ -17,36 +17,53 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import fuzz
 
 SEED = 24
-TIMEOUT = 10.0      # s: a clean run takes about 1.5 s, a batch of two frames about 4 s
-MEM_CAP = 2 << 30   # bytes: the inputs are below 1 MB
-BOMB = 64 << 20     # bytes a zip bomb inflates
+TIMEOUT = 10.0  # s: a clean run takes about 1.5 s, a batch of two frames about 4 s
+MEM_CAP = 2 << 30  # bytes: the inputs are below 1 MB
+BOMB = 64 << 20  # bytes a zip bomb inflates
 
 # (family, mutation, command); None: the mutation picks it (view for results)
 FAST = [
-    ("bytes", "few", "image"), ("bytes", "many", "params"),
-    ("truncate", "half", "image"), ("truncate", "tiny", "das"),
-    ("dtypes", "data-str", "image"), ("dtypes", "truth-scene-deep", "params"),
+    ("bytes", "few", "image"),
+    ("bytes", "many", "params"),
+    ("truncate", "half", "image"),
+    ("truncate", "tiny", "das"),
+    ("dtypes", "data-str", "image"),
+    ("dtypes", "truth-scene-deep", "params"),
     ("dtypes", "das-axis-overflow", None),
-    ("extreme", "one-neg-3.6e64", "image"), ("extreme", "fc-1e30", "image"),
+    ("extreme", "one-neg-3.6e64", "image"),
+    ("extreme", "fc-1e30", "image"),
     ("extreme", "one-nan", "das"),
-    ("units", "f-kHz", "params"), ("units", "x-mm", "image"),
-    ("zipbomb", "declared", "image"), ("zipbomb", "many-members", "params"),
-    ("hdf5", "external-scene", "image"), ("hdf5", "extlink-x", "params"),
-    ("hdf5", "virtual-x", "image"), ("hdf5", "group-data", "image"),
-    ("special", "dev-zero", "image"), ("special", "fifo", "params"),
+    ("units", "f-kHz", "params"),
+    ("units", "x-mm", "image"),
+    ("zipbomb", "declared", "image"),
+    ("zipbomb", "many-members", "params"),
+    ("hdf5", "external-scene", "image"),
+    ("hdf5", "extlink-x", "params"),
+    ("hdf5", "virtual-x", "image"),
+    ("hdf5", "group-data", "image"),
+    ("special", "dev-zero", "image"),
+    ("special", "fifo", "params"),
     ("special", "directory", "image"),
-    ("outputs", "same", "image"), ("outputs", "symlink", "das"),
+    ("outputs", "same", "image"),
+    ("outputs", "symlink", "das"),
     ("outputs", "hardlink", "params"),
-    ("sigint", "image", None), ("sigint", "params", None),
-    ("config", "deep-arrays", "params"), ("config", "nan", "image"),
+    ("sigint", "image", None),
+    ("sigint", "params", None),
+    ("config", "deep-arrays", "params"),
+    ("config", "nan", "image"),
 ]
 SLOW = [
-    ("zipbomb", "unused", "image"), ("zipbomb", "signal", "das"),
-    ("hdf5", "chunked-1e9-x", "image"), ("hdf5", "chunked-1e9-unused", "params"),
+    ("zipbomb", "unused", "image"),
+    ("zipbomb", "signal", "das"),
+    ("hdf5", "chunked-1e9-x", "image"),
+    ("hdf5", "chunked-1e9-unused", "params"),
     ("hdf5", "external-data", "das"),
-    ("special", "config-fifo", "image"), ("special", "dev-urandom", "params"),
-    ("extreme", "spikes-3x1e3", "batch"), ("bytes", "few", "batch"),
-    ("outputs", "same", "batch"), ("sigint", "batch", None),
+    ("special", "config-fifo", "image"),
+    ("special", "dev-urandom", "params"),
+    ("extreme", "spikes-3x1e3", "batch"),
+    ("bytes", "few", "batch"),
+    ("outputs", "same", "batch"),
+    ("sigint", "batch", None),
 ]
 
 
@@ -54,8 +71,10 @@ def _run(root, cases):
     root = Path(root)
     bases = fuzz.Bases(root, BOMB, SEED)
     ref = {"marker": bases.marker, "truth": bases.truth, "base_rss": {}, "clean": {}}
-    made = [fuzz.make_case(i, fam, mut, root, bases, np.random.default_rng([SEED, i]), cmd)
-            for i, (fam, mut, cmd) in enumerate(cases)]
+    made = [
+        fuzz.make_case(i, fam, mut, root, bases, np.random.default_rng([SEED, i]), cmd)
+        for i, (fam, mut, cmd) in enumerate(cases)
+    ]
     with ThreadPoolExecutor(2) as ex:
         return list(ex.map(lambda c: fuzz.run_case(c, ref, TIMEOUT, MEM_CAP), made))
 
@@ -69,9 +88,12 @@ BAD = ("overwritten", "outside-read", "hang", "memory", "traceback")
 
 
 def _check(recs):
-    bad = [f"{r['family']}/{r['mutation']}: {r['cli']} -> {'+'.join(r['flags'])} "
-           f"(rc {r['rc']}, {r['wall']} s, {r['rss_mb']} MB): {r['stderr'][-300:].strip()}"
-           for r in recs if set(r["flags"]) & set(BAD)]
+    bad = [
+        f"{r['family']}/{r['mutation']}: {r['cli']} -> {'+'.join(r['flags'])} "
+        f"(rc {r['rc']}, {r['wall']} s, {r['rss_mb']} MB): {r['stderr'][-300:].strip()}"
+        for r in recs
+        if set(r["flags"]) & set(BAD)
+    ]
     assert not bad, "\n".join(bad)
 
 

@@ -80,8 +80,18 @@ def _split(merged, folder, order=None, stem="trace", waveform=("ricker", 3e9, 1.
     for i in range(ez.shape[1]) if order is None else order:
         p = folder / f"{stem}{i + 1}.h5"
         with h5py.File(p, "w") as g:
-            for k in ("gprMax", "Title", "Iterations", "dt", "nx_ny_nz", "dx_dy_dz", "nrx",
-                      "nsrc", "srcsteps", "rxsteps"):
+            for k in (
+                "gprMax",
+                "Title",
+                "Iterations",
+                "dt",
+                "nx_ny_nz",
+                "dx_dy_dz",
+                "nrx",
+                "nsrc",
+                "srcsteps",
+                "rxsteps",
+            ):
                 g.attrs[k] = attrs[k]
             rx = g.create_group("rxs/rx1")
             rx.attrs["Position"] = prx[i]
@@ -109,7 +119,7 @@ def test_reads_the_merged_fixture(scans, scene):
     assert scan.traces.shape == (its, 41) and scan.dt == dt and scan.t0 == 0.0
     np.testing.assert_allclose(scan.x, scene["scan"]["x"], atol=1e-9)
     assert scan.y == pytest.approx(scene["scan"]["y"])
-    assert scan.waveform is None            # a merged file does not keep the waveform
+    assert scan.waveform is None  # a merged file does not keep the waveform
     np.testing.assert_allclose(np.diff(scan.x), 0.008, atol=1e-9)
 
 
@@ -123,11 +133,11 @@ def test_per_trace_files_give_the_merged_result(tmp_path, wide):
     got = G.convert(tr, bg, (1.5e9, 5e9), sidecar=None)
     np.testing.assert_allclose(got["x"], wide["x"], atol=1e-12)
     np.testing.assert_allclose(got["spectrum"], wide["spectrum"], rtol=1e-12, atol=0)
-    assert "truth_boundary" not in got                    # no sidecar: no truth
+    assert "truth_boundary" not in got  # no sidecar: no truth
 
 
 def test_x_is_the_transmitter_receiver_midpoint(tmp_path, scans):
-    tr = _split(TARGETS, tmp_path / "t", tx_dx=0.002)          # one cell apart
+    tr = _split(TARGETS, tmp_path / "t", tx_dx=0.002)  # one cell apart
     np.testing.assert_allclose(G.read_bscan(tr).x, scans[0].x + 0.001, atol=1e-12)
 
 
@@ -213,9 +223,11 @@ def test_lone_echo_is_the_exact_cylinder_echo(scans, scene):
     dphase = np.unwrap(np.angle(y / pred))
     # the phase left over, as a range offset and a constant: dphase = -2 k dR + phi
     slope, phi = np.polyfit(2 * k, dphase, 1)
-    print(f"\nlone cylinder echo / exact series, 1-6 GHz: |ratio| {ratio.min():.3f}.."
-          f"{ratio.max():.3f}, phase {dphase.min():+.3f}..{dphase.max():+.3f} rad "
-          f"(range offset {-1e3 * slope:+.3f} mm, constant {phi:+.3f} rad)")
+    print(
+        f"\nlone cylinder echo / exact series, 1-6 GHz: |ratio| {ratio.min():.3f}.."
+        f"{ratio.max():.3f}, phase {dphase.min():+.3f}..{dphase.max():+.3f} rad "
+        f"(range offset {-1e3 * slope:+.3f} mm, constant {phi:+.3f} rad)"
+    )
     assert np.all((ratio > 0.9) & (ratio < 1.15))
     assert np.all(np.abs(dphase) < 0.2)
     # a time zero half a step off (the dipole's current lies at (m + 1/2) dt)
@@ -234,7 +246,7 @@ def test_lone_echo_phase_slope_is_minus_4_pi_r_over_c(scans, scene):
     y, f = _lone_echoes(scans, r0 - 0.03, r0 + 0.03, (2e9, 4e9))
     slope = np.polyfit(f, np.unwrap(np.angle(y[lone]), axis=1).T, 1)[0]
     assert lone.sum() >= 30
-    assert np.all(slope < 0)                        # exp(-j 4 pi f R / c), not +
+    assert np.all(slope < 0)  # exp(-j 4 pi f R / c), not +
     np.testing.assert_allclose(-slope * C0 / (4 * np.pi), r0[lone], atol=0.002)
 
 
@@ -258,10 +270,12 @@ def test_strongest_echoes_lie_at_true_ranges():
     others = np.abs(truth - truth[np.arange(len(x)), obj][:, None])
     others[np.arange(len(x)), obj] = np.inf
     isolated = others.min(axis=1) > C0 / (f[-1] - f[0])
-    print(f"\nstrongest echo per antenna, 0.7-7 GHz: error {1e3 * np.median(best):.1f} mm median, "
-          f"{1e3 * best[isolated].max():.1f} mm max over the {isolated.sum()} antennas whose "
-          f"echo is resolved from the other objects, {1e3 * best.max():.1f} mm max over all; "
-          f"objects {np.bincount(obj, minlength=truth.shape[1]).tolist()}")
+    print(
+        f"\nstrongest echo per antenna, 0.7-7 GHz: error {1e3 * np.median(best):.1f} mm median, "
+        f"{1e3 * best[isolated].max():.1f} mm max over the {isolated.sum()} antennas whose "
+        f"echo is resolved from the other objects, {1e3 * best.max():.1f} mm max over all; "
+        f"objects {np.bincount(obj, minlength=truth.shape[1]).tolist()}"
+    )
     assert isolated.sum() >= 15
     assert np.all(best[isolated] < 0.003)
 
@@ -281,8 +295,11 @@ def test_band_selection(scans, wide):
     np.testing.assert_allclose(one.spectrum[:, 0], wide["spectrum"][:, k_wide], rtol=1e-12)
     narrow = G.to_spectrum(scan, bg, (3.875e9, 4.125e9), RICKER)
     assert narrow.frequency.size == 65 and np.diff(narrow.frequency)[0] < 1 / (2 * t)
-    for band, msg in [((5e9, 2e9), "0 < f0 < f1"), ((1e9, 2e11), "Nyquist"),
-                      ((20e9, 25e9), "below -60 dB")]:
+    for band, msg in [
+        ((5e9, 2e9), "0 < f0 < f1"),
+        ((1e9, 2e11), "Nyquist"),
+        ((20e9, 25e9), "below -60 dB"),
+    ]:
         with pytest.raises(InputError, match=msg):
             G.to_spectrum(scan, bg, band, RICKER)
     with pytest.raises(InputError, match="coarser than 1/T"):
@@ -292,8 +309,12 @@ def test_band_selection(scans, wide):
 # --------------------------------------------------------------- refusals
 def test_refuses_a_mismatched_background(tmp_path, scans):
     scan, _ = scans
-    fewer = _copy_h5(BACKGROUND, tmp_path / "fewer.h5", skip=("rxs", "trace_metadata"),
-                     edit=lambda f: f.create_dataset("rxs/rx1/Ez", data=scan.traces[:, :40]))
+    fewer = _copy_h5(
+        BACKGROUND,
+        tmp_path / "fewer.h5",
+        skip=("rxs", "trace_metadata"),
+        edit=lambda f: f.create_dataset("rxs/rx1/Ez", data=scan.traces[:, :40]),
+    )
     with pytest.raises(InputError, match="does not match the scan .*shape"):
         G.convert(TARGETS, fewer, (2e9, 4e9), waveform=RICKER)
 
@@ -302,16 +323,24 @@ def test_refuses_a_mismatched_background(tmp_path, scans):
         del f["rxs/rx1/Ez"].attrs["SampleInterval"]
 
     with pytest.raises(InputError, match="does not match the scan .*dt"):
-        G.convert(TARGETS, _copy_h5(BACKGROUND, tmp_path / "dt.h5", edit=slower), (2e9, 4e9),
-                  waveform=RICKER)
+        G.convert(
+            TARGETS,
+            _copy_h5(BACKGROUND, tmp_path / "dt.h5", edit=slower),
+            (2e9, 4e9),
+            waveform=RICKER,
+        )
 
     def moved(f):
         f["trace_metadata/rxs/rx1/Position"][:, 0] += 0.002
         f["trace_metadata/srcs/src1/Position"][:, 0] += 0.002
 
     with pytest.raises(InputError, match="other antenna positions"):
-        G.convert(TARGETS, _copy_h5(BACKGROUND, tmp_path / "pos.h5", edit=moved), (2e9, 4e9),
-                  waveform=RICKER)
+        G.convert(
+            TARGETS,
+            _copy_h5(BACKGROUND, tmp_path / "pos.h5", edit=moved),
+            (2e9, 4e9),
+            waveform=RICKER,
+        )
 
 
 def test_refuses_a_file_without_receiver_data(tmp_path):
@@ -333,8 +362,13 @@ def test_refuses_a_file_without_receiver_data(tmp_path):
     with pytest.raises(InputError, match="cut.h5"):
         G.read_bscan(cut)
     with pytest.raises(InputError, match="3-D model"):
-        G.read_bscan(_copy_h5(TARGETS, tmp_path / "3d.h5",
-                              edit=lambda f: f.attrs.__setitem__("nx_ny_nz", [450, 420, 30])))
+        G.read_bscan(
+            _copy_h5(
+                TARGETS,
+                tmp_path / "3d.h5",
+                edit=lambda f: f.attrs.__setitem__("nx_ny_nz", [450, 420, 30]),
+            )
+        )
 
 
 def test_refuses_data_outside_the_file(tmp_path):
@@ -362,8 +396,9 @@ def test_refuses_data_outside_the_file(tmp_path):
 
     def ext_storage(f):
         del f["rxs/rx1/Ez"]
-        f.create_dataset("rxs/rx1/Ez", shape=ez.shape, dtype=ez.dtype,
-                         external=[(str(raw), 0, ez.nbytes)])
+        f.create_dataset(
+            "rxs/rx1/Ez", shape=ez.shape, dtype=ez.dtype, external=[(str(raw), 0, ez.nbytes)]
+        )
 
     with pytest.raises(InputError, match="external files"):
         G.read_bscan(_copy_h5(TARGETS, tmp_path / "ext.h5", edit=ext_storage))
@@ -401,11 +436,17 @@ def test_waveform_definitions():
     dt = 1e-12
     f = np.linspace(0.5e9, 8e9, 16)
     got = RICKER.spectrum(f, dt, 4000)
-    exact = 2 * f ** 2 / (np.sqrt(np.pi) * f0 ** 3) * np.exp(-(f / f0) ** 2) \
+    exact = (
+        2
+        * f**2
+        / (np.sqrt(np.pi) * f0**3)
+        * np.exp(-((f / f0) ** 2))
         * np.exp(-2j * np.pi * f * np.sqrt(2) / f0)
+    )
     np.testing.assert_allclose(got, exact, rtol=1e-6, atol=1e-9 * np.abs(exact).max())
-    assert G.SourceWaveform.parse("gaussiandot:1.5e9:2") == G.SourceWaveform("gaussiandot",
-                                                                               1.5e9, 2.0)
+    assert G.SourceWaveform.parse("gaussiandot:1.5e9:2") == G.SourceWaveform(
+        "gaussiandot", 1.5e9, 2.0
+    )
     for text in ("sine:1e9", "ricker", "ricker:abc", "ricker:-1e9"):
         with pytest.raises(InputError):
             G.SourceWaveform.parse(text)
@@ -414,42 +455,106 @@ def test_waveform_definitions():
 # --------------------------------------------------------------------- CLI
 def test_cli_convert_writes_what_load_data_accepts(tmp_path, capsys):
     out = tmp_path / "scan.npz"
-    assert main(["convert", str(TARGETS), "--background", str(BACKGROUND), "--band", "2e9:4e9",
-                 "--waveform", "ricker:3e9", "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "convert",
+                str(TARGETS),
+                "--background",
+                str(BACKGROUND),
+                "--band",
+                "2e9:4e9",
+                "--waveform",
+                "ricker:3e9",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert "wrote" in capsys.readouterr().out
     data = load_data(out)
     assert data.array.n == 41 and not data.array.planar and data.truth is None
     assert data.waveform.fc == pytest.approx(3e9)
     h5 = tmp_path / "scan.h5"
-    assert main(["convert", str(TARGETS), "--background", str(BACKGROUND), "--band", "2e9:4e9",
-                 "--sidecar", str(SCENE), "-o", str(h5), "-q"]) == 0
+    assert (
+        main(
+            [
+                "convert",
+                str(TARGETS),
+                "--background",
+                str(BACKGROUND),
+                "--band",
+                "2e9:4e9",
+                "--sidecar",
+                str(SCENE),
+                "-o",
+                str(h5),
+                "-q",
+            ]
+        )
+        == 0
+    )
     with_truth = load_data(h5)
     np.testing.assert_array_equal(with_truth.signal, data.signal)
     assert with_truth.truth is not None and with_truth.truth.rp_range.size == 41 * 5
 
 
 def test_cli_convert_errors_are_one_line(tmp_path, capsys):
-    base = ["convert", str(TARGETS), "--background", str(BACKGROUND), "--band", "2e9:4e9",
-            "--waveform", "ricker:3e9"]
+    base = [
+        "convert",
+        str(TARGETS),
+        "--background",
+        str(BACKGROUND),
+        "--band",
+        "2e9:4e9",
+        "--waveform",
+        "ricker:3e9",
+    ]
     copy = shutil.copy(TARGETS, tmp_path / "t.h5")
-    err = _one_error(capsys, ["convert", str(copy), "--background", str(BACKGROUND), "--band",
-                              "2e9:4e9", "--waveform", "ricker:3e9", "-o", str(copy)])
+    err = _one_error(
+        capsys,
+        [
+            "convert",
+            str(copy),
+            "--background",
+            str(BACKGROUND),
+            "--band",
+            "2e9:4e9",
+            "--waveform",
+            "ricker:3e9",
+            "-o",
+            str(copy),
+        ],
+    )
     assert "is also an input" in err
-    assert G.read_bscan(copy).traces.shape == (1273, 41)            # untouched
+    assert G.read_bscan(copy).traces.shape == (1273, 41)  # untouched
     bg = shutil.copy(BACKGROUND, tmp_path / "bg.h5")
-    assert "is also an input" in _one_error(capsys, base[:2] + ["--background", str(bg),
-                                                                "--band", "2e9:4e9", "-o",
-                                                                str(bg)])
-    assert "band must be F0:F1" in _one_error(capsys, base[:4] + ["--band", "4e9:2e9", "-o",
-                                                                  str(tmp_path / "o.npz")])
-    assert "unknown data output extension" in _one_error(capsys, base + ["-o",
-                                                                         str(tmp_path / "o.txt")])
-    assert "records waveform" in _one_error(capsys, base[:-1] + ["ricker:2e9", "--sidecar",
-                                                                 str(SCENE), "-o",
-                                                                 str(tmp_path / "o.npz")])
-    assert "no such file" in _one_error(capsys, ["convert", str(tmp_path / "none.out"), "--band",
-                                                 "2e9:4e9", "--waveform", "ricker:3e9", "-o",
-                                                 str(tmp_path / "o.npz")])
+    assert "is also an input" in _one_error(
+        capsys, base[:2] + ["--background", str(bg), "--band", "2e9:4e9", "-o", str(bg)]
+    )
+    assert "band must be F0:F1" in _one_error(
+        capsys, base[:4] + ["--band", "4e9:2e9", "-o", str(tmp_path / "o.npz")]
+    )
+    assert "unknown data output extension" in _one_error(
+        capsys, base + ["-o", str(tmp_path / "o.txt")]
+    )
+    assert "records waveform" in _one_error(
+        capsys, base[:-1] + ["ricker:2e9", "--sidecar", str(SCENE), "-o", str(tmp_path / "o.npz")]
+    )
+    assert "no such file" in _one_error(
+        capsys,
+        [
+            "convert",
+            str(tmp_path / "none.out"),
+            "--band",
+            "2e9:4e9",
+            "--waveform",
+            "ricker:3e9",
+            "-o",
+            str(tmp_path / "o.npz"),
+        ],
+    )
     assert not (tmp_path / "o.npz").exists()
 
 
@@ -460,17 +565,24 @@ def _objects(data):
     side = G.read_sidecar(SCENE)
     out = {}
     for i, c in enumerate(side.cylinders):
-        out[f"c{i + 1}"] = G.truth_arrays(G.Sidecar(cylinders=(c,)), data.array.x,
-                                          side.scan_y)["truth_boundary"]
+        out[f"c{i + 1}"] = G.truth_arrays(G.Sidecar(cylinders=(c,)), data.array.x, side.scan_y)[
+            "truth_boundary"
+        ]
     for i, poly in enumerate(side.polygons):
-        out[f"p{i + 1}"] = G.truth_arrays(G.Sidecar(polygons=(poly,)), data.array.x,
-                                          side.scan_y)["truth_boundary"]
+        out[f"p{i + 1}"] = G.truth_arrays(G.Sidecar(polygons=(poly,)), data.array.x, side.scan_y)[
+            "truth_boundary"
+        ]
     return out
 
 
 def _score(points, objects):
-    d = np.stack([np.min(np.linalg.norm(points[:, None] - b[None], axis=2), axis=1)
-                  for b in objects.values()], axis=1)
+    d = np.stack(
+        [
+            np.min(np.linalg.norm(points[:, None] - b[None], axis=2), axis=1)
+            for b in objects.values()
+        ],
+        axis=1,
+    )
     hit = {name for name, near in zip(objects, d.min(axis=0) <= 0.05) if near}
     return float(np.mean(d.min(axis=1) <= 0.05)), float(np.median(d.min(axis=1))), hit
 
@@ -484,8 +596,11 @@ def _image(band, dev32, tmp_path, method="phase-rpm"):
     return data, run_method(method, data, default_params(data), dev32).image.points
 
 
-@pytest.mark.parametrize("band", [(3.875e9, 4.125e9), (2e9, 4e9), (1.5e9, 5e9)],
-                         ids=["narrow-4GHz", "2-4GHz", "1.5-5GHz"])
+@pytest.mark.parametrize(
+    "band",
+    [(3.875e9, 4.125e9), (2e9, 4e9), (1.5e9, 5e9)],
+    ids=["narrow-4GHz", "2-4GHz", "1.5-5GHz"],
+)
 def test_phase_rpm_images_the_full_wave_fixture(band, dev32, tmp_path):
     """Narrow (0.25 GHz) and wide bands: >= 95 % of the points within 50 mm
     of the objects, median <= 5 mm (the issue's bars for full-wave data).
@@ -517,8 +632,9 @@ def test_narrow_band_full_wave_beats_the_paper_method_and_das(dev32, cl_env, tmp
     within, med, _ = _score(pts, objects)
     _, base = _image(band, dev32, tmp_path, "kspace-rpm")
     b_within, b_med, _ = _score(base, objects)
-    das, _ = das_points(DeviceDAS(cl_env), data, parse_grid("0.05:0.85:0.004,0.15:0.75:0.004"),
-                        "image")
+    das, _ = das_points(
+        DeviceDAS(cl_env), data, parse_grid("0.05:0.85:0.004,0.15:0.75:0.004"), "image"
+    )
     d_within, _, _ = _score(das, objects)
     assert within > b_within and within > d_within and med < b_med
 
@@ -535,7 +651,12 @@ def test_full_wave_double_bounce_is_flagged(dev32, tmp_path):
     data = load_data(path)
     img = run_method("phase-rpm", data, default_params(data, multipath="flag"), dev32).image
     objects = _objects(data)
-    d = np.stack([np.min(np.linalg.norm(img.points[:, None] - b[None], axis=2), axis=1)
-                  for b in objects.values()], axis=1).min(axis=1)
+    d = np.stack(
+        [
+            np.min(np.linalg.norm(img.points[:, None] - b[None], axis=2), axis=1)
+            for b in objects.values()
+        ],
+        axis=1,
+    ).min(axis=1)
     assert img.multipath.sum() >= 10
     assert np.all(d[img.multipath] > 0.05) and np.all(d[~img.multipath] <= 0.05)

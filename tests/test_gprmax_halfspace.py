@@ -57,8 +57,9 @@ def rods(scene):
     """(x, y, radius) of each rod in the engine's frame (y down from the
     antennas), m."""
     ys = scene["scan"]["y"]
-    return np.array([(c["centre"][0], ys - c["centre"][1], c["radius"])
-                     for c in scene["cylinders"]])
+    return np.array(
+        [(c["centre"][0], ys - c["centre"][1], c["radius"]) for c in scene["cylinders"]]
+    )
 
 
 @pytest.fixture(scope="module")
@@ -72,8 +73,10 @@ def medium(scene):
 def _to_boundary(points, rods):
     """Distance (points, rods) of each point to each rod's surface, m."""
     p = np.asarray(points, np.float64)
-    return np.abs(np.hypot(p[:, None, 0] - rods[None, :, 0], p[:, None, 1] - rods[None, :, 1])
-                  - rods[None, :, 2])
+    return np.abs(
+        np.hypot(p[:, None, 0] - rods[None, :, 0], p[:, None, 1] - rods[None, :, 1])
+        - rods[None, :, 2]
+    )
 
 
 def _peaks_at_rods(image, x, y, rods, tol):
@@ -83,7 +86,7 @@ def _peaks_at_rods(image, x, y, rods, tol):
 
     peaks, _ = image_peaks(image, x, y, n_peaks=len(rods), min_separation=0.05)
     tops = np.column_stack([rods[:, 0], rods[:, 1] - rods[:, 2]])
-    off = np.abs(peaks[:, None, :] - tops[None])                      # (peaks, rods, 2)
+    off = np.abs(peaks[:, None, :] - tops[None])  # (peaks, rods, 2)
     return np.any(np.all(off <= tol, axis=2), axis=0), peaks
 
 
@@ -129,8 +132,9 @@ def test_das_puts_the_rods_at_their_true_positions(data, medium, rods):
     hit, peaks = _peaks_at_rods(das_numpy(data, grid, medium=medium), grid.x, grid.y, rods, 0.010)
     assert hit.all(), peaks
     for wrong in (None, Medium(medium.eps_r)):
-        hit, peaks = _peaks_at_rods(das_numpy(data, grid, medium=wrong), grid.x, grid.y, rods,
-                                    0.020)
+        hit, peaks = _peaks_at_rods(
+            das_numpy(data, grid, medium=wrong), grid.x, grid.y, rods, 0.020
+        )
         assert not hit.any(), (wrong, peaks)
 
 
@@ -142,8 +146,9 @@ def test_rma_puts_the_rods_at_their_true_positions(data, medium, rods):
     img, x, y = rma_image(data, medium=medium, upsample_x=4, dy=1e-3, y_max=0.42)
     hit, peaks = _peaks_at_rods(img, x, y, rods, 0.010)
     assert hit.all(), peaks
-    img, x, y = rma_image(data, medium=Medium(medium.eps_r), upsample_x=4, dy=1e-3,
-                          y_min=0.08, y_max=0.42)
+    img, x, y = rma_image(
+        data, medium=Medium(medium.eps_r), upsample_x=4, dy=1e-3, y_min=0.08, y_max=0.42
+    )
     hit, peaks = _peaks_at_rods(img, x, y, rods, 0.020)
     assert not hit.any(), peaks
 
@@ -159,18 +164,25 @@ def test_default_rpm_puts_the_rods_at_their_true_positions(data, medium, rods, d
     params = default_params(data, eps_r=medium.eps_r, antenna_height=medium.antenna_height)
     d = _to_boundary(run_method(DEFAULT_METHOD, data, params, dev32).image.points, rods)
     near = d <= 0.020
-    print(f"\n{DEFAULT_METHOD} with the half-space: {len(d)} points, "
-          f"{100 * near.any(axis=1).mean():.0f} % within 20 mm of a rod, median "
-          f"{1e3 * np.median(d.min(axis=1)):.1f} mm, per rod {near.sum(axis=0).tolist()}")
+    print(
+        f"\n{DEFAULT_METHOD} with the half-space: {len(d)} points, "
+        f"{100 * near.any(axis=1).mean():.0f} % within 20 mm of a rod, median "
+        f"{1e3 * np.median(d.min(axis=1)):.1f} mm, per rod {near.sum(axis=0).tolist()}"
+    )
     assert np.all(near.sum(axis=0) >= 10)
     assert near.any(axis=1).mean() >= 0.75 and np.median(d.min(axis=1)) <= 0.005
-    with pytest.warns(DataWarning, match="range walks fit eps_r = [2-9]"):   # air: wrong
-        d = _to_boundary(run_method(DEFAULT_METHOD, data, default_params(data),
-                                    dev32).image.points, rods)
+    with pytest.warns(DataWarning, match="range walks fit eps_r = [2-9]"):  # air: wrong
+        d = _to_boundary(
+            run_method(DEFAULT_METHOD, data, default_params(data), dev32).image.points, rods
+        )
     near = d <= 0.020
     assert near.any(axis=1).mean() < 0.05 and np.all(near.sum(axis=0) < 10)
-    d = _to_boundary(run_method(DEFAULT_METHOD, data, default_params(data, eps_r=medium.eps_r),
-                                dev32).image.points, rods)   # antennas in the material
+    d = _to_boundary(
+        run_method(
+            DEFAULT_METHOD, data, default_params(data, eps_r=medium.eps_r), dev32
+        ).image.points,
+        rods,
+    )  # antennas in the material
     near = d <= 0.020
     assert near.any(axis=1).mean() < 0.05 and np.all(near.sum(axis=0) < 10)
 
@@ -178,13 +190,16 @@ def test_default_rpm_puts_the_rods_at_their_true_positions(data, medium, rods, d
 def test_sidecar_medium_is_checked(tmp_path, scene):
     from rpm_cl.io.data import InputError
 
-    for bad, msg in (({"eps_r": 0.5, "surface_y": 0.4}, "eps_r"), ("6", "medium must be"),
-                     ({"surface_y": 0.4}, "medium must be"),
-                     ({"eps_r": 6, "surface_y": "top"}, "surface_y")):
+    for bad, msg in (
+        ({"eps_r": 0.5, "surface_y": 0.4}, "eps_r"),
+        ("6", "medium must be"),
+        ({"surface_y": 0.4}, "medium must be"),
+        ({"eps_r": 6, "surface_y": "top"}, "surface_y"),
+    ):
         side = dict(scene, medium=bad)
         (tmp_path / "s.json").write_text(json.dumps(side))
         with pytest.raises(InputError, match=msg):
             G.read_sidecar(tmp_path / "s.json")
-    side = dict(scene, medium={"eps_r": 6.0})          # no surface: a homogeneous medium
+    side = dict(scene, medium={"eps_r": 6.0})  # no surface: a homogeneous medium
     (tmp_path / "h.json").write_text(json.dumps(side))
     assert G.read_sidecar(tmp_path / "h.json").medium() == Medium(6.0)

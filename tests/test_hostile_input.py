@@ -20,8 +20,11 @@ from rpm_cl.simulate import simulate_preset
 
 @pytest.fixture(scope="module")
 def arrays():
-    return {k: v for k, v in data_arrays(simulate_preset("paper-2d")[0]).items()
-            if not k.startswith("truth")}
+    return {
+        k: v
+        for k, v in data_arrays(simulate_preset("paper-2d")[0]).items()
+        if not k.startswith("truth")
+    }
 
 
 def _h5(path, arrays, skip=()):
@@ -42,7 +45,7 @@ def _refused(path, match, **kw):
 def test_fifo_and_devices_refused_without_opening(tmp_path):
     fifo = tmp_path / "in.npz"
     os.mkfifo(fifo)
-    _refused(fifo, "regular file, this is a FIFO")   # opening it would block forever
+    _refused(fifo, "regular file, this is a FIFO")  # opening it would block forever
     zero = tmp_path / "zero.h5"
     zero.symlink_to("/dev/zero")
     _refused(zero, "character device")
@@ -69,8 +72,7 @@ def test_axis_declaring_a_billion_values_refused_unread(tmp_path, arrays):
         for k, v in arrays.items():
             if k != "x":
                 f[k] = v
-        f.create_dataset("x", shape=(10**9,), dtype="f8", chunks=(1 << 20,),
-                         compression="gzip")
+        f.create_dataset("x", shape=(10**9,), dtype="f8", chunks=(1 << 20,), compression="gzip")
     assert os.path.getsize(path) < 1 << 20
     _refused(path, r"x .*1000000000|compression bomb")
 
@@ -89,8 +91,9 @@ def test_h5_data_outside_the_file_refused(tmp_path, arrays):
     arrays["x"].astype("<f8").tofile(raw)
     path = _h5(tmp_path / "extstore.h5", arrays, skip=("x",))
     with h5py.File(path, "a") as f:
-        f.create_dataset("x", shape=arrays["x"].shape, dtype="<f8",
-                         external=[(str(raw), 0, arrays["x"].nbytes)])
+        f.create_dataset(
+            "x", shape=arrays["x"].shape, dtype="<f8", external=[(str(raw), 0, arrays["x"].nbytes)]
+        )
     _refused(path, "external files")
     # a virtual dataset mapping another file's x
     path = _h5(tmp_path / "virtual.h5", arrays, skip=("x",))
@@ -112,10 +115,12 @@ def _npz_member_header(path, name, shape):
     fh = io.BytesIO(raw)
     np.lib.format.read_magic(fh)
     _, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
-    body = raw[fh.tell():]
+    body = raw[fh.tell() :]
     out = io.BytesIO()
-    np.lib.format.write_array_header_1_0(out, {"descr": np.lib.format.dtype_to_descr(dtype),
-                                               "fortran_order": fortran, "shape": shape})
+    np.lib.format.write_array_header_1_0(
+        out,
+        {"descr": np.lib.format.dtype_to_descr(dtype), "fortran_order": fortran, "shape": shape},
+    )
     members[name] = out.getvalue() + body
     with zipfile.ZipFile(path, "w") as zf:
         for n, b in members.items():
@@ -140,10 +145,11 @@ def test_npz_zip_bomb_refused_unread(tmp_path, arrays):
             if k != "signal":
                 with zf.open(k + ".npy", "w") as fh:
                     np.lib.format.write_array(fh, np.asarray(v))
-        n = 25 * 10**6   # complex128: 400 MB
+        n = 25 * 10**6  # complex128: 400 MB
         with zf.open("signal.npy", "w", force_zip64=True) as fh:
             np.lib.format.write_array_header_1_0(
-                fh, {"descr": "<c16", "fortran_order": False, "shape": (n // 600, 600)})
+                fh, {"descr": "<c16", "fortran_order": False, "shape": (n // 600, 600)}
+            )
             zeros = bytes(1 << 24)
             for _ in range(16 * n // len(zeros)):
                 fh.write(zeros)
@@ -156,10 +162,13 @@ def test_unused_truth_member_never_read(tmp_path, arrays):
     """A truth_boundary bomb is refused by what reads truth; das does not."""
     path = tmp_path / "truth_bomb.npz"
     np.savez(path, **arrays)
-    with (zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED) as zf,
-          zf.open("truth_boundary.npy", "w", force_zip64=True) as fh):
+    with (
+        zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED) as zf,
+        zf.open("truth_boundary.npy", "w", force_zip64=True) as fh,
+    ):
         np.lib.format.write_array_header_1_0(
-            fh, {"descr": "<f8", "fortran_order": False, "shape": (50 * 10**6 // 2, 2)})
+            fh, {"descr": "<f8", "fortran_order": False, "shape": (50 * 10**6 // 2, 2)}
+        )
         for _ in range(25):
             fh.write(bytes(16 * 10**6))
     _refused(path, "truth_boundary .*compression bomb")
@@ -171,10 +180,14 @@ def test_unused_truth_member_never_read(tmp_path, arrays):
 def test_run_over_the_memory_limit_refused_with_sizes(tmp_path, arrays):
     path = tmp_path / "ok.npz"
     np.savez(path, **arrays)
-    need = guard.run_bytes(arrays["signal"].size, sum(v.nbytes for k, v in arrays.items()
-                                                      if k != "signal"))
-    with pytest.raises(InputError, match=r"signal \(21, 600\) would need about .* above the "
-                                         r"limit of"):
+    need = guard.run_bytes(
+        arrays["signal"].size, sum(v.nbytes for k, v in arrays.items() if k != "signal")
+    )
+    with pytest.raises(
+        InputError,
+        match=r"signal \(21, 600\) would need about .* above the "
+        r"limit of",
+    ):
         load_data(path, max_memory=need - 1)
     assert load_data(path, max_memory=need).signal.shape == (21, 600)
 
@@ -208,8 +221,13 @@ def test_cli_refuses_in_one_line(tmp_path):
     fifo = tmp_path / "in.npz"
     os.mkfifo(fifo)
     for cmd in (["image", str(fifo), "-o", str(tmp_path / "o.npz")], ["view", str(fifo)]):
-        res = subprocess.run([sys.executable, "-m", "rpm_cl", *cmd], capture_output=True,
-                             text=True, timeout=60, check=False)
+        res = subprocess.run(
+            [sys.executable, "-m", "rpm_cl", *cmd],
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
         assert res.returncode == 2
         lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
         assert len(lines) == 1 and "FIFO" in lines[0], res.stderr
@@ -221,8 +239,11 @@ def test_axis_length_checked_against_the_data_header(tmp_path, arrays):
     validators (the data's shape named)."""
     n = formats.BESIDE_READ_BYTES // 8 + 1
     path = _h5(tmp_path / "xbig.h5", dict(arrays, x=np.linspace(-1, 1, n)))
-    _refused(path, rf"x must hold 21 values \(signal has shape \(21, 600\)\), its header "
-                   rf"declares shape \({n},\)")
+    _refused(
+        path,
+        rf"x must hold 21 values \(signal has shape \(21, 600\)\), its header "
+        rf"declares shape \({n},\)",
+    )
     path = _h5(tmp_path / "fcbig.h5", dict(arrays, fc=np.full(n, 20e9)))
     _refused(path, "fc must hold one number")
     path = _h5(tmp_path / "x1000.h5", dict(arrays, x=np.linspace(-1, 1, 1000)))
@@ -235,7 +256,7 @@ def test_garbled_npy_header_named_as_such(tmp_path, arrays):
     with zipfile.ZipFile(path) as zf:
         members = {n: zf.read(n) for n in zf.namelist()}
     raw = bytearray(members["signal.npy"])
-    raw[10:40] = b"{'descr': <c16, 'shape': ((((("   # not a Python literal any more
+    raw[10:40] = b"{'descr': <c16, 'shape': ((((("  # not a Python literal any more
     members["signal.npy"] = bytes(raw)
     with zipfile.ZipFile(path, "w") as zf:
         for n, b in members.items():
@@ -258,6 +279,7 @@ def test_peak_window_wider_than_the_map_gives_the_same_maxima():
     from scipy import ndimage
 
     from rpm_cl.extract import kspace
+
     rng = np.random.default_rng(11)
     det = rng.random((9, 40))
     for size in ([3, 5], [9, 81], [30, 500], [10, 2]):
@@ -283,13 +305,13 @@ def test_range_axis_in_cm_numbers_warned(tmp_path, arrays):
         load_data(path)
     data = simulate_preset("paper-2d")[0]
     ratio = echo_width(data) / data.waveform.range_resolution
-    assert 0.3 < ratio < ECHO_WIDTH_MAX / 10     # an echo: about 0.7 resolutions
+    assert 0.3 < ratio < ECHO_WIDTH_MAX / 10  # an echo: about 0.7 resolutions
     rng = np.random.default_rng(5)
     noise = rng.standard_normal((21, 600)) + 1j * rng.standard_normal((21, 600))
     from rpm_cl.io.data import RadarData
 
     white = RadarData(noise, data.array, data.range, data.waveform)
-    assert echo_width(white) < 2 * data.dr      # white noise: a gate or so
+    assert echo_width(white) < 2 * data.dr  # white noise: a gate or so
 
 
 def test_convert_refuses_special_files(tmp_path):
@@ -314,17 +336,24 @@ def test_h5_deflate_chunk_inflating_past_its_size_refused(tmp_path, arrays):
         for k, v in arrays.items():
             if k != "signal":
                 f[k] = v
-        d = f.create_dataset("signal", (21, 600), np.complex128, chunks=(21, 600),
-                             compression="gzip")
+        d = f.create_dataset(
+            "signal", (21, 600), np.complex128, chunks=(21, 600), compression="gzip"
+        )
         c = zlib.compressobj(1)
         payload = b"".join(c.compress(bytes(1 << 22)) for _ in range(16)) + c.flush()
         d.id.write_direct_chunk((0, 0), payload)
     _refused(path, "inflates beyond the chunk")
-    ok = _h5(tmp_path / "ok.h5", arrays)   # an honest compressed file reads
+    ok = _h5(tmp_path / "ok.h5", arrays)  # an honest compressed file reads
     with h5py.File(ok, "a") as f:
         del f["signal"]
-        f.create_dataset("signal", data=arrays["signal"], chunks=(7, 200), compression="gzip",
-                         shuffle=True, fletcher32=True)
+        f.create_dataset(
+            "signal",
+            data=arrays["signal"],
+            chunks=(7, 200),
+            compression="gzip",
+            shuffle=True,
+            fletcher32=True,
+        )
     np.testing.assert_array_equal(load_data(ok).signal, arrays["signal"])
 
 
@@ -348,7 +377,7 @@ def test_h5_soft_link_through_an_external_link_never_opens_it(tmp_path, arrays):
     inner = _h5(tmp_path / "inner.h5", arrays, skip=("signal",))
     with h5py.File(inner, "a") as f:
         f["g/s"] = arrays["signal"]
-        f["signal"] = h5py.SoftLink("/g/s")   # a soft link inside the file is followed
+        f["signal"] = h5py.SoftLink("/g/s")  # a soft link inside the file is followed
     assert load_data(inner).signal.shape == (21, 600)
 
 
@@ -359,8 +388,7 @@ def test_npy_header_length_checked_before_numpy_reads_it(tmp_path, arrays):
 
     path = tmp_path / "hdr.npz"
     np.savez(path, **{k: v for k, v in arrays.items() if k != "signal"})
-    with zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED) as zf, \
-            zf.open("signal.npy", "w") as fh:
+    with zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED) as zf, zf.open("signal.npy", "w") as fh:
         fh.write(b"\x93NUMPY\x02\x00" + struct.pack("<I", 400_000_000))
         fh.write(b" " * (1 << 20))
     _refused(path, "corrupt .npy header .*header length 400000000")
@@ -373,8 +401,11 @@ def test_bare_member_checked_as_numpy_load_reads_it(tmp_path):
 
     path = tmp_path / "res.npz"
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as zf:
-        for name, v in (("points.npy", np.zeros((2, 3))), ("cluster.npy", np.zeros(2, int)),
-                        ("rp_x.npy", np.zeros(2))):
+        for name, v in (
+            ("points.npy", np.zeros((2, 3))),
+            ("cluster.npy", np.zeros(2, int)),
+            ("rp_x.npy", np.zeros(2)),
+        ):
             b = io.BytesIO()
             np.save(b, v)
             zf.writestr(name, b.getvalue())

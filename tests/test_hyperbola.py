@@ -46,13 +46,19 @@ def test_exact_track_gives_eps_r_exactly(rng, eps, offset, scale):
 
 def test_degenerate_tracks_fit_nothing():
     """Too few RPs, all at one antenna, or a flat track: no eps_r that counts."""
-    e, se = track_eps_r(np.linspace(-0.1, 0.1, 3), None, np.full(3, 0.3))   # no dof left
+    e, se = track_eps_r(np.linspace(-0.1, 0.1, 3), None, np.full(3, 0.3))  # no dof left
     assert np.isnan(e) and se == np.inf
     e, se = track_eps_r(np.zeros(8), None, np.linspace(0.3, 0.31, 8))
     assert not np.isfinite(e) and se == np.inf
     # a plate: flat, eps_r about 0, never a valid estimate
-    flat = RangePoints(np.arange(20), np.linspace(-0.1, 0.1, 20), None, np.full(20, 0.3),
-                       np.ones(20), np.zeros(20, int))
+    flat = RangePoints(
+        np.arange(20),
+        np.linspace(-0.1, 0.1, 20),
+        None,
+        np.full(20, 0.3),
+        np.ones(20),
+        np.zeros(20, int),
+    )
     e, n = fit_eps_r(np.zeros((20, 2)), flat)
     assert np.isnan(e) and n == 0
 
@@ -85,8 +91,11 @@ def test_homogeneous_fit_and_warnings(eps):
         warnings.simplefilter("error")
         assert check_medium(data, Medium(eps)) == pytest.approx(eps, rel=0.05)
     if eps > 1.5:
-        with pytest.warns(DataWarning, match=r"fit eps_r = .* set to eps_r = 1: image with "
-                                             r"--eps-r") as rec:
+        with pytest.warns(
+            DataWarning,
+            match=r"fit eps_r = .* set to eps_r = 1: image with "
+            r"--eps-r",
+        ) as rec:
             check_medium(data, Medium())
         assert len(rec) == 1
     with pytest.warns(DataWarning, match="fit low") as rec:
@@ -124,7 +133,7 @@ def test_air_scenes_are_silent(preset):
             fitted = check_medium(simulate_preset(preset, snr, seed=3)[0], Medium())
             assert fitted is None or fitted < 1.5
         assert check_medium(_homogeneous(1.0), Medium()) == pytest.approx(1.0, rel=0.05)
-        assert check_medium(simulate_preset("human-body")[0], Medium(50.0)) is None   # planar
+        assert check_medium(simulate_preset("human-body")[0], Medium(50.0)) is None  # planar
 
 
 def test_cli_warns_once_with_the_fix(tmp_path, capsys):
@@ -135,10 +144,11 @@ def test_cli_warns_once_with_the_fix(tmp_path, capsys):
 
     path = tmp_path / "m.npz"
     save_data(path, _homogeneous(6.0))
-    for argv in (["image", str(path), "-o", str(tmp_path / "i.npz")],
-                 ["das", str(path), "-o", str(tmp_path / "d.npz"), "--grid",
-                  "-0.2:0.2:0.01,0.05:0.4:0.01"],
-                 ["rma", str(path), "-o", str(tmp_path / "r.npz")]):
+    for argv in (
+        ["image", str(path), "-o", str(tmp_path / "i.npz")],
+        ["das", str(path), "-o", str(tmp_path / "d.npz"), "--grid", "-0.2:0.2:0.01,0.05:0.4:0.01"],
+        ["rma", str(path), "-o", str(tmp_path / "r.npz")],
+    ):
         assert main(argv) == 0
         err = capsys.readouterr().err
         lines = [ln for ln in err.splitlines() if "range walks" in ln]

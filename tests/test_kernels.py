@@ -79,10 +79,14 @@ def test_score_matches_reference(dev32, dev64, rng, dim):
     valid = (rng.random((n, maxc)) < 0.7).astype(np.int8)
     w[valid == 0] = 0.0
     want = ref.score_candidates(cand, w, valid, 0.03)
-    np.testing.assert_allclose(dev64.score_candidates(cand, w, valid, 0.03), want, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        dev64.score_candidates(cand, w, valid, 0.03), want, rtol=1e-12, atol=1e-12
+    )
     # float32: each term has relative error ~1e-6 (exp of an argument <= ~30
     # with 6e-8 relative rounding), sums of <= 23 positive terms.
-    np.testing.assert_allclose(dev32.score_candidates(cand, w, valid, 0.03), want, rtol=1e-4, atol=1e-6)
+    np.testing.assert_allclose(
+        dev32.score_candidates(cand, w, valid, 0.03), want, rtol=1e-4, atol=1e-6
+    )
     assert np.all(want[valid == 0] == -1)
 
 
@@ -99,14 +103,14 @@ def test_score_gaussian_over_its_whole_range(dev32, dev64):
     w = np.zeros((n, 2))
     w[:, 1] = 1.0
     valid = np.ones((n, 2), np.int8)
-    want = np.exp(-d ** 2 / (2 * sigma ** 2))
+    want = np.exp(-(d**2) / (2 * sigma**2))
     got64 = dev64.score_candidates(cand, w, valid, sigma)[:, 0]
     np.testing.assert_allclose(got64, want, rtol=1e-12, atol=1e-300)
     got32 = dev32.score_candidates(cand, w, valid, sigma)[:, 0]
     tiny = np.finfo(np.float32).tiny
     normal = want >= tiny
     # the argument -d^2/2sigma^2 carries float32 rounding of |arg| * 6e-8
-    arg = d ** 2 / (2 * sigma ** 2)
+    arg = d**2 / (2 * sigma**2)
     rel = np.abs(got32[normal] - want[normal]) / want[normal]
     assert np.all(rel <= 4e-7 + 2 * arg[normal] * np.finfo(np.float32).eps)
     assert np.all(got32[~normal] <= 2 * tiny) and np.all(got32 >= 0)
@@ -163,11 +167,20 @@ def test_degenerate_pairs_are_skipped_never_nan(dev32, dev64):
 
 
 def test_single_rp_cluster_and_empty_input(dev32):
-    got = dev32.rpm_circles(np.array([0.0]), np.array([1.0]), np.array([1.0]),
-                            np.array([0]), np.array([1]), 1, 0.1, 0.05)
+    got = dev32.rpm_circles(
+        np.array([0.0]),
+        np.array([1.0]),
+        np.array([1.0]),
+        np.array([0]),
+        np.array([1]),
+        1,
+        0.1,
+        0.05,
+    )
     assert got[0].tolist() == [-1]
-    got = dev32.rpm_circles(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, int),
-                            np.zeros(0, int), 1, 0.1, 0.05)
+    got = dev32.rpm_circles(
+        np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, int), np.zeros(0, int), 1, 0.1, 0.05
+    )
     assert got[0].shape == (0,)
 
 
@@ -175,15 +188,21 @@ coord = st.floats(-0.5, 0.5, allow_nan=False)
 
 
 @settings(max_examples=200, deadline=None)
-@given(px=coord, py=st.floats(0.05, 20.0), xi=coord, dx=st.floats(5e-4, 0.05),
-       sign=st.sampled_from([-1.0, 1.0]))
+@given(
+    px=coord,
+    py=st.floats(0.05, 20.0),
+    xi=coord,
+    dx=st.floats(5e-4, 0.05),
+    sign=st.sampled_from([-1.0, 1.0]),
+)
 @example(px=0.0, py=20.0, xi=0.0, dx=5e-4, sign=1.0)  # far and narrow: worst conditioning
 def test_round_trip_recovers_scatterer(px, py, xi, dx, sign):
     """Exact ranges from two antennas to a scatterer intersect at it."""
     xj = xi + sign * dx
     ri, rj = np.hypot(px - xi, py), np.hypot(px - xj, py)
-    cand, _w, valid = ref.intersect_circles(np.array([xi, xj]), np.array([ri, rj]), np.ones(2),
-                                           np.zeros(2, int), np.full(2, 2), 2, 0.1)
+    cand, _w, valid = ref.intersect_circles(
+        np.array([xi, xj]), np.array([ri, rj]), np.ones(2), np.zeros(2, int), np.full(2, 2), 2, 0.1
+    )
     assert valid[0, 1] == 1
     # backward error: float64 rounding of the ranges (~1e-16 R) amplified by
     # the geometry's conditioning (R/|d|)^2 at worst.

@@ -15,8 +15,9 @@ from rpm_cl.extract.kspace import shift_rows
 
 
 def _coeffs(sig):
-    return (ndimage.spline_filter1d(sig.real, 3, axis=-1, mode="nearest")
-            + 1j * ndimage.spline_filter1d(sig.imag, 3, axis=-1, mode="nearest"))
+    return ndimage.spline_filter1d(
+        sig.real, 3, axis=-1, mode="nearest"
+    ) + 1j * ndimage.spline_filter1d(sig.imag, 3, axis=-1, mode="nearest")
 
 
 def _row_reference(c, shift, lo, hi):
@@ -24,9 +25,10 @@ def _row_reference(c, shift, lo, hi):
     out = []
     for row, s in zip(c, shift):
         at = [np.arange(lo, hi) + s]
-        out.append(ndimage.map_coordinates(row.real, at, order=3, prefilter=False, mode="nearest")
-                   + 1j * ndimage.map_coordinates(row.imag, at, order=3, prefilter=False,
-                                                  mode="nearest"))
+        out.append(
+            ndimage.map_coordinates(row.real, at, order=3, prefilter=False, mode="nearest")
+            + 1j * ndimage.map_coordinates(row.imag, at, order=3, prefilter=False, mode="nearest")
+        )
     return np.array(out)
 
 
@@ -48,7 +50,7 @@ def test_shift_rows_interpolates_and_keeps_rows_apart(rng):
     # integer shifts return the samples themselves (an interpolating spline)
     got = shift_rows(c, np.array([0.0, 1.0, -2.0, 3.0, 0.0]), 5, 70)
     for row, s in enumerate((0, 1, -2, 3, 0)):
-        np.testing.assert_allclose(got[row], sig[row, 5 + s:70 + s], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(got[row], sig[row, 5 + s : 70 + s], rtol=0, atol=1e-12)
     # one antenna's profile changed: no other row of the result moves
     sig2 = sig.copy()
     sig2[2] *= 5.0
@@ -100,8 +102,9 @@ def test_large_array_takes_the_true_alias_for_every_body_part():
     true_u = []
     for t in np.unique(target):
         a = ant[target == t]
-        design = np.column_stack([np.ones(a.size), pos[a, 0] - pos[:, 0].mean(),
-                                  pos[a, 2] - pos[:, 2].mean()])
+        design = np.column_stack(
+            [np.ones(a.size), pos[a, 0] - pos[:, 0].mean(), pos[a, 2] - pos[:, 2].mean()]
+        )
         true_u.append(np.linalg.lstsq(design, rng[target == t], rcond=None)[0][1:])
     true_u = np.array(true_u)
     off = np.linalg.norm(u[:, None, :] - true_u[None, :, :], axis=2).min(axis=1)
@@ -125,6 +128,7 @@ def test_focused_detection_finds_one_cluster_per_body_part():
     them, whose points were 46 % more than 50 mm off; the Fresnel-dechirped
     detection has no such maximum."""
     from rpm_cl.extract import kspace
+
     data, params = _body(32)
     dec = kspace.decompose(data, params.kspace)
     assert len(dec.clusters) == 11
@@ -141,14 +145,15 @@ def test_dechirp_only_where_the_fresnel_phase_holds():
     data, params = _body(64)
     on = kspace._dechirp_gates(data, params.kspace)
     r = data.range
-    assert on is not None and on[(r > 1.0) & (r < 1.3)].all()   # the body's ranges
-    assert not on[r < 0.9].any()      # quartic term over pi/2 at 0.9 m
+    assert on is not None and on[(r > 1.0) & (r < 1.3)].all()  # the body's ranges
+    assert not on[r < 0.9].any()  # quartic term over pi/2 at 0.9 m
     small, sp = _body(11)
-    assert kspace._dechirp_gates(small, sp.kspace) is None     # no focusing
+    assert kspace._dechirp_gates(small, sp.kspace) is None  # no focusing
     # a 1 m linear array at 0.3-0.6 m: focused, but the Fresnel phase fails
     arr = Array((np.arange(201) - 100) * 5e-3)
-    lin = RadarData(np.ones((201, 121), complex), arr, 0.3 + np.arange(121) * 2.5e-3,
-                    Waveform(20e9, 0.2e9))
+    lin = RadarData(
+        np.ones((201, 121), complex), arr, 0.3 + np.arange(121) * 2.5e-3, Waveform(20e9, 0.2e9)
+    )
     assert kspace._dechirp_gates(lin, kspace.KSpaceParams()) is None
 
 
@@ -166,8 +171,10 @@ def test_near_target_at_plain_gates_is_kept_beside_a_dechirped_one():
 
     arr = Array((np.arange(64) - 31.5) * 7.5e-3, 1.0 + (np.arange(64) - 31.5) * 7.5e-3)
     # 3-D point echoes fall as amplitude / d^2: 0.5 * 0.8^2 gives half the echo
-    scene = Scene((PointTarget((0.0, 0.8, 1.0), 0.5 * 0.64),
-                   PointTarget((0.05, 1.0, 1.02), 1.0)), "two ranges")
+    scene = Scene(
+        (PointTarget((0.0, 0.8, 1.0), 0.5 * 0.64), PointTarget((0.05, 1.0, 1.02), 1.0)),
+        "two ranges",
+    )
     data = simulate(scene, arr, Waveform(20e9, 3e9), np.arange(0.6, 1.3, 2.5e-3), None, 0)
     params = default_params(data).kspace
     on = kspace._dechirp_gates(data, params)

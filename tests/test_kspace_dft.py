@@ -18,12 +18,12 @@ from rpm_cl.simulate import simulate
 from rpm_cl.simulate.scene import get_preset
 
 
-@pytest.mark.parametrize("preset,align", [("human-body", None), ("human-body", False),
-                                          ("paper-2d", None)])
+@pytest.mark.parametrize(
+    "preset,align", [("human-body", None), ("human-body", False), ("paper-2d", None)]
+)
 def test_matrix_and_fft_routes_agree(preset, align, monkeypatch):
     pre = get_preset(preset)
-    data = simulate(pre.scene, pre.array, pre.waveform, pre.range_axis, 20.0, 3,
-                    noise="receiver")
+    data = simulate(pre.scene, pre.array, pre.waveform, pre.range_axis, 20.0, 3, noise="receiver")
     kp = dataclasses.replace(default_params(data, **pre.defaults).kspace, align=align)
     monkeypatch.setattr(kspace, "MATRIX_DFT_MAX", 10**6)
     a = kspace.decompose(data, kp)

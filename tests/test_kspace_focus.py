@@ -27,8 +27,7 @@ def test_focus_range_is_the_exact_point_range(rng):
     for _ in range(20):
         n_k = int(rng.integers(1, 3))
         step = 10.0 ** rng.uniform(np.log10(5e-4), np.log10(5e-2))
-        axes = [rng.uniform(-1, 1) + np.arange(int(rng.integers(2, 40))) * step
-                for _ in range(n_k)]
+        axes = [rng.uniform(-1, 1) + np.arange(int(rng.integers(2, 40))) * step for _ in range(n_k)]
         r_c = 10.0 ** rng.uniform(np.log10(0.05), np.log10(20.0))
         u = rng.uniform(-0.95, 0.95, n_k)
         if np.sum(u * u) >= 0.98:
@@ -36,8 +35,9 @@ def test_focus_range_is_the_exact_point_range(rng):
         got = kspace._focus_range(u, axes, r_c)
         # reference: the point p = centre + r_c (-u, sqrt(1 - |u|^2)), in long double
         ld = np.longdouble
-        grids = np.meshgrid(*[np.asarray(ax, ld) - ld(0.5) * (ld(ax[0]) + ld(ax[-1]))
-                              for ax in axes], indexing="ij")
+        grids = np.meshgrid(
+            *[np.asarray(ax, ld) - ld(0.5) * (ld(ax[0]) + ld(ax[-1])) for ax in axes], indexing="ij"
+        )
         uu = [ld(v) for v in u]
         rr = ld(r_c)
         d2 = sum((grids[a] + rr * uu[a]) ** 2 for a in range(n_k))
@@ -63,10 +63,12 @@ def test_focus_range_differs_from_the_fresnel_term_at_third_order():
     diffs = []
     for scale in (1e-2, 5e-3, 2.5e-3):
         axes = [np.linspace(-1, 1, 11) * scale, np.linspace(-1, 1, 7) * scale]
-        diffs.append(np.max(np.abs(kspace._focus_range(u, axes, 1.0)
-                                   - kspace._curvature(u, axes, 1.0))))
-    assert diffs[0] < 2e-2 * np.max(kspace._curvature(u, [np.linspace(-1, 1, 11) * 1e-2,
-                                                           np.linspace(-1, 1, 7) * 1e-2], 1.0))
+        diffs.append(
+            np.max(np.abs(kspace._focus_range(u, axes, 1.0) - kspace._curvature(u, axes, 1.0)))
+        )
+    assert diffs[0] < 2e-2 * np.max(
+        kspace._curvature(u, [np.linspace(-1, 1, 11) * 1e-2, np.linspace(-1, 1, 7) * 1e-2], 1.0)
+    )
     for a, b in itertools.pairwise(diffs):
         assert 7.0 < a / b < 9.0, diffs
 
@@ -76,20 +78,24 @@ ARRAY = Array((np.arange(N) - (N - 1) / 2) * 7.5e-3, (np.arange(N) - (N - 1) / 2
 
 
 def _decompose(scene, autofocus=True):
-    data = simulate(scene, ARRAY, Waveform(20e9, 3e9), np.arange(0.85, 1.2, 2.5e-3),
-                    boundary_spacing=2e-3)
+    data = simulate(
+        scene, ARRAY, Waveform(20e9, 3e9), np.arange(0.85, 1.2, 2.5e-3), boundary_spacing=2e-3
+    )
     params = default_params(data, pad=2)
     dec = kspace.decompose(data, replace(params.kspace, autofocus=autofocus))
     rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
     return dec, int(np.sum(err_range(rps.antenna, rps.range, data.truth) <= 0.002))
 
 
-@pytest.mark.parametrize("semi, front, want", [
-    # a sphere of radius 0.3 m whose front is 1.0 m away: 1 / 1.3 on both axes
-    ((0.3, 0.3, 0.3), 1.0, (1 / 1.3, 1 / 1.3)),
-    # an ellipsoid long in z: radius 0.08 along x, 0.5^2 / 0.08 = 3.1 m along z
-    ((0.08, 0.08, 0.5), 1.0, (1 / 1.08, 1 / (1 + 0.25 / 0.08))),
-])
+@pytest.mark.parametrize(
+    "semi, front, want",
+    [
+        # a sphere of radius 0.3 m whose front is 1.0 m away: 1 / 1.3 on both axes
+        ((0.3, 0.3, 0.3), 1.0, (1 / 1.3, 1 / 1.3)),
+        # an ellipsoid long in z: radius 0.08 along x, 0.5^2 / 0.08 = 3.1 m along z
+        ((0.08, 0.08, 0.5), 1.0, (1 / 1.08, 1 / (1 + 0.25 / 0.08))),
+    ],
+)
 def test_autofocus_fits_a_convex_surface(semi, front, want):
     """48 x 48 antennas at 7.5 mm, the surface's front 1 m away on
     broadside: the fitted factors are R / (R + rho) along each axis (the

@@ -26,8 +26,8 @@ from rpm_cl.simulate import simulate
 from rpm_cl.simulate.scene import PointTarget, Scene
 
 PITCH = 5e-3
-K_PERIOD = 2 * np.pi / PITCH      # 1256.6 rad/m
-T = 417.0                         # the paper's 2-D window period, rad/m
+K_PERIOD = 2 * np.pi / PITCH  # 1256.6 rad/m
+T = 417.0  # the paper's 2-D window period, rad/m
 
 
 def _second_evaluation(k, k0, period, k_period):
@@ -42,11 +42,11 @@ def test_window_at_known_points():
     k0 = 100.0
     k = k0 + np.array([0.0, T / 4, -T / 4, T / 8, 0.499 * T, 0.5 * T, -0.5 * T, 0.7 * T])
     w = _window(k, k0, T, K_PERIOD)
-    assert w[0] == pytest.approx(1.0, abs=1e-15)              # the centre
-    np.testing.assert_allclose(w[1:3], 0.5, atol=1e-12)        # the half-width point T/4
-    assert w[3] == pytest.approx((1 + np.cos(np.pi / 4)) / 2, abs=1e-12)   # 0.854
-    assert 0 < w[4] < 1e-4                                     # just inside the edge
-    np.testing.assert_array_equal(w[5:], 0.0)                  # the edge and beyond
+    assert w[0] == pytest.approx(1.0, abs=1e-15)  # the centre
+    np.testing.assert_allclose(w[1:3], 0.5, atol=1e-12)  # the half-width point T/4
+    assert w[3] == pytest.approx((1 + np.cos(np.pi / 4)) / 2, abs=1e-12)  # 0.854
+    assert 0 < w[4] < 1e-4  # just inside the edge
+    np.testing.assert_array_equal(w[5:], 0.0)  # the edge and beyond
 
 
 @pytest.mark.parametrize("side", [1.0, -1.0])
@@ -73,9 +73,12 @@ def test_window_matches_a_second_evaluation(rng):
         # windows are used
         grid = 2 * np.pi * np.fft.fftfreq(int(rng.integers(8, 200)), 2 * np.pi / kp)
         for kk in (k, grid):
-            np.testing.assert_allclose(_window(kk, k0, period, kp),
-                                       _second_evaluation(kk, k0, period, kp),
-                                       rtol=0, atol=1e-9)
+            np.testing.assert_allclose(
+                _window(kk, k0, period, kp),
+                _second_evaluation(kk, k0, period, kp),
+                rtol=0,
+                atol=1e-9,
+            )
 
 
 def test_cluster_on_the_k_axis_edge_is_decomposed():
@@ -90,9 +93,13 @@ def test_cluster_on_the_k_axis_edge_is_decomposed():
     arr = Array((np.arange(21) - 10) * PITCH)
     th = np.radians(48.0)
     targets = np.array([(0.45 * np.sin(th), 0.45 * np.cos(th)), (-0.03, 0.42)])
-    data = simulate(Scene(tuple(PointTarget(tuple(t)) for t in targets)), arr,
-                    Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3))
-    params = default_params(data, window_x=T)   # the paper's period, as the bars are its
+    data = simulate(
+        Scene(tuple(PointTarget(tuple(t)) for t in targets)),
+        arr,
+        Waveform(20e9, 0.2e9),
+        np.arange(0.0, 1.5, 2.5e-3),
+    )
+    params = default_params(data, window_x=T)  # the paper's period, as the bars are its
     ks = sorted(float(c.k[0]) for c in decompose(data, params.kspace).clusters)
     assert len(ks) == 2 and abs(abs(ks[0]) - K_PERIOD / 2) < 0.02 * K_PERIOD / 2
     res = run_method("kspace-rpm", data, params, reference)

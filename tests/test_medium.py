@@ -34,8 +34,8 @@ from rpm_cl.rpm.multipath import double_bounce, ghost_points
 
 EPS = 6.0
 N = np.sqrt(EPS)
-H = 0.08                                   # antenna height above the surface, m
-X = np.arange(51) * 0.01 - 0.25            # 51 antennas at 10 mm
+H = 0.08  # antenna height above the surface, m
+X = np.arange(51) * 0.01 - 0.25  # 51 antennas at 10 mm
 #: point targets under the surface (x, y) in the imaging frame, m: the last
 #: one 0.22 m aside at 0.06 m depth, seen at up to 80 degrees in air
 TARGETS = np.array([[0.0, H + 0.10], [0.10, H + 0.20], [-0.12, H + 0.25], [0.22, H + 0.06]])
@@ -81,8 +81,7 @@ def test_one_way_is_fermats_shortest_path_and_obeys_snell(rng):
     np.testing.assert_allclose(got, _fermat(rho, H, d, N), atol=1e-9)
     # Snell at the crossing: sin(theta_air) = n sin(theta_in)
     u = crossing(rho, H, d, N)
-    np.testing.assert_allclose(u / np.hypot(u, H), N * (rho - u) / np.hypot(rho - u, d),
-                               atol=1e-9)
+    np.testing.assert_allclose(u / np.hypot(u, H), N * (rho - u) / np.hypot(rho - u, d), atol=1e-9)
     # 3-D: the same path in the vertical plane through antenna and point
     az = rng.uniform(0, 2 * np.pi, 40)
     p3 = np.stack([rho * np.cos(az), H + d, rho * np.sin(az)], axis=1)
@@ -96,8 +95,9 @@ def test_one_way_is_fermats_shortest_path_and_obeys_snell(rng):
 def test_point_on_ray_inverts_ray_through(rng):
     m = Medium(EPS, H)
     ant = np.column_stack([rng.uniform(-0.2, 0.2, 50), np.zeros(50), rng.uniform(-0.2, 0.2, 50)])
-    pts = np.column_stack([rng.uniform(-0.4, 0.4, 50), rng.uniform(0.01, 0.5, 50),
-                           rng.uniform(-0.4, 0.4, 50)])      # some above the surface
+    pts = np.column_stack(
+        [rng.uniform(-0.4, 0.4, 50), rng.uniform(0.01, 0.5, 50), rng.uniform(-0.4, 0.4, 50)]
+    )  # some above the surface
     p, e = ray_through(m, ant, pts)
     got, t = point_on_ray(m, ant, p, e, one_way(m, ant, pts))
     np.testing.assert_allclose(got, pts, atol=1e-9)
@@ -112,7 +112,7 @@ def test_medium_validation():
         with pytest.raises(InputError, match="antenna_height"):
             Medium(EPS, bad)
     assert Medium().air and not Medium().half_space and not Medium().homogeneous
-    assert Medium(1.0, 0.1).air                         # air above air is free space
+    assert Medium(1.0, 0.1).air  # air above air is free space
     assert Medium(EPS).homogeneous and Medium(EPS, 0.0).homogeneous
     assert Medium(EPS, H).half_space
     # the paraxial virtual antenna n h above the surface, ranges (R + h (n^2 - 1)) / n
@@ -140,8 +140,10 @@ def test_air_is_bit_identical(p2, dev32):
         np.testing.assert_array_equal(a.rps.range, b.rps.range)
     g = Grid(np.linspace(-0.1, 0.1, 21), np.linspace(0.3, 0.5, 21))
     np.testing.assert_array_equal(das_numpy(data, g), das_numpy(data, g, medium=Medium()))
-    for u, v in zip(rma_image(data, y_min=0.2, y_max=0.6),
-                    rma_image(data, y_min=0.2, y_max=0.6, medium=Medium())):
+    for u, v in zip(
+        rma_image(data, y_min=0.2, y_max=0.6),
+        rma_image(data, y_min=0.2, y_max=0.6, medium=Medium()),
+    ):
         np.testing.assert_array_equal(u, v)
 
 
@@ -156,8 +158,8 @@ def test_homogeneous_medium_is_the_air_scene_with_ranges_divided():
     x = np.arange(41) * 0.01 - 0.2
     tg = np.array([[0.0, 0.12], [0.07, 0.20], [-0.09, 0.25]])
     r = np.hypot(x[:, None] - tg[None, :, 0], tg[None, :, 1])
-    med = _spectrum_data(N * r, x=x)                       # recorded in the material
-    air = _spectrum_data(r, scale=N, x=x)                  # the equivalent air scene
+    med = _spectrum_data(N * r, x=x)  # recorded in the material
+    air = _spectrum_data(r, scale=N, x=x)  # the equivalent air scene
     p_air = default_params(air)
     p_med = default_params(med, eps_r=EPS)
     assert p_med.rpm.sigma_r == pytest.approx(p_air.rpm.sigma_r, rel=1e-12)
@@ -177,8 +179,10 @@ def test_homogeneous_medium_is_the_air_scene_with_ranges_divided():
     g = Grid(np.arange(-0.2, 0.2, 0.004), np.arange(0.05, 0.3, 0.004))
     a, b = das_numpy(med, g, medium=Medium(EPS)), das_numpy(air, g)
     assert np.max(np.abs(a - b)) <= 1e-10 * np.max(np.abs(b))
-    (ia, _, ya), (ib, _, yb) = (rma_image(med, y_min=0.05, y_max=0.3, medium=Medium(EPS)),
-                                  rma_image(air, y_min=0.05, y_max=0.3))
+    (ia, _, ya), (ib, _, yb) = (
+        rma_image(med, y_min=0.05, y_max=0.3, medium=Medium(EPS)),
+        rma_image(air, y_min=0.05, y_max=0.3),
+    )
     np.testing.assert_array_equal(ya, yb)
     assert np.max(np.abs(ia - ib)) <= 1e-10 * np.max(np.abs(ib))
 
@@ -186,8 +190,14 @@ def test_homogeneous_medium_is_the_air_scene_with_ranges_divided():
 # ------------------------------------------------------------ half-space
 def _exact_rps(targets, ranges, x=X):
     k, t = ranges.shape
-    return RangePoints(np.tile(np.arange(k), t), np.tile(x, t), None, ranges.T.ravel(),
-                       np.ones(k * t), np.repeat(np.arange(t), k))
+    return RangePoints(
+        np.tile(np.arange(k), t),
+        np.tile(x, t),
+        None,
+        ranges.T.ravel(),
+        np.ones(k * t),
+        np.repeat(np.arange(t), k),
+    )
 
 
 def test_halfspace_rpm_puts_exact_range_points_on_the_targets():
@@ -205,8 +215,9 @@ def test_halfspace_rpm_puts_exact_range_points_on_the_targets():
     assert np.max(_nearest(para, TARGETS)) > 0.02
     # straight rays: a line of sight of length L crosses h / y of it in air
     ant = np.column_stack([X, np.zeros_like(X)])
-    straight = np.stack([np.linalg.norm(t - ant, axis=1) * (H / t[1] + N * (1 - H / t[1]))
-                         for t in TARGETS], axis=1)
+    straight = np.stack(
+        [np.linalg.norm(t - ant, axis=1) * (H / t[1] + N * (1 - H / t[1])) for t in TARGETS], axis=1
+    )
     bent = halfspace_rpm(_exact_rps(TARGETS, straight), params, ref, m).points
     assert np.percentile(_nearest(bent, TARGETS), 90) > 0.003
 
@@ -221,8 +232,14 @@ def test_halfspace_rpm_3d():
     rho = np.hypot(ant[:, None, 0] - tg[None, :, 0], ant[:, None, 2] - tg[None, :, 2])
     r = np.stack([_fermat(rho[:, j], H, tg[j, 1] - H, N, step=1e-5) for j in range(3)], axis=1)
     k = len(ant)
-    rps = RangePoints(np.tile(np.arange(k), 3), np.tile(ant[:, 0], 3), np.tile(ant[:, 2], 3),
-                      r.T.ravel(), np.ones(3 * k), np.repeat(np.arange(3), k))
+    rps = RangePoints(
+        np.tile(np.arange(k), 3),
+        np.tile(ant[:, 0], 3),
+        np.tile(ant[:, 2], 3),
+        r.T.ravel(),
+        np.ones(3 * k),
+        np.repeat(np.arange(3), k),
+    )
     params = RPMParams(sigma_x=0.05, sigma_r=0.005, meanshift_max_rps=0)
     pts = halfspace_rpm(rps, params, ref, Medium(EPS, H)).points
     # the brute-force ranges are exact to (1e-5)^2 / h: points to 1e-5 m
@@ -313,26 +330,82 @@ def test_cli_medium_flags(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "[medium]" in out and "eps_r = 6.0" in out and "antenna_height = 0.08" in out
     res = tmp_path / "out.npz"
-    assert main(["image", str(path), "-o", str(res), "--eps-r", "6", "--antenna-height",
-                 "0.08", "-q"]) == 0
+    assert (
+        main(["image", str(path), "-o", str(res), "--eps-r", "6", "--antenna-height", "0.08", "-q"])
+        == 0
+    )
     pts = np.load(res)["points"]
     assert np.median(_nearest(pts, tg)) < 0.005
     toml = tmp_path / "m.toml"
     toml.write_text("[medium]\neps_r = 6.0\nantenna_height = 0.08\n")
     img = tmp_path / "das.npz"
-    assert main(["das", str(path), "-o", str(img), "--grid", "-0.3:0.3:0.002,0.1:0.4:0.002",
-                 "--config", str(toml), "-q"]) == 0
+    assert (
+        main(
+            [
+                "das",
+                str(path),
+                "-o",
+                str(img),
+                "--grid",
+                "-0.3:0.3:0.002,0.1:0.4:0.002",
+                "--config",
+                str(toml),
+                "-q",
+            ]
+        )
+        == 0
+    )
     with np.load(img) as z:
         peaks, _ = image_peaks(z["image"], z["x"], z["y"], n_peaks=3, min_separation=0.05)
     assert np.max(_nearest(peaks, tg)) <= 0.003
-    assert main(["rma", str(path), "-o", str(tmp_path / "rma.npz"), "--eps-r", "6",
-                 "--antenna-height", "0.08", "-q"]) == 0
+    assert (
+        main(
+            [
+                "rma",
+                str(path),
+                "-o",
+                str(tmp_path / "rma.npz"),
+                "--eps-r",
+                "6",
+                "--antenna-height",
+                "0.08",
+                "-q",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
-    for argv, key in ((["image", str(path), "-o", str(res), "--eps-r", "0.5"], "eps_r"),
-                      (["das", str(path), "-o", str(img), "--grid", "0:1:0.1,0:1:0.1",
-                        "--antenna-height", "-1"], "antenna_height"),
-                      (["rma", str(path), "-o", str(tmp_path / "r.npz"), "--eps-r", "6",
-                        "--antenna-height", "0.08", "--y-min", "0.0"], "below the surface")):
+    for argv, key in (
+        (["image", str(path), "-o", str(res), "--eps-r", "0.5"], "eps_r"),
+        (
+            [
+                "das",
+                str(path),
+                "-o",
+                str(img),
+                "--grid",
+                "0:1:0.1,0:1:0.1",
+                "--antenna-height",
+                "-1",
+            ],
+            "antenna_height",
+        ),
+        (
+            [
+                "rma",
+                str(path),
+                "-o",
+                str(tmp_path / "r.npz"),
+                "--eps-r",
+                "6",
+                "--antenna-height",
+                "0.08",
+                "--y-min",
+                "0.0",
+            ],
+            "below the surface",
+        ),
+    ):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and key in err, err

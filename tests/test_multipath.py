@@ -16,8 +16,17 @@ def test_double_bounce_is_the_shortest_path():
     ant = np.column_stack([rng.uniform(-0.1, 0.1, 7), np.zeros(7), rng.uniform(-0.1, 0.1, 7)])
     a = rng.normal([0.1, 0.5, 0.0], 0.02, (5, 3))
     b = rng.normal([-0.1, 0.6, 0.05], 0.02, (4, 3))
-    want = np.array([min(np.linalg.norm(x - p) + np.linalg.norm(p - q) + np.linalg.norm(q - x)
-                         for p in a for q in b) / 2 for x in ant])
+    want = np.array(
+        [
+            min(
+                np.linalg.norm(x - p) + np.linalg.norm(p - q) + np.linalg.norm(q - x)
+                for p in a
+                for q in b
+            )
+            / 2
+            for x in ant
+        ]
+    )
     np.testing.assert_allclose(double_bounce(ant, a, b), want, rtol=0, atol=1e-12)
 
 
@@ -48,8 +57,10 @@ def _two_targets_and_ghost(seed, snr_db, ghost=0.3):
     f = fc - band / 2 + np.arange(nf) * band / (nf - 1)
     ra, rb = np.hypot(x - a[0], a[1]), np.hypot(x - b[0], b[1])
     rab = 0.5 * (ra + rb + np.linalg.norm(a - b))
-    y = sum(g * np.exp(-4j * np.pi * f * rr[:, None] / C0) / rr[:, None]
-            for g, rr in ((1.0, ra), (1.0, rb), (2 * ghost, rab)))
+    y = sum(
+        g * np.exp(-4j * np.pi * f * rr[:, None] / C0) / rr[:, None]
+        for g, rr in ((1.0, ra), (1.0, rb), (2 * ghost, rab))
+    )
     if snr_db is not None:
         peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
         s2 = peak / 10 ** (snr_db / 10) * nf
@@ -57,18 +68,24 @@ def _two_targets_and_ghost(seed, snr_db, ghost=0.3):
         y = y + np.sqrt(s2 / 2) * (g.standard_normal(y.shape) + 1j * g.standard_normal(y.shape))
     s, rng_axis = range_compress(y, f, fc, "hann")
     keep = rng_axis < 2.0
-    ghost_at = ghost_points(np.column_stack([x, 0 * x, 0 * x]), np.array([[*a, 0.0]]),
-                            np.array([[*b, 0.0]]))[:, :2]
+    ghost_at = ghost_points(
+        np.column_stack([x, 0 * x, 0 * x]), np.array([[*a, 0.0]]), np.array([[*b, 0.0]])
+    )[:, :2]
     return RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(fc, band / 2)), a, b, ghost_at
 
 
 @pytest.mark.parametrize("seed,snr", [(2, None), (3, None), (4, 30.0), (2, 20.0), (3, 20.0)])
 def test_double_bounce_is_dropped_by_default_and_flagged_on_request(dev32, seed, snr):
     data, a, b, ghost_at = _two_targets_and_ghost(seed, snr)
-    flagged = imaging.run_method("phase-rpm", data, imaging.default_params(data, multipath="flag"),
-                                 dev32).image
-    near_t = np.minimum(np.linalg.norm(flagged.points - a, axis=1),
-                        np.linalg.norm(flagged.points - b, axis=1)) < 0.05
+    flagged = imaging.run_method(
+        "phase-rpm", data, imaging.default_params(data, multipath="flag"), dev32
+    ).image
+    near_t = (
+        np.minimum(
+            np.linalg.norm(flagged.points - a, axis=1), np.linalg.norm(flagged.points - b, axis=1)
+        )
+        < 0.05
+    )
     near_g = np.min(np.linalg.norm(flagged.points[:, None] - ghost_at[None], axis=2), axis=1) < 0.1
     # the ghost is imaged (that is what the test is about) and every point of
     # it is flagged; no cluster of a target's (most of its points on it) is
@@ -83,8 +100,9 @@ def test_double_bounce_is_dropped_by_default_and_flagged_on_request(dev32, seed,
     dropped = imaging.run_method("phase-rpm", data, imaging.default_params(data), dev32).image
     assert dropped.multipath is None
     assert len(dropped.points) == np.count_nonzero(~flagged.multipath)
-    d = np.minimum(np.linalg.norm(dropped.points - a, axis=1),
-                   np.linalg.norm(dropped.points - b, axis=1))
+    d = np.minimum(
+        np.linalg.norm(dropped.points - a, axis=1), np.linalg.norm(dropped.points - b, axis=1)
+    )
     assert np.all(d < 0.05)
 
 
@@ -96,8 +114,9 @@ def test_real_targets_are_not_flagged(dev32):
 
     for seed in range(4):
         data, _ = _independent_scene(seed, 30.0)
-        img = imaging.run_method("phase-rpm", data,
-                                 imaging.default_params(data, multipath="flag"), dev32).image
+        img = imaging.run_method(
+            "phase-rpm", data, imaging.default_params(data, multipath="flag"), dev32
+        ).image
         assert not img.multipath.any()
 
 

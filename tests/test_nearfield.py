@@ -59,8 +59,9 @@ def test_aliased_pair_is_separated():
     matched = set()
     for c in range(3):
         sel = rps.cluster == c
-        within = [np.mean(np.abs(rps.range[sel] - true_r[t, rps.antenna[sel]]) <= 0.010)
-                  for t in range(3)]
+        within = [
+            np.mean(np.abs(rps.range[sel] - true_r[t, rps.antenna[sel]]) <= 0.010) for t in range(3)
+        ]
         matched.add(int(np.argmax(within)))
         assert max(within) >= 0.95
     assert matched == {0, 1, 2}
@@ -80,23 +81,27 @@ def test_switch_follows_the_pitch():
     dense, _ = simulate_preset("paper-2d")
     sparse, _ = simulate_preset("paper-2d-sparse")
     assert not nearfield.near_field_wanted(dense)  # 5 mm < lambda/2: plane-wave FFT
-    assert nearfield.near_field_wanted(sparse)     # 20 mm > lambda/2
+    assert nearfield.near_field_wanted(sparse)  # 20 mm > lambda/2
     # the plane-wave decomposition stays available on request
     assert len(decompose(sparse, KSpaceParams(near_field=False)).clusters) == 1
 
 
-@pytest.mark.parametrize("bandwidth, pitch, n, near", [
-    (0.2e9, 20e-3, 21, True),    # the paper's sparse case: 0.4 m aperture, 0.75 m resolution
-    (0.4e9, 20e-3, 21, True),    # 1.07 range resolutions
-    (0.5e9, 20e-3, 21, False),   # 1.33
-    (3e9, 7.5e-3, 32, False),    # a wideband array just over lambda/2: 4.7 resolutions
-])
+@pytest.mark.parametrize(
+    "bandwidth, pitch, n, near",
+    [
+        (0.2e9, 20e-3, 21, True),  # the paper's sparse case: 0.4 m aperture, 0.75 m resolution
+        (0.4e9, 20e-3, 21, True),  # 1.07 range resolutions
+        (0.5e9, 20e-3, 21, False),  # 1.33
+        (3e9, 7.5e-3, 32, False),  # a wideband array just over lambda/2: 4.7 resolutions
+    ],
+)
 def test_switch_follows_the_aperture_in_range_resolutions(bandwidth, pitch, n, near):
     """The near-field model's envelope follows a range walk of about one
     resolution; a longer aperture goes to the plane-wave path."""
     arr = Array((np.arange(n) - (n - 1) / 2) * pitch)
-    data = RadarData(np.ones((n, 8), complex), arr, 0.5 + np.arange(8) * 0.01,
-                     Waveform(20e9, bandwidth))
+    data = RadarData(
+        np.ones((n, 8), complex), arr, 0.5 + np.arange(8) * 0.01, Waveform(20e9, bandwidth)
+    )
     assert nearfield.near_field_wanted(data) is near
 
 
@@ -111,9 +116,15 @@ def test_wideband_half_wavelength_array_images_a_steep_target(dev32, deg):
     (benchmarks/path_choice.py)."""
     arr = Array((np.arange(32) - 15.5) * 7.5e-3)
     th = np.radians(deg)
-    data = simulate(Scene((PointTarget((0.8 * np.sin(th), 0.8 * np.cos(th))),)), arr,
-                    Waveform(20e9, 3e9), np.arange(0.5, 1.1, 2.5e-3), 20.0, 0,
-                    noise="receiver")
+    data = simulate(
+        Scene((PointTarget((0.8 * np.sin(th), 0.8 * np.cos(th))),)),
+        arr,
+        Waveform(20e9, 3e9),
+        np.arange(0.5, 1.1, 2.5e-3),
+        20.0,
+        0,
+        noise="receiver",
+    )
     res = run_method("kspace-rpm", data, default_params(data), dev32)
     s = summary(res.rps, res.image, data.truth)
     assert s["rp_total"] == 32 and s["rp_within_10mm"] == 32
@@ -138,8 +149,9 @@ def test_scans_equal_direct_fits(rng):
     un, rn = np.array([-0.4, -0.41]), np.array([0.42, 0.43])
     one = [model.cost(others + [[um[i], rm[i]]]) for i in range(3)]
     np.testing.assert_allclose(model.scan(others, um, rm), one, rtol=1e-9)
-    two = [[model.cost(others + [[um[i], rm[i]], [un[j], rn[j]]]) for j in range(2)]
-           for i in range(3)]
+    two = [
+        [model.cost(others + [[um[i], rm[i]], [un[j], rn[j]]]) for j in range(2)] for i in range(3)
+    ]
     np.testing.assert_allclose(model.scan_pair(others, um, rm, un, rn), two, rtol=1e-9)
 
 
@@ -153,12 +165,16 @@ def test_polish_jacobian_gives_the_exact_gradient(rng):
     v = np.array([0.1, 0.45, 0.3, -0.3, 0.42, -1.0])
     r = fit.fun(v)
     np.testing.assert_allclose(
-        r, nearfield._real_fit(x, 419.0, v.reshape(-1, 3), nearfield.SEARCH_TERMS, s)[2].ravel(),
-        atol=1e-9)
+        r,
+        nearfield._real_fit(x, 419.0, v.reshape(-1, 3), nearfield.SEARCH_TERMS, s)[2].ravel(),
+        atol=1e-9,
+    )
     h = np.tile([1e-7, 1e-7, 1e-6], 2)
     e = np.eye(v.size)
-    fd = [(np.sum(fit.fun(v + h[i] * e[i]) ** 2) - np.sum(fit.fun(v - h[i] * e[i]) ** 2))
-          / (4 * h[i]) for i in range(v.size)]
+    fd = [
+        (np.sum(fit.fun(v + h[i] * e[i]) ** 2) - np.sum(fit.fun(v - h[i] * e[i]) ** 2)) / (4 * h[i])
+        for i in range(v.size)
+    ]
     np.testing.assert_allclose(fit.jac(v).T @ r, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)))
 
 

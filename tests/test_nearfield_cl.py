@@ -43,12 +43,16 @@ def test_kernel_matches_reference(nfdev, seed):
     float64 over some 100 operations on values of the order of the data's
     energy: 1e-11 of that energy bounds the difference with a wide margin."""
     rng = np.random.default_rng(seed)
-    nx, ni, nj, g = int(rng.integers(4, 33)), int(rng.integers(1, 130)), int(rng.integers(1, 130)), \
-        int(rng.integers(1, 22))
+    nx, ni, nj, g = (
+        int(rng.integers(4, 33)),
+        int(rng.integers(1, 130)),
+        int(rng.integers(1, 130)),
+        int(rng.integers(1, 22)),
+    )
     qm, qn = _bases(rng, nx, ni), _bases(rng, nx, nj)
     k = min(ni, nj) // 3
-    qn[:, :k] = qm[:, :k]                                          # the same atoms: masked
-    qn[:, k:2 * k] = nearfield._orthonormal(qm[:, k:2 * k] + 1e-7 * qn[:, k:2 * k])
+    qn[:, :k] = qm[:, :k]  # the same atoms: masked
+    qn[:, k : 2 * k] = nearfield._orthonormal(qm[:, k : 2 * k] + 1e-7 * qn[:, k : 2 * k])
     sp = rng.standard_normal((nx, g)) + 1j * rng.standard_normal((nx, g))
     args = _products(qm, qn, sp)
     ref = nearfield._pair_algebra(*args)
@@ -60,10 +64,10 @@ def test_kernel_matches_reference(nfdev, seed):
     # the same size, the search never chooses them (it minimises the
     # residual), so only their finiteness is compared
     near = np.zeros_like(exact)
-    near[k:2 * k, k:2 * k] = True
+    near[k : 2 * k, k : 2 * k] = True
     assert np.all(exact | near)
     assert np.all(np.isfinite(got))
-    assert np.array_equal(np.diag(got[:k, :k]), np.diag(ref[:k, :k]))   # masked: |g_m|^2
+    assert np.array_equal(np.diag(got[:k, :k]), np.diag(ref[:k, :k]))  # masked: |g_m|^2
     assert np.array_equal(np.diag(ref[:k, :k]), args[4][:k])
 
 

@@ -45,8 +45,8 @@ def test_reseat_stops_at_the_floor(sparse, monkeypatch):
 
     monkeypatch.setattr(nearfield._Search, "best_with", rec)
     dec = decompose(sparse, KSpaceParams())
-    assert (2, True) not in calls          # no re-seat with three centres
-    assert (1, True) in calls              # the two-centre re-seat still runs
+    assert (2, True) not in calls  # no re-seat with three centres
+    assert (1, True) in calls  # the two-centre re-seat still runs
     k0 = sparse.waveform.kc
     found = sorted((c.k[0] / (2 * k0), c.r_centre) for c in dec.clusters)
     pos = [np.asarray(t.position) for t in get_preset("paper-2d-sparse").scene.targets]
@@ -65,8 +65,9 @@ def test_focusing_table_kept_per_geometry(monkeypatch):
     nearfield._TABLES.clear()
     built = []
     real = nearfield._Search._phases
-    monkeypatch.setattr(nearfield._Search, "_phases",
-                        lambda self, r: built.append(np.size(r)) or real(self, r))
+    monkeypatch.setattr(
+        nearfield._Search, "_phases", lambda self, r: built.append(np.size(r)) or real(self, r)
+    )
     first = nearfield._Search(data, 10 ** (-20 / 20), 4)
     assert built and len(nearfield._TABLES) == 1
     built.clear()

@@ -50,7 +50,7 @@ def test_three_range_samples_give_no_cluster(sparse, monkeypatch):
     to 6 centres before)."""
     seen = _record(monkeypatch)
     g = int(np.argmax(np.abs(sparse.signal).max(axis=0)))
-    short = _like(sparse, sparse.signal[:, g - 1:g + 2], sparse.range[g - 1:g + 2])
+    short = _like(sparse, sparse.signal[:, g - 1 : g + 2], sparse.range[g - 1 : g + 2])
     dec = decompose(short, KSpaceParams())
     assert dec.clusters == ()
     assert "search" not in seen

@@ -31,7 +31,9 @@ def test_peaks_equal_the_maximum_filter(seed):
     size = [2 * int(rng.integers(0, 6)) + 1, 2 * int(rng.integers(0, 20)) + 1]
     for floor in (0.0, float(np.quantile(fmap, 0.7))):
         for count in (1, 3, 50):
-            assert nearfield._peaks(fmap, size, floor, count) == _reference(fmap, size, floor, count)
+            assert nearfield._peaks(fmap, size, floor, count) == _reference(
+                fmap, size, floor, count
+            )
 
 
 def test_peaks_of_known_bumps():

@@ -38,8 +38,10 @@ def _time_domain(**override):
     rng = np.arange(400) * 2.5e-3
     r = [np.hypot(X - tx, ty) for tx, ty in TARGETS]
     res = C0 / (2 * 0.2e9)
-    sig = sum(np.sinc((rng[None, :] - ri[:, None]) / res)
-              * np.exp(-4j * np.pi * 20e9 * ri[:, None] / C0) for ri in r)
+    sig = sum(
+        np.sinc((rng[None, :] - ri[:, None]) / res) * np.exp(-4j * np.pi * 20e9 * ri[:, None] / C0)
+        for ri in r
+    )
     out = {"signal": sig, "x": X, "range": rng, "fc": 20e9, "bandwidth": 0.2e9}
     out.update(override)
     return out
@@ -65,11 +67,15 @@ def _one_line_error(argv, capsys) -> str:
 
 
 # --- an implausible carrier ---------------------------------------------------
-@pytest.mark.parametrize("arrays", [
-    _time_domain(fc=1e30),
-    _freq_domain(fc=1e30),
-    _freq_domain(frequency=FREQ * 1e20),
-], ids=["time-fc", "freq-fc", "freq-axis"])
+@pytest.mark.parametrize(
+    "arrays",
+    [
+        _time_domain(fc=1e30),
+        _freq_domain(fc=1e30),
+        _freq_domain(frequency=FREQ * 1e20),
+    ],
+    ids=["time-fc", "freq-fc", "freq-axis"],
+)
 def test_carrier_above_10_thz_is_refused(tmp_path, capsys, arrays):
     """fc = 1e30 Hz once sized the near-field search at 1e22 directions
     ("Maximum allowed size exceeded", a traceback)."""
@@ -82,35 +88,49 @@ def test_carrier_above_10_thz_is_refused(tmp_path, capsys, arrays):
 def test_waveform_bounds_fc():
     with pytest.raises(InputError, match="fc = 2e\\+13 Hz is above"):
         Waveform(2e13, 1e9)
-    assert Waveform(1e12, 1e9).fc == 1e12   # a terahertz imager's carrier is fine
+    assert Waveform(1e12, 1e9).fc == 1e12  # a terahertz imager's carrier is fine
 
 
 # --- a config file nested too deep -------------------------------------------
-@pytest.mark.parametrize("text", [
-    "a = " + "[" * 100_000 + "]" * 100_000 + "\n",
-    "a = " + "{b = " * 5_000 + "1" + "}" * 5_000 + "\n",
-], ids=["arrays", "tables"])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "a = " + "[" * 100_000 + "]" * 100_000 + "\n",
+        "a = " + "{b = " * 5_000 + "1" + "}" * 5_000 + "\n",
+    ],
+    ids=["arrays", "tables"],
+)
 def test_deeply_nested_config(tmp_path, capsys, text):
     cfg = tmp_path / "deep.toml"
     cfg.write_text(text)
-    err = _one_line_error(["image", str(tmp_path / "in.npz"), "-o", str(tmp_path / "o.npz"),
-                           "--config", str(cfg)], capsys)
+    err = _one_line_error(
+        ["image", str(tmp_path / "in.npz"), "-o", str(tmp_path / "o.npz"), "--config", str(cfg)],
+        capsys,
+    )
     assert "nested too deep" in err and "deep.toml" in err
 
 
 # --- a DAS image whose axes overflow -----------------------------------------
 def _das_image(path, **override):
-    arrays = {"image": np.ones((5, 7), np.complex64), "x": np.linspace(-0.1, 0.1, 5),
-              "y": np.linspace(0.1, 0.4, 7), "meta": np.array('{"method": "das"}')}
+    arrays = {
+        "image": np.ones((5, 7), np.complex64),
+        "x": np.linspace(-0.1, 0.1, 5),
+        "y": np.linspace(0.1, 0.4, 7),
+        "meta": np.array('{"method": "das"}'),
+    }
     arrays.update(override)
     np.savez(path, **arrays)
     return str(path)
 
 
-@pytest.mark.parametrize("axes", [
-    {"y": np.linspace(0.1, 0.4, 7) * 1e308},   # finite, but x 1e3 (mm) overflows
-    {"x": np.array([-1e308, -5e307, 0.0, 5e307, 1e308])},   # finite; its steps overflow
-], ids=["huge-y", "huge-x"])
+@pytest.mark.parametrize(
+    "axes",
+    [
+        {"y": np.linspace(0.1, 0.4, 7) * 1e308},  # finite, but x 1e3 (mm) overflows
+        {"x": np.array([-1e308, -5e307, 0.0, 5e307, 1e308])},  # finite; its steps overflow
+    ],
+    ids=["huge-y", "huge-x"],
+)
 def test_view_refuses_overflowing_axes(tmp_path, capsys, axes):
     src = _das_image(tmp_path / "img.npz", **axes)
     err = _one_line_error(["view", src, "--png", str(tmp_path / "p.png")], capsys)
@@ -121,8 +141,9 @@ def test_view_refuses_overflowing_axes(tmp_path, capsys, axes):
 def test_das_grid_within_view_bounds(tmp_path, capsys):
     """`rpm-cl das` writes no grid that `rpm-cl view` would refuse."""
     src = _save(tmp_path / "in.npz", _time_domain())
-    err = _one_line_error(["das", src, "-o", str(tmp_path / "img.npz"),
-                           "--grid=0:1e300:1e297,0.1:0.4:0.01"], capsys)
+    err = _one_line_error(
+        ["das", src, "-o", str(tmp_path / "img.npz"), "--grid=0:1e300:1e297,0.1:0.4:0.01"], capsys
+    )
     assert "within +-1e+06 m" in err
 
 
@@ -137,7 +158,7 @@ def _with_header_shape(path, arrays, key, shape):
             raw = buf.getvalue()
             if k == key:
                 end = raw.index(b"\n") + 1
-                head = raw[:end - 1].replace(repr(np.shape(v)).encode(), repr(shape).encode())
+                head = raw[: end - 1].replace(repr(np.shape(v)).encode(), repr(shape).encode())
                 head = head.rstrip(b" ")
                 assert len(head) < end - 1
                 raw = head + b" " * (end - 1 - len(head)) + b"\n" + raw[end:]
@@ -149,8 +170,9 @@ def test_corrupt_header_is_not_out_of_memory(tmp_path, capsys):
     """A header declaring 2e15 bytes (more than a 47-bit address space, so
     the allocation fails whatever the overcommit policy) in a member of
     200 kB is a corrupt file, not a problem too large for the machine."""
-    src = _with_header_shape(tmp_path / "bad.npz", _time_domain(), "signal",
-                             (21, 12_000_000_000_000))
+    src = _with_header_shape(
+        tmp_path / "bad.npz", _time_domain(), "signal", (21, 12_000_000_000_000)
+    )
     err = _one_line_error(["image", src, "-o", str(tmp_path / "o.npz")], capsys)
     assert "out of memory" not in err
     assert "signal" in err and "header is corrupt" in err, err
@@ -163,8 +185,10 @@ def test_memory_error_names_a_corrupt_member(tmp_path):
     import argparse
 
     from rpm_cl.cli import commands as cli
-    bad = _with_header_shape(tmp_path / "bad.npz", _time_domain(), "signal",
-                             (21, 12_000_000_000_000))
+
+    bad = _with_header_shape(
+        tmp_path / "bad.npz", _time_domain(), "signal", (21, 12_000_000_000_000)
+    )
     line = cli._declared_too_large(argparse.Namespace(input=bad))
     assert line is not None and "signal" in line and "header is corrupt" in line
     good = tmp_path / "good.npz"
@@ -173,8 +197,10 @@ def test_memory_error_names_a_corrupt_member(tmp_path):
 
 
 # --- Ctrl-C during start-up -----------------------------------------------------
-_CHILD = ("import sys; sys.stderr.write('up\\n'); sys.stderr.flush(); "
-          "from rpm_cl.cli import main; sys.exit(main())")
+_CHILD = (
+    "import sys; sys.stderr.write('up\\n'); sys.stderr.flush(); "
+    "from rpm_cl.cli import main; sys.exit(main())"
+)
 
 
 def _env():
@@ -187,10 +213,18 @@ def _env():
 def _heavy_modules_after(code: str, names) -> list:
     """Which of the modules ``names`` (and their submodules) a fresh
     interpreter holds after running ``code``."""
-    probe = (f"{code}; import json, sys; print(json.dumps(sorted(m for m in sys.modules "
-             f"if m.split('.')[0] in {tuple(names)!r})))")
-    out = subprocess.run([sys.executable, "-c", probe], check=False, capture_output=True,
-                         text=True, env=_env(), timeout=60)
+    probe = (
+        f"{code}; import json, sys; print(json.dumps(sorted(m for m in sys.modules "
+        f"if m.split('.')[0] in {tuple(names)!r})))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe],
+        check=False,
+        capture_output=True,
+        text=True,
+        env=_env(),
+        timeout=60,
+    )
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout)
 
@@ -217,8 +251,13 @@ def test_ctrl_c_during_start_up(tmp_path, delay):
     one line, or a finished run; never a traceback nor a partial file.  The
     imports behind `rpm-cl` took 0.8 s before main() ran."""
     out = tmp_path / "hb.npz"
-    p = subprocess.Popen([sys.executable, "-c", _CHILD, "simulate", "human-body", "-o", str(out)],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env(), cwd=tmp_path)
+    p = subprocess.Popen(
+        [sys.executable, "-c", _CHILD, "simulate", "human-body", "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=_env(),
+        cwd=tmp_path,
+    )
     assert p.stderr.readline() == b"up\n"
     time.sleep(delay)
     p.send_signal(signal.SIGINT)
@@ -250,7 +289,9 @@ def _scaled(domain, unit):
 @pytest.mark.parametrize("unit", ["MHz", "GHz"])
 def test_frequencies_in_mhz_or_ghz_numbers_refused(tmp_path, domain, unit):
     src = _save(tmp_path / "in.npz", _scaled(domain, unit))
-    with pytest.raises(InputError, match=f"looks like {unit} numbers \\(x 1e{unit[0] == 'G' and 9 or 6}\\); give"):
+    with pytest.raises(
+        InputError, match=f"looks like {unit} numbers \\(x 1e{unit[0] == 'G' and 9 or 6}\\); give"
+    ):
         load_data(src)
 
 
@@ -273,8 +314,11 @@ def test_x_in_mm_warned(tmp_path, domain):
 
 def _bandwidth_only(domain, k):
     """fc in Hz, bandwidth divided by ``k``."""
-    return (_time_domain(bandwidth=0.2e9 / k) if domain == "time"
-            else _freq_domain(fc=20e9, bandwidth=0.1e9 / k))
+    return (
+        _time_domain(bandwidth=0.2e9 / k)
+        if domain == "time"
+        else _freq_domain(fc=20e9, bandwidth=0.1e9 / k)
+    )
 
 
 @pytest.mark.parametrize("domain", ["time", "freq"])
@@ -283,8 +327,10 @@ def test_bandwidth_alone_in_mhz_or_ghz_numbers_refused(tmp_path, capsys, domain,
     """Refused naming the unit in both domains (the time domain's MHz case
     ran out of memory)."""
     src = _save(tmp_path / "in.npz", _bandwidth_only(domain, k))
-    with pytest.raises(InputError, match=f"bandwidth = .* looks like {unit} numbers .*; give fc "
-                                         f"and bandwidth in Hz"):
+    with pytest.raises(
+        InputError,
+        match=f"bandwidth = .* looks like {unit} numbers .*; give fc and bandwidth in Hz",
+    ):
         load_data(src)
     err = _one_line_error(["image", src, "-o", str(tmp_path / "o.npz")], capsys)
     assert f"{unit} numbers" in err
@@ -293,13 +339,18 @@ def test_bandwidth_alone_in_mhz_or_ghz_numbers_refused(tmp_path, capsys, domain,
 @pytest.mark.parametrize("domain", ["time", "freq"])
 def test_bandwidth_alone_in_khz_numbers_warned(tmp_path, domain):
     src = _save(tmp_path / "in.npz", _bandwidth_only(domain, 1e3))
-    with pytest.warns(DataWarning, match="bandwidth = .* looks like kHz numbers \\(x 1e3\\); "
-                                         "give fc and bandwidth in Hz"):
+    with pytest.warns(
+        DataWarning,
+        match="bandwidth = .* looks like kHz numbers \\(x 1e3\\); give fc and bandwidth in Hz",
+    ):
         load_data(src)
 
 
-@pytest.mark.parametrize("fc,freq", [(20e9, FREQ / 1e3), (20e9 / 1e3, FREQ), (20.0, FREQ)],
-                         ids=["band-khz", "fc-khz", "fc-ghz"])
+@pytest.mark.parametrize(
+    "fc,freq",
+    [(20e9, FREQ / 1e3), (20e9 / 1e3, FREQ), (20.0, FREQ)],
+    ids=["band-khz", "fc-khz", "fc-ghz"],
+)
 def test_fc_and_band_in_different_units(tmp_path, fc, freq):
     src = _save(tmp_path / "in.npz", _freq_domain(frequency=freq, fc=fc))
     unit = "GHz" if fc == 20.0 else "kHz"

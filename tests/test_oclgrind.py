@@ -24,7 +24,7 @@ def _has_oclgrind() -> bool:
         return False
     try:
         return any(p.name == "Oclgrind" for p in cl.get_platforms())
-    except cl.Error:   # no platform at all
+    except cl.Error:  # no platform at all
         return False
 
 
@@ -32,10 +32,19 @@ def _has_oclgrind() -> bool:
 def test_kernels_clean_under_oclgrind():
     env = dict(os.environ, OCLGRIND_DATA_RACES="1", PYOPENCL_NO_CACHE="1")
     script = Path(__file__).with_name("oclgrind_kernels.py")
-    res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
-                         env=env, timeout=600, check=False)
+    res = subprocess.run(
+        [sys.executable, str(script)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=600,
+        check=False,
+    )
     assert res.returncode == 0, res.stderr[-3000:]
     assert res.stdout.strip().endswith("OK")
-    bad = [ln for ln in res.stderr.splitlines()
-           if any(w in ln for w in ("Invalid", "race", "OCLGRIND", "out-of-bounds", "error"))]
+    bad = [
+        ln
+        for ln in res.stderr.splitlines()
+        if any(w in ln for w in ("Invalid", "race", "OCLGRIND", "out-of-bounds", "error"))
+    ]
     assert not bad, "\n".join(bad[:20])

@@ -15,14 +15,17 @@ def _one_error(capsys, argv):
     return err[0]
 
 
-@pytest.mark.parametrize("argv", [
-    ["image", "{f}", "-o", "{f}"],
-    ["das", "{f}", "-o", "{f}", "--grid", "-0.1:0.1:0.01,0.3:0.5:0.01"],
-    ["rma", "{f}", "-o", "{f}"],
-    ["params", "{f}", "-o", "{f}"],
-    ["image", "{f}", "-o", "{link}"],
-    ["image", "{f}", "-o", "{f}", "--config", "{f}"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["image", "{f}", "-o", "{f}"],
+        ["das", "{f}", "-o", "{f}", "--grid", "-0.1:0.1:0.01,0.3:0.5:0.01"],
+        ["rma", "{f}", "-o", "{f}"],
+        ["params", "{f}", "-o", "{f}"],
+        ["image", "{f}", "-o", "{link}"],
+        ["image", "{f}", "-o", "{f}", "--config", "{f}"],
+    ],
+)
 def test_output_is_never_an_input(tmp_path, capsys, p2, argv):
     f = tmp_path / "in.npz"
     f.write_bytes(p2.read_bytes())

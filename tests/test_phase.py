@@ -25,8 +25,7 @@ def _data(x, z=None, bandwidth=0.2e9):
     """A RadarData carrying only the geometry and waveform the refinement reads."""
     arr = Array(np.asarray(x), None if z is None else np.asarray(z))
     rng = np.arange(0.0, 1.5, 2.5e-3)
-    return RadarData(np.zeros(arr.shape + (rng.size,), complex), arr, rng,
-                     Waveform(FC, bandwidth))
+    return RadarData(np.zeros(arr.shape + (rng.size,), complex), arr, rng, Waveform(FC, bandwidth))
 
 
 def _rps(data, antenna, r_true, r_env, amp, cluster, phase0=0.0):
@@ -58,7 +57,7 @@ def test_linear_point_walk_is_exact_and_constant_from_envelope(phase0):
     data = _data(x)
     target = (0.12, 0.40)
     r_true = _point_ranges(x, target)
-    err = rng.normal(0.0, 0.03, x.size)          # narrow-band envelope errors, m
+    err = rng.normal(0.0, 0.03, x.size)  # narrow-band envelope errors, m
     amp = 1.0 + 0.2 * rng.random(x.size)
     ant = np.arange(x.size)
     rps = _rps(data, ant, r_true, r_true + err, amp, np.zeros(x.size, int), phase0)
@@ -80,7 +79,7 @@ def test_steep_walk_needs_the_cluster_wavenumber():
     cluster's plane wave taken out the steps are small."""
     x = (np.arange(21) - 10) * 5e-3
     data = _data(x)
-    target = (-0.45, 0.30)          # dR/dX about 0.83 across the array
+    target = (-0.45, 0.30)  # dR/dX about 0.83 across the array
     r_true = _point_ranges(x, target)
     slope = np.gradient(r_true, x)
     assert np.all(2 * KC * slope * 5e-3 > np.pi)
@@ -102,10 +101,16 @@ def test_planar_unwrap_over_the_grid():
     gx, gz = np.meshgrid(x, z, indexing="ij")
     r_true = _point_ranges(gx.ravel(), target, gz.ravel())
     ant = np.arange(r_true.size)
-    keep = rng.random(ant.size) > 0.15        # missing antennas: the tree goes around them
+    keep = rng.random(ant.size) > 0.15  # missing antennas: the tree goes around them
     err = rng.normal(0.0, 2e-3, ant.size)
-    rps = _rps(data, ant[keep], r_true[keep], (r_true + err)[keep], np.ones(keep.sum()),
-               np.zeros(keep.sum(), int))
+    rps = _rps(
+        data,
+        ant[keep],
+        r_true[keep],
+        (r_true + err)[keep],
+        np.ones(keep.sum()),
+        np.zeros(keep.sum(), int),
+    )
     sx = np.mean(np.gradient(r_true.reshape(gx.shape), x, axis=0))
     sz = np.mean(np.gradient(r_true.reshape(gx.shape), z, axis=1))
     out, refined = phase_ranges(data, rps, np.array([[_k(sx), _k(sz)]]))
@@ -121,7 +126,7 @@ def test_aliased_wavenumber_takes_the_alias_the_envelope_supports():
     against -6 mm) picks the right one."""
     x = (np.arange(21) - 10) * 10e-3
     data = _data(x, bandwidth=1e9)
-    r_true = 0.5 + 0.9 * x                      # a plane wave: a flat plate's echo
+    r_true = 0.5 + 0.9 * x  # a plane wave: a flat plate's echo
     ant = np.arange(x.size)
     rps = _rps(data, ant, r_true, r_true, np.ones(x.size), np.zeros(x.size, int))
     period = 2 * np.pi / 10e-3
@@ -133,13 +138,18 @@ def test_aliased_wavenumber_takes_the_alias_the_envelope_supports():
 
 def test_two_echoes_in_one_cluster_are_two_tracks():
     x = (np.arange(15) - 7) * 5e-3
-    data = _data(x, bandwidth=1e9)            # resolution 0.15 m
+    data = _data(x, bandwidth=1e9)  # resolution 0.15 m
     r1 = _point_ranges(x, (0.0, 0.4))
     r2 = _point_ranges(x, (0.0, 0.9))
     ant = np.concatenate([np.arange(x.size)] * 2)
     r_true = np.concatenate([r1, r2])
-    label = tracks(np.stack([ant, 0 * ant], 1), r_true, np.zeros(2), (5e-3, 1.0),
-                   0.5 * data.waveform.range_resolution)
+    label = tracks(
+        np.stack([ant, 0 * ant], 1),
+        r_true,
+        np.zeros(2),
+        (5e-3, 1.0),
+        0.5 * data.waveform.range_resolution,
+    )
     assert len(set(label[:15])) == 1 and len(set(label[15:])) == 1
     assert label[0] != label[15]
     err = np.where(np.arange(30) < 15, 0.01, -0.02)
@@ -172,6 +182,7 @@ def test_phase_params_validation():
 
 # --- end to end, on data rpm_cl.simulate did not make ---------------------------
 
+
 def _independent_scene(seed, snr_db):
     """Point targets at 0.35-0.5 m seen by 21-31 antennas at 4-5 mm, a 0.2-0.25
     GHz stepped-frequency sweep at 20-24 GHz, noise added to the frequency
@@ -191,18 +202,17 @@ def _independent_scene(seed, snr_db):
     nf = 64
     f = fc - band / 2 + np.arange(nf) * band / (nf - 1)
     rng_t = np.hypot(x[:, None] - tg[None, :, 0], tg[None, :, 1])
-    y = np.sum(np.exp(-4j * np.pi * f[None, None, :] * rng_t[:, :, None] / C0)
-               / rng_t[:, :, None], axis=1)
+    y = np.sum(
+        np.exp(-4j * np.pi * f[None, None, :] * rng_t[:, :, None] / C0) / rng_t[:, :, None], axis=1
+    )
     if snr_db is not None:
         peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
         sigma2 = peak / 10 ** (snr_db / 10) * nf
         g = np.random.default_rng(1000 + seed)
-        y = y + np.sqrt(sigma2 / 2) * (g.standard_normal(y.shape)
-                                       + 1j * g.standard_normal(y.shape))
+        y = y + np.sqrt(sigma2 / 2) * (g.standard_normal(y.shape) + 1j * g.standard_normal(y.shape))
     s, rng_axis = range_compress(y, f, 0.5 * (f[0] + f[-1]), "hann")
     keep = rng_axis < 2.0
-    data = RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(0.5 * (f[0] + f[-1]),
-                                                                     band / 2))
+    data = RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(0.5 * (f[0] + f[-1]), band / 2))
     return data, tg
 
 
@@ -231,8 +241,9 @@ def test_phase_rpm_on_the_paper_scene(dev32):
 
     for seed in range(3):
         data, preset = simulate_preset("paper-2d", 20.0, seed=seed, noise="receiver")
-        res = imaging.run_method("phase-rpm", data, imaging.default_params(data, **preset.defaults),
-                                 dev32)
+        res = imaging.run_method(
+            "phase-rpm", data, imaging.default_params(data, **preset.defaults), dev32
+        )
         s = summary(res.rps, res.image, data.truth)
         assert s["rp_within_10mm"] == s["rp_total"] == 63
         assert s["rpm_within_50mm"] == s["rpm_total"]
@@ -263,7 +274,7 @@ def test_coherent_level_removes_the_envelope_bias_of_a_shared_range_cell():
                 true = np.hypot(out.x[s][:, None] - tg[None, :, 0], tg[None, :, 1])
                 d = true - out.range[s][:, None]
                 t = int(np.argmin(np.std(d, axis=0)))
-                if np.std(d[:, t]) < 1e-3:          # a clean track of target t
+                if np.std(d[:, t]) < 1e-3:  # a clean track of target t
                     errs[coherent].append(np.mean(d[:, t]))
     rms = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in errs.items()}
     assert len(errs[True]) >= 10

@@ -108,8 +108,9 @@ def test_metrics_by_hand():
 
 def test_single_target_one_cluster_near_truth(dev32):
     arr = Array((np.arange(31) - 15) * 5e-3)
-    data = simulate(Scene((PointTarget([0.05, 0.6]),)), arr, Waveform(20e9, 0.2e9),
-                    np.arange(0, 1.5, 2.5e-3))
+    data = simulate(
+        Scene((PointTarget([0.05, 0.6]),)), arr, Waveform(20e9, 0.2e9), np.arange(0, 1.5, 2.5e-3)
+    )
     p = default_params(data)
     res = run_method("kspace-rpm", data, p, dev32)
     assert len(set(res.rps.cluster.tolist())) == 1
@@ -147,8 +148,9 @@ def test_chunked_rpm_equals_whole_and_scale_invariant(dev32):
     for k in (1e300, 1e-300):
         scaled = RadarData(data.signal * k, data.array, data.range, data.waveform, data.truth)
         res = run_method("kspace-rpm", scaled, p, dev32)
-        np.testing.assert_allclose(res.image.points, run_method("kspace-rpm", data, p, dev32).image.points,
-                                   atol=1e-4)
+        np.testing.assert_allclose(
+            res.image.points, run_method("kspace-rpm", data, p, dev32).image.points, atol=1e-4
+        )
     with pytest.raises(InputError, match="pairs with .* more than max_cluster_rps=5"):
         rpm_image(rps, replace(p.rpm, max_cluster_rps=5), dev32)
 
@@ -162,8 +164,9 @@ def test_intersect_chunk_offset_matches_reference(dev32, rng):
     whole = ref.intersect_circles(x, r, amp, st_, ct, 30, 0.1)
     part = ref.intersect_circles(x, r, amp, st_, ct, 30, 0.1, 25, 10)
     np.testing.assert_array_equal(part[2], whole[2][25:35])
-    np.testing.assert_array_equal(dev32.intersect_circles(x, r, amp, st_, ct, 30, 0.1, 25, 10)[2],
-                                  part[2])
+    np.testing.assert_array_equal(
+        dev32.intersect_circles(x, r, amp, st_, ct, 30, 0.1, 25, 10)[2], part[2]
+    )
 
 
 def test_noise_free_paper_2d_meets_the_paper(dev32):

@@ -53,8 +53,9 @@ def test_planar_kspace_separates_two_points_in_one_range_cell():
     a = PointTarget((0.15, 0.80, 0.05))
     b = PointTarget((-0.12, 0.78, -0.10))
     arr = Array((np.arange(11) - 5) * 7.5e-3, (np.arange(17) - 8) * 7.5e-3)
-    data = simulate(Scene((a, b)), arr, Waveform(20e9, 3e9), np.arange(0.5, 1.1, 2.5e-3),
-                    boundary_spacing=1e-3)
+    data = simulate(
+        Scene((a, b)), arr, Waveform(20e9, 3e9), np.arange(0.5, 1.1, 2.5e-3), boundary_spacing=1e-3
+    )
     params = default_params(data, window_x=100.0, window_z=100.0)
     dec = decompose(data, params.kspace)
     assert len(dec.clusters) == 2
@@ -149,8 +150,13 @@ def test_near_field_focusing_keeps_a_large_aperture_whole():
     from dataclasses import replace
 
     arr = Array((np.arange(32) - 15.5) * 7.5e-3, (np.arange(32) - 15.5) * 7.5e-3)
-    data = simulate(Scene((PointTarget((0.05, 0.6, -0.03)),)), arr, Waveform(20e9, 3e9),
-                    np.arange(0.4, 0.9, 2.5e-3), boundary_spacing=1e-3)
+    data = simulate(
+        Scene((PointTarget((0.05, 0.6, -0.03)),)),
+        arr,
+        Waveform(20e9, 3e9),
+        np.arange(0.4, 0.9, 2.5e-3),
+        boundary_spacing=1e-3,
+    )
     params = default_params(data, pad=2)
     got = {}
     for focus in (None, False):
@@ -176,8 +182,10 @@ def test_alias_ranking_survives_point_focusing_of_elongated_surfaces():
     from rpm_cl.simulate.scene import HUMAN_BODY_ARRAY_Z
 
     n = 64
-    arr = Array((np.arange(n) - (n - 1) / 2) * 7.5e-3,
-                HUMAN_BODY_ARRAY_Z + (np.arange(n) - (n - 1) / 2) * 7.5e-3)
+    arr = Array(
+        (np.arange(n) - (n - 1) / 2) * 7.5e-3,
+        HUMAN_BODY_ARRAY_Z + (np.arange(n) - (n - 1) / 2) * 7.5e-3,
+    )
     thighs = Scene(tuple(Ellipsoid((sx * 0.10, 1.11, 0.63), (0.075, 0.08, 0.21)) for sx in (1, -1)))
     data = simulate(thighs, arr, Waveform(20e9, 3e9), np.arange(0.9, 1.4, 2.5e-3))
     params = default_params(data, pad=2)

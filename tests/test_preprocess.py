@@ -39,8 +39,8 @@ def test_background_removal_takes_what_every_antenna_sees(scene):
     gate = np.argmin(np.abs(AXIS - 0.03))
     assert np.abs(out.signal[:, gate]).max() < 1e-3 * np.abs(leaky.signal[:, gate]).max()
     tgt = np.argmin(np.abs(AXIS - 0.45))
-    kept = np.abs(out.signal[:, tgt - 40:tgt + 40]) ** 2
-    assert kept.sum() > 0.5 * (np.abs(clean.signal[:, tgt - 40:tgt + 40]) ** 2).sum()
+    kept = np.abs(out.signal[:, tgt - 40 : tgt + 40]) ** 2
+    assert kept.sum() > 0.5 * (np.abs(clean.signal[:, tgt - 40 : tgt + 40]) ** 2).sum()
     med = preprocess(leaky, background="median")
     assert np.abs(med.signal[:, gate]).max() < 1e-3 * np.abs(leaky.signal[:, gate]).max()
 
@@ -66,22 +66,25 @@ def test_time_zero_gain_and_region(scene):
     r0 = clean.range[np.argmax(np.abs(clean.signal[15]))]
     r1 = out.range[np.argmax(np.abs(out.signal[15]))]
     assert r1 == pytest.approx(r0 - 0.1, abs=clean.dr)
-    g = preprocess(clean, gain_db_per_m=20.0)   # x 10 per metre, 1 at the last gate
-    np.testing.assert_allclose(np.abs(g.signal),
-                               np.abs(clean.signal) * 10 ** (clean.range - clean.range[-1]),
-                               rtol=1e-6)
+    g = preprocess(clean, gain_db_per_m=20.0)  # x 10 per metre, 1 at the last gate
+    np.testing.assert_allclose(
+        np.abs(g.signal), np.abs(clean.signal) * 10 ** (clean.range - clean.range[-1]), rtol=1e-6
+    )
     # a gain no float holds as an absolute factor (1000 dB/m over 1.2 m)
     big = preprocess(clean, gain_db_per_m=1000.0)
     assert np.all(np.isfinite(big.signal)) and np.abs(big.signal).max() > 0
 
 
-@pytest.mark.parametrize("kw, words", [
-    ({"background": "mode"}, "background must be"),
-    ({"time_zero": -0.1}, "time_zero must be"),
-    ({"gain_db_per_m": np.inf}, "gain_db_per_m"),
-    ({"max_range": 0.0}, "max_range must be"),
-    ({"max_range": np.nan}, "max_range must be"),
-])
+@pytest.mark.parametrize(
+    "kw, words",
+    [
+        ({"background": "mode"}, "background must be"),
+        ({"time_zero": -0.1}, "time_zero must be"),
+        ({"gain_db_per_m": np.inf}, "gain_db_per_m"),
+        ({"max_range": 0.0}, "max_range must be"),
+        ({"max_range": np.nan}, "max_range must be"),
+    ],
+)
 def test_settings_refused(kw, words):
     with pytest.raises(InputError, match=words):
         ImagingParams(**kw)

@@ -21,10 +21,12 @@ class FakeTTY(io.StringIO):
 def tty(monkeypatch):
     """Call it inside the test: pytest's own capture sets sys.stderr again
     after the fixtures are set up."""
+
     def install():
         err = FakeTTY()
         monkeypatch.setattr(sys, "stderr", err)
         return err
+
     return install
 
 
@@ -93,8 +95,12 @@ def test_das_numpy_reports_every_voxel(capsys):
 
     data, _ = simulate_preset("paper-2d")
     seen = []
-    das_numpy(data, parse_grid("-0.05:0.05:0.01,0.4:0.5:0.01"), memory_budget=160 * 21 * 10,
-              progress=lambda d, t: seen.append((d, t)))
+    das_numpy(
+        data,
+        parse_grid("-0.05:0.05:0.01,0.4:0.5:0.01"),
+        memory_budget=160 * 21 * 10,
+        progress=lambda d, t: seen.append((d, t)),
+    )
     assert seen[-1] == (121, 121) and len(seen) == 13  # 10 voxels a chunk
     assert [d for d, _ in seen] == sorted(d for d, _ in seen)
 
@@ -108,8 +114,18 @@ def sim_file(tmp_path_factory):
 
 def test_cli_das_bar_on_terminal_not_with_quiet(sim_file, tmp_path, tty, capsys):
     tty = tty()
-    argv = ["das", str(sim_file), "-o", str(tmp_path / "d.npz"), "--backend", "numpy",
-            "--grid", "-0.05:0.05:0.01,0.4:0.5:0.01", "--memory-budget", "0.001"]
+    argv = [
+        "das",
+        str(sim_file),
+        "-o",
+        str(tmp_path / "d.npz"),
+        "--backend",
+        "numpy",
+        "--grid",
+        "-0.05:0.05:0.01,0.4:0.5:0.01",
+        "--memory-budget",
+        "0.001",
+    ]
     assert main(argv) == 0
     assert "das" in tty.getvalue() and "voxel" in tty.getvalue()
     assert "wrote" in capsys.readouterr().out
@@ -120,8 +136,18 @@ def test_cli_das_bar_on_terminal_not_with_quiet(sim_file, tmp_path, tty, capsys)
 
 
 def test_cli_no_bar_when_not_a_terminal(sim_file, tmp_path, capsys):
-    argv = ["das", str(sim_file), "-o", str(tmp_path / "d.npz"), "--backend", "numpy",
-            "--grid", "-0.05:0.05:0.01,0.4:0.5:0.01", "--memory-budget", "0.001"]
+    argv = [
+        "das",
+        str(sim_file),
+        "-o",
+        str(tmp_path / "d.npz"),
+        "--backend",
+        "numpy",
+        "--grid",
+        "-0.05:0.05:0.01,0.4:0.5:0.01",
+        "--memory-budget",
+        "0.001",
+    ]
     assert main(argv) == 0
     out, err = capsys.readouterr()
     assert err == "" and "wrote" in out

@@ -11,8 +11,9 @@ from rpm_cl.io.data import Array, InputError
 def _rps(antenna, x):
     n = len(antenna)
     antenna = np.asarray(antenna)
-    return RangePoints(antenna, np.asarray(x, float)[antenna], None, np.full(n, 0.5),
-                       np.ones(n), np.zeros(n, int))
+    return RangePoints(
+        antenna, np.asarray(x, float)[antenna], None, np.full(n, 0.5), np.ones(n), np.zeros(n, int)
+    )
 
 
 def test_angles_and_drop_in_2d():
@@ -33,8 +34,9 @@ def test_angles_and_drop_in_2d():
 def test_angles_in_3d_use_both_axes():
     arr = Array(np.array([0.0, 0.1]), np.array([0.0, 0.1]))
     pos = arr.positions()
-    rps = RangePoints(np.arange(4), pos[:, 0], pos[:, 1], np.full(4, 1.0), np.ones(4),
-                      np.zeros(4, int))
+    rps = RangePoints(
+        np.arange(4), pos[:, 0], pos[:, 1], np.full(4, 1.0), np.ones(4), np.zeros(4, int)
+    )
     # from antenna 3 at (0.1, 0.1): lateral (0.3, 0.4) = 0.5 at depth 0.5 -> 45 deg
     img = Image(np.array([[0.4, 0.5, 0.5]]), np.zeros(1, int), np.ones(1), np.array([3]))
     assert reach_angles(arr, rps, img)[0] == pytest.approx(45.0)

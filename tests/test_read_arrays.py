@@ -69,7 +69,7 @@ def test_matlab_v7_and_v73_read_alike_and_each_echo_lands_at_its_range():
 
 def test_v73_axes_come_out_as_matlab_shows_them():
     with h5py.File(MAT73, "r") as f:
-        assert f["F"].shape == (16, 41)          # HDF5: reversed
+        assert f["F"].shape == (16, 41)  # HDF5: reversed
         assert f["F"].dtype.names == ("real", "imag")
     with pytest.raises(InputError, match=r"shape \(41, 16\).*--transpose"):
         _read(MAT73, transpose=False)
@@ -98,11 +98,13 @@ def test_npz_npy_hdf5_and_matlab_v4_inputs_with_the_same_mapping(tmp_path):
         np.save(tmp_path / f"{name}.npy", v)
     with h5py.File(tmp_path / "scan.h5", "w") as h:
         h["grp/F"], h["f"], h["da"] = F, f, da
-    RF.write_mat_v5(tmp_path / "v4.mat", {"F": F, "f": f, "da": da}, compress=False,
-                    version="4")
-    outs = [_read(tmp_path / "scan.npz"), _read(tmp_path / "v4.mat"),
-            _read([tmp_path / "F.npy", tmp_path / "f.npy", tmp_path / "da.npy"]),
-            _read(tmp_path / "scan.h5", map="spectrum=grp/F,frequency=f,x=da")]
+    RF.write_mat_v5(tmp_path / "v4.mat", {"F": F, "f": f, "da": da}, compress=False, version="4")
+    outs = [
+        _read(tmp_path / "scan.npz"),
+        _read(tmp_path / "v4.mat"),
+        _read([tmp_path / "F.npy", tmp_path / "f.npy", tmp_path / "da.npy"]),
+        _read(tmp_path / "scan.h5", map="spectrum=grp/F,frequency=f,x=da"),
+    ]
     for out in outs:
         for k in ("spectrum", "frequency", "x"):
             np.testing.assert_array_equal(out[k], ref[k])
@@ -111,10 +113,15 @@ def test_npz_npy_hdf5_and_matlab_v4_inputs_with_the_same_mapping(tmp_path):
 def test_time_domain_mapping_and_scales(tmp_path):
     rng = np.random.default_rng(3)
     sig = rng.normal(size=(8, 30)) + 1j * rng.normal(size=(8, 30))
-    np.savez(tmp_path / "t.npz", s=sig, r=0.01 * np.arange(30), fc=20.0, bw=0.5,
-             pos=np.arange(8) * 5.0)
-    fmt, out = convert(tmp_path / "t.npz", map="signal=s,range=r,fc=fc,bandwidth=bw,x=pos",
-                       scale_x=1e-3, scale_f=1e9)
+    np.savez(
+        tmp_path / "t.npz", s=sig, r=0.01 * np.arange(30), fc=20.0, bw=0.5, pos=np.arange(8) * 5.0
+    )
+    fmt, out = convert(
+        tmp_path / "t.npz",
+        map="signal=s,range=r,fc=fc,bandwidth=bw,x=pos",
+        scale_x=1e-3,
+        scale_f=1e9,
+    )
     assert fmt == "arrays"
     assert out["fc"] == pytest.approx(20e9) and out["bandwidth"] == pytest.approx(0.5e9)
     np.testing.assert_allclose(out["x"], np.arange(8) * 5e-3)
@@ -136,29 +143,34 @@ def test_conjugate_and_a_real_array_taken_as_complex(tmp_path):
 
 def test_planar_mapping_checks_the_z_axis(tmp_path):
     spec = np.zeros((4, 3, 5), complex)
-    np.savez(tmp_path / "p.npz", S=spec, f=1e9 + np.arange(5) * 1e6, x=np.arange(4.0),
-             z=np.arange(3.0))
+    np.savez(
+        tmp_path / "p.npz", S=spec, f=1e9 + np.arange(5) * 1e6, x=np.arange(4.0), z=np.arange(3.0)
+    )
     out = convert(tmp_path / "p.npz", map="spectrum=S,frequency=f,x=x,z=z")[1]
     assert out["z"].shape == (3,) and out["spectrum"].shape == (4, 3, 5)
-    np.savez(tmp_path / "q.npz", S=spec, f=1e9 + np.arange(5) * 1e6, x=np.arange(4.0),
-             z=np.arange(4.0))
+    np.savez(
+        tmp_path / "q.npz", S=spec, f=1e9 + np.arange(5) * 1e6, x=np.arange(4.0), z=np.arange(4.0)
+    )
     with pytest.raises(InputError, match=r"expected \(4, 4, 5\)"):
         convert(tmp_path / "q.npz", map="spectrum=S,frequency=f,x=x,z=z")
 
 
-@pytest.mark.parametrize("mapping, message", [
-    ("spectrum=F,frequency=f,x=nope", r"no 'nope' \(for x\).*it holds: F, da, f"),
-    ("spectrum=F,frequency=f,x=da,foo=f", "unknown name 'foo'"),
-    ("spectrum=F,frequency=f,x=da,range=f", "range does not go with spectrum"),
-    ("spectrum=F,x=da", "lacks frequency"),
-    ("signal=F,range=f,x=da", "lacks fc, bandwidth"),
-    ("spectrum=F,signal=F,frequency=f,x=da", "both spectrum and signal"),
-    ("frequency=f,x=da", "neither spectrum"),
-    ("spectrum=F,frequency=f,x=da,x=f", "x is mapped twice"),
-    ("spectrum=F;frequency=f", "NAME=KEY pairs"),
-    ("spectrum=F,frequency=da,x=da", "frequency must be > 0 Hz"),
-    ("spectrum=F,frequency=f,x=F", r"x \(F\) must be a vector"),
-])
+@pytest.mark.parametrize(
+    "mapping, message",
+    [
+        ("spectrum=F,frequency=f,x=nope", r"no 'nope' \(for x\).*it holds: F, da, f"),
+        ("spectrum=F,frequency=f,x=da,foo=f", "unknown name 'foo'"),
+        ("spectrum=F,frequency=f,x=da,range=f", "range does not go with spectrum"),
+        ("spectrum=F,x=da", "lacks frequency"),
+        ("signal=F,range=f,x=da", "lacks fc, bandwidth"),
+        ("spectrum=F,signal=F,frequency=f,x=da", "both spectrum and signal"),
+        ("frequency=f,x=da", "neither spectrum"),
+        ("spectrum=F,frequency=f,x=da,x=f", "x is mapped twice"),
+        ("spectrum=F;frequency=f", "NAME=KEY pairs"),
+        ("spectrum=F,frequency=da,x=da", "frequency must be > 0 Hz"),
+        ("spectrum=F,frequency=f,x=F", r"x \(F\) must be a vector"),
+    ],
+)
 def test_mapping_errors_are_one_line_naming_the_key(mapping, message):
     with pytest.raises(InputError, match=message) as info:
         _read(MAT5, map=mapping)
@@ -168,8 +180,9 @@ def test_mapping_errors_are_one_line_naming_the_key(mapping, message):
 def test_refusals_before_reading(tmp_path, monkeypatch):
     from scipy.io import savemat
 
-    savemat(tmp_path / "s.mat", {"S": {"F": np.ones((2, 2))}, "C": np.array([[1, "a"]],
-                                                                              dtype=object)})
+    savemat(
+        tmp_path / "s.mat", {"S": {"F": np.ones((2, 2))}, "C": np.array([[1, "a"]], dtype=object)}
+    )
     with pytest.raises(InputError, match="struct of a v4-v7.2 file"):
         convert(tmp_path / "s.mat", map="spectrum=S,frequency=C,x=C")
     with pytest.raises(InputError, match="MATLAB cell"):
@@ -179,6 +192,7 @@ def test_refusals_before_reading(tmp_path, monkeypatch):
 
     def no_read(*a, **k):
         raise AssertionError("data read before the size check")
+
     monkeypatch.setattr("scipy.io.loadmat", no_read)
     with pytest.raises(InputError, match="656 values, more than 100"):
         _read(MAT5)
@@ -216,15 +230,41 @@ def test_a_key_in_two_files_is_refused(tmp_path):
 # --------------------------------------------------------------------- CLI
 def test_cli_convert_mat_writes_what_load_data_reads(tmp_path, capsys):
     out = tmp_path / "scan.h5"
-    assert main(["convert", str(MAT73), "--map", MAP, "--transpose", "--scale-x", "1e-3",
-                 "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "convert",
+                str(MAT73),
+                "--map",
+                MAP,
+                "--transpose",
+                "--scale-x",
+                "1e-3",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     assert "wrote" in capsys.readouterr().out
     data = load_data(out, range_window="rect")
     assert data.array.n == 16 and data.waveform.fc == pytest.approx(RF.MAT["f"].mean())
     # an .h5 with --map is read as arrays, so the written file converts back
     again = tmp_path / "again.npz"
-    assert main(["convert", str(out), "--map", "spectrum=spectrum,frequency=frequency,x=x",
-                 "-o", str(again), "-q"]) == 0
+    assert (
+        main(
+            [
+                "convert",
+                str(out),
+                "--map",
+                "spectrum=spectrum,frequency=frequency,x=x",
+                "-o",
+                str(again),
+                "-q",
+            ]
+        )
+        == 0
+    )
     np.testing.assert_array_equal(np.load(again)["spectrum"], _read(MAT5)["spectrum"])
 
 
@@ -234,15 +274,18 @@ def test_cli_convert_arrays_errors_are_one_line(tmp_path, capsys):
     base = ["convert", str(mat), "--map", MAP, "--transpose"]
     assert "is also an input" in _one_error(capsys, base + ["-o", str(mat)])
     assert mat.read_bytes() == MAT5.read_bytes()
-    assert "--transpose (transpose=True)" in _one_error(capsys, base[:-1] + [
-        "-o", str(tmp_path / "o.npz")])
+    assert "--transpose (transpose=True)" in _one_error(
+        capsys, base[:-1] + ["-o", str(tmp_path / "o.npz")]
+    )
     assert "--waveform does not apply to arrays input (it is for gprmax)" in _one_error(
-        capsys, base + ["--waveform", "ricker:3e9", "-o", str(tmp_path / "o.npz")])
-    assert "arrays input needs --map" in _one_error(capsys, ["convert", str(mat), "--format",
-                                                             "arrays", "-o",
-                                                             str(tmp_path / "o.npz")])
+        capsys, base + ["--waveform", "ricker:3e9", "-o", str(tmp_path / "o.npz")]
+    )
+    assert "arrays input needs --map" in _one_error(
+        capsys, ["convert", str(mat), "--format", "arrays", "-o", str(tmp_path / "o.npz")]
+    )
     bad = tmp_path / "bad.mat"
     bad.write_bytes(b"not a mat file at all" * 10)
-    assert "bad.mat" in _one_error(capsys, ["convert", str(bad), "--map", MAP, "-o",
-                                            str(tmp_path / "o.npz")])
+    assert "bad.mat" in _one_error(
+        capsys, ["convert", str(bad), "--map", MAP, "-o", str(tmp_path / "o.npz")]
+    )
     assert not (tmp_path / "o.npz").exists()

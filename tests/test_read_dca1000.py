@@ -26,12 +26,31 @@ import readers_fixture as RF
 
 CAPTURE = Path(__file__).parent / "data" / "readers" / "capture.bin"
 P = RF.DCA
-CHIRP = {"slope": P["slope"], "adc_rate": P["adc_rate"], "samples": P["samples"],
-             "start_freq": P["start_freq"], "adc_start_time": P["adc_start_time"],
-             "chirps": P["chirps"], "rx": P["receivers"]}
-ARGS = ["--slope", str(P["slope"]), "--adc-rate", str(P["adc_rate"]), "--samples",
-        str(P["samples"]), "--start-freq", str(P["start_freq"]), "--adc-start-time",
-        str(P["adc_start_time"]), "--chirps", "2", "--rx", "4"]
+CHIRP = {
+    "slope": P["slope"],
+    "adc_rate": P["adc_rate"],
+    "samples": P["samples"],
+    "start_freq": P["start_freq"],
+    "adc_start_time": P["adc_start_time"],
+    "chirps": P["chirps"],
+    "rx": P["receivers"],
+}
+ARGS = [
+    "--slope",
+    str(P["slope"]),
+    "--adc-rate",
+    str(P["adc_rate"]),
+    "--samples",
+    str(P["samples"]),
+    "--start-freq",
+    str(P["start_freq"]),
+    "--adc-start-time",
+    str(P["adc_start_time"]),
+    "--chirps",
+    "2",
+    "--rx",
+    "4",
+]
 
 
 def _one_error(capsys, argv) -> str:
@@ -62,8 +81,9 @@ def test_layouts_decode_as_ti_documents_them():
     v = np.array([1, 2, 0, 0, 3, 4, 0, 0, 5, 6, 0, 0, 7, 8, 0, 0], np.int16)
     np.testing.assert_array_equal(D.decode(v, four), [[[1 + 3j, 5 + 7j], [2 + 4j, 6 + 8j]]])
     real = D.Chirp(1e12, 1e6, 2, 77e9, receivers=2, layout="real")
-    np.testing.assert_array_equal(D.decode(np.array([1, 2, 3, 4], np.int16), real),
-                                  [[[1, 2], [3, 4]]])
+    np.testing.assert_array_equal(
+        D.decode(np.array([1, 2, 3, 4], np.int16), real), [[[1, 2], [3, 4]]]
+    )
     # the fixture writer follows the same documented orders
     zz = np.array([[[1 + 3j, 2 + 4j], [5 + 7j, 6 + 8j]]])
     np.testing.assert_array_equal(RF.dca_values(zz, "complex-2lane"), np.arange(1, 9))
@@ -71,8 +91,9 @@ def test_layouts_decode_as_ti_documents_them():
 
 
 def test_frequency_axis_follows_the_adc_sampling_instants():
-    c = D.Chirp(**{k: CHIRP[k] for k in ("slope", "adc_rate", "samples", "start_freq",
-                                        "adc_start_time")})
+    c = D.Chirp(
+        **{k: CHIRP[k] for k in ("slope", "adc_rate", "samples", "start_freq", "adc_start_time")}
+    )
     f = c.frequency
     assert f[0] == pytest.approx(P["start_freq"] + P["slope"] * P["adc_start_time"])
     np.testing.assert_allclose(np.diff(f), P["slope"] / P["adc_rate"])
@@ -111,7 +132,7 @@ def test_receivers_as_the_array_at_their_midpoints():
     tx, ty = P["target"]
     bistatic = (np.hypot(tx, ty) + np.hypot(np.arange(4) * P["rx_spacing"] - tx, ty)) / 2
     b = np.arange(4) * P["rx_spacing"]
-    assert np.all(np.abs(bistatic - np.hypot(out["x"] - tx, ty)) <= b ** 2 / (8 * ty) + 1e-12)
+    assert np.all(np.abs(bistatic - np.hypot(out["x"] - tx, ty)) <= b**2 / (8 * ty) + 1e-12)
     got, phase, gate = _peaks(out["spectrum"][0], out["frequency"], bistatic)
     assert np.max(np.abs(got - bistatic)) <= 0.5 * gate + 1e-9
     assert np.max(np.abs(phase)) < 0.02
@@ -127,8 +148,9 @@ def test_four_lane_and_split_captures_read_alike(tmp_path):
     a, b = tmp_path / "cap_Raw_0.bin", tmp_path / "cap_Raw_1.bin"
     a.write_bytes(raw[:1000])
     b.write_bytes(raw[1000:])
-    np.testing.assert_array_equal(convert([a, b], dx=P["dx"], **CHIRP)[1]["spectrum"],
-                                  ref["spectrum"])
+    np.testing.assert_array_equal(
+        convert([a, b], dx=P["dx"], **CHIRP)[1]["spectrum"], ref["spectrum"]
+    )
 
 
 def test_chirps_of_a_frame_are_averaged():
@@ -151,17 +173,20 @@ def test_real_samples_through_their_analytic_signal(tmp_path):
     assert np.max(np.abs(phase)) < 0.1
 
 
-@pytest.mark.parametrize("change, message", [
-    ({"samples": 65}, "not a whole number of frames"),
-    ({"chirps": 3}, "not a whole number of frames"),
-    ({"rx": 3}, "hold 1, 2 or 4 receivers"),
-    ({"rx": 5}, "receivers must be 1 .. 4"),
-    ({"layout": "iq"}, "layout 'iq' is not one of"),
-    ({"receiver": 4}, "receiver 4: the capture holds 4"),
-    ({"dx": None}, "--dx .* or --rx-spacing"),
-    ({"rx_spacing": 2e-3}, "--dx .* or --rx-spacing"),
-    ({"start_freq": 1.0, "slope": -1.0}, "slope must be > 0"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        ({"samples": 65}, "not a whole number of frames"),
+        ({"chirps": 3}, "not a whole number of frames"),
+        ({"rx": 3}, "hold 1, 2 or 4 receivers"),
+        ({"rx": 5}, "receivers must be 1 .. 4"),
+        ({"layout": "iq"}, "layout 'iq' is not one of"),
+        ({"receiver": 4}, "receiver 4: the capture holds 4"),
+        ({"dx": None}, "--dx .* or --rx-spacing"),
+        ({"rx_spacing": 2e-3}, "--dx .* or --rx-spacing"),
+        ({"start_freq": 1.0, "slope": -1.0}, "slope must be > 0"),
+    ],
+)
 def test_capture_errors_are_one_line(change, message):
     kw = {**CHIRP, "dx": P["dx"], **change}
     with pytest.raises(InputError, match=message) as info:
@@ -187,8 +212,21 @@ def test_cli_convert_dca1000(tmp_path, capsys):
     data = load_data(out)
     assert data.array.n == 20
     stack = tmp_path / "stack.npz"
-    assert main(["convert", str(CAPTURE), *ARGS, "--rx-spacing", str(P["rx_spacing"]),
-                 "-o", str(stack), "-q"]) == 0
+    assert (
+        main(
+            [
+                "convert",
+                str(CAPTURE),
+                *ARGS,
+                "--rx-spacing",
+                str(P["rx_spacing"]),
+                "-o",
+                str(stack),
+                "-q",
+            ]
+        )
+        == 0
+    )
     assert load_data(stack, frame=3).array.n == 4
 
 
@@ -196,15 +234,18 @@ def test_cli_convert_dca1000_errors_are_one_line(tmp_path, capsys):
     copy = tmp_path / "c.bin"
     copy.write_bytes(CAPTURE.read_bytes())
     o = str(tmp_path / "o.npz")
-    assert "is also an input" in _one_error(capsys, ["convert", str(copy), *ARGS, "--dx",
-                                                     "1e-3", "-o", str(copy)])
+    assert "is also an input" in _one_error(
+        capsys, ["convert", str(copy), *ARGS, "--dx", "1e-3", "-o", str(copy)]
+    )
     assert copy.read_bytes() == CAPTURE.read_bytes()
     assert "dca1000 input needs --slope" in _one_error(capsys, ["convert", str(copy), "-o", o])
     assert "--time-zero does not apply to dca1000 input (it is for dzt)" in _one_error(
-        capsys, ["convert", str(copy), *ARGS, "--dx", "1e-3", "--time-zero", "3", "-o", o])
+        capsys, ["convert", str(copy), *ARGS, "--dx", "1e-3", "--time-zero", "3", "-o", o]
+    )
     assert "--slope does not apply to dzt input" in _one_error(
-        capsys, ["convert", str(copy), "--format", "dzt", "--slope", "3e13", "-o", o])
+        capsys, ["convert", str(copy), "--format", "dzt", "--slope", "3e13", "-o", o]
+    )
     assert "not a whole number of frames" in _one_error(
-        capsys, ["convert", str(copy), *ARGS[:-1], "2", "--dx", "1e-3", "--samples", "48",
-                 "-o", o])
+        capsys, ["convert", str(copy), *ARGS[:-1], "2", "--dx", "1e-3", "--samples", "48", "-o", o]
+    )
     assert not (tmp_path / "o.npz").exists()

@@ -67,8 +67,9 @@ def test_the_echo_lands_at_its_range_with_the_round_trip_phase():
     fmt, out = convert(SCAN, time_zero=T0)
     assert fmt == "dzt"
     # the antenna 51600S is GSSI's 1.6 GHz model: band 0.8 .. 2.4 GHz
-    assert out["frequency"][0] == pytest.approx(0.8e9) and out["frequency"][-1] == \
-        pytest.approx(2.4e9)
+    assert out["frequency"][0] == pytest.approx(0.8e9) and out["frequency"][-1] == pytest.approx(
+        2.4e9
+    )
     np.testing.assert_allclose(np.diff(out["frequency"]), 1 / (2 * 20e-9))
     np.testing.assert_allclose(out["x"], np.arange(48) * 0.02)
     got, true, phase, gate = _echoes(out)
@@ -90,8 +91,9 @@ def test_8_and_32_bit_samples_and_a_second_channel(tmp_path):
     two.write_bytes(RF.dzt_bytes(RF.dzt_traces(), channels=2))
     assert Z.read_header(two).data_offset == 2048
     for ch in (0, 1):
-        np.testing.assert_array_equal(convert(two, time_zero=T0, channel=ch)[1]["spectrum"],
-                                      ref["spectrum"])
+        np.testing.assert_array_equal(
+            convert(two, time_zero=T0, channel=ch)[1]["spectrum"], ref["spectrum"]
+        )
 
 
 def test_subtract_mean_removes_the_direct_coupling():
@@ -101,6 +103,7 @@ def test_subtract_mean_removes_the_direct_coupling():
     def near(a):
         s, r = range_compress(a["spectrum"], a["frequency"], a["frequency"].mean(), "hann")
         return np.abs(s[:, r < 0.15]).max()
+
     assert near(clean) < 1e-3 * near(plain)
     # the echo stays, though the mean trace holds a blurred copy of its apex
     got, true, _, gate = _echoes(clean)
@@ -110,8 +113,7 @@ def test_subtract_mean_removes_the_direct_coupling():
 def test_dx_and_an_explicit_band(tmp_path):
     out = convert(SCAN, time_zero=T0, dx=0.01, band=(1e9, 2e9))[1]
     np.testing.assert_allclose(out["x"], np.arange(48) * 0.01)
-    assert out["frequency"][0] == pytest.approx(1e9) and out["frequency"][-1] == \
-        pytest.approx(2e9)
+    assert out["frequency"][0] == pytest.approx(1e9) and out["frequency"][-1] == pytest.approx(2e9)
 
 
 def test_nominal_band_from_the_antenna_name():
@@ -128,16 +130,19 @@ def _with(path, offset, fmt, value, data=None):
     return path
 
 
-@pytest.mark.parametrize("offset, fmt, value, message", [
-    (0, "<H", 0x1234, "not a DZT file"),
-    (6, "<H", 12, "rh_bits 12"),
-    (4, "<H", 2, "at least 3 samples"),
-    (52, "<H", 0, "rh_nchan 0"),
-    (2, "<H", 100, "beyond the file"),
-    (26, "<f", 0.0, "time window must be > 0"),
-    (14, "<f", -1.0, "scans per metre must be >= 0"),
-    (4, "<H", 60000, "0 scans of"),
-])
+@pytest.mark.parametrize(
+    "offset, fmt, value, message",
+    [
+        (0, "<H", 0x1234, "not a DZT file"),
+        (6, "<H", 12, "rh_bits 12"),
+        (4, "<H", 2, "at least 3 samples"),
+        (52, "<H", 0, "rh_nchan 0"),
+        (2, "<H", 100, "beyond the file"),
+        (26, "<f", 0.0, "time window must be > 0"),
+        (14, "<f", -1.0, "scans per metre must be >= 0"),
+        (4, "<H", 60000, "0 scans of"),
+    ],
+)
 def test_header_errors_are_one_line(tmp_path, offset, fmt, value, message):
     p = _with(tmp_path / "bad.dzt", offset, fmt, value)
     with pytest.raises(InputError, match=message) as info:
@@ -159,7 +164,7 @@ def test_refusals_of_the_conversion(tmp_path, monkeypatch):
     with pytest.raises(InputError, match="channel 1; the file holds 1"):
         convert(SCAN, channel=1)
     short = tmp_path / "short.dzt"
-    short.write_bytes(SCAN.read_bytes()[:1024 + 1024 + 10])
+    short.write_bytes(SCAN.read_bytes()[: 1024 + 1024 + 10])
     with pytest.raises(InputError, match="1 scans of 1024 bytes"):
         convert(short)
     monkeypatch.setattr(Z, "MAX_SAMPLES", 1000)
@@ -187,9 +192,12 @@ def test_cli_convert_dzt(tmp_path, capsys):
     assert "is also an input" in _one_error(capsys, ["convert", str(copy), "-o", str(copy)])
     assert copy.read_bytes() == SCAN.read_bytes()
     assert "--map does not apply to dzt input (it is for arrays)" in _one_error(
-        capsys, ["convert", str(SCAN), "--map", "spectrum=a", "-o", str(tmp_path / "o.npz")])
+        capsys, ["convert", str(SCAN), "--map", "spectrum=a", "-o", str(tmp_path / "o.npz")]
+    )
     assert "2 DZT files; convert one at a time" in _one_error(
-        capsys, ["convert", str(SCAN), str(copy), "-o", str(tmp_path / "o.npz")])
+        capsys, ["convert", str(SCAN), str(copy), "-o", str(tmp_path / "o.npz")]
+    )
     assert "time zero must be a sample number" in _one_error(
-        capsys, ["convert", str(SCAN), "--time-zero", "-3", "-o", str(tmp_path / "o.npz")])
+        capsys, ["convert", str(SCAN), "--time-zero", "-3", "-o", str(tmp_path / "o.npz")]
+    )
     assert not (tmp_path / "o.npz").exists()

@@ -18,10 +18,13 @@ def _one_error(capsys, argv):
     return err[0]
 
 
-@pytest.mark.parametrize("text, words", [
-    (b"\xff\xfe[rpm]\n", "not UTF-8"),            # was UnicodeDecodeError traceback
-    (b"rpm = 3\n", "must be a section [rpm]"),      # was AttributeError traceback
-])
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        (b"\xff\xfe[rpm]\n", "not UTF-8"),  # was UnicodeDecodeError traceback
+        (b"rpm = 3\n", "must be a section [rpm]"),  # was AttributeError traceback
+    ],
+)
 def test_config_not_utf8_or_section_as_value(tmp_path, capsys, p2, text, words):
     cfg = tmp_path / "c.toml"
     cfg.write_bytes(text)
@@ -62,8 +65,22 @@ def test_figure_takes_frame_it_asks_for(tmp_path, capsys, monkeypatch):
     assert "--frame" in line
     line = _one_error(capsys, ["figure", "rps", str(stack), "--frame", "3", "--png", str(png)])
     assert "out of range" in line
-    assert main(["figure", "rps", str(stack), "--frame", "1", "--range-window", "hamming",
-                 "--png", str(png)]) == 0
+    assert (
+        main(
+            [
+                "figure",
+                "rps",
+                str(stack),
+                "--frame",
+                "1",
+                "--range-window",
+                "hamming",
+                "--png",
+                str(png),
+            ]
+        )
+        == 0
+    )
     assert png.stat().st_size > 0
 
 
@@ -92,15 +109,18 @@ def empty_stacks(p2, tmp_path_factory):
 
 
 @pytest.mark.parametrize("ext", [0, 1])
-@pytest.mark.parametrize("argv", [
-    ["image", "{src}", "-o", "{tmp}/o.npz"],
-    ["image", "{src}", "-o", "{tmp}/o.npz", "--frame", "0"],
-    ["das", "{src}", "-o", "{tmp}/o.npz", "--grid=-0.1:0.1:0.01,0.3:0.6:0.01"],
-    ["params", "{src}"],
-    ["figure", "kspace", "{src}", "--png", "{tmp}/o.png"],
-    ["rma", "{src}", "-o", "{tmp}/o.npz"],
-    ["batch", "{src}", "-o", "{tmp}/out"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["image", "{src}", "-o", "{tmp}/o.npz"],
+        ["image", "{src}", "-o", "{tmp}/o.npz", "--frame", "0"],
+        ["das", "{src}", "-o", "{tmp}/o.npz", "--grid=-0.1:0.1:0.01,0.3:0.6:0.01"],
+        ["params", "{src}"],
+        ["figure", "kspace", "{src}", "--png", "{tmp}/o.png"],
+        ["rma", "{src}", "-o", "{tmp}/o.npz"],
+        ["batch", "{src}", "-o", "{tmp}/out"],
+    ],
+)
 def test_empty_stack_is_one_clear_line(empty_stacks, tmp_path, capsys, argv, ext):
     # was "signal is a stack of 0 frames; choose one with frame= (--frame N, 0..-1)",
     # and batch wrote a summary of 0 frames with exit code 0
@@ -152,10 +172,25 @@ def test_view_reads_a_das_h5_image_as_the_npz_one(p2, tmp_path, capsys, monkeypa
     monkeypatch.setenv("MPLBACKEND", "Agg")
     grid = "--grid=-0.3:0.3:0.005,0.2:0.6:0.005"
     for ext in ("npz", "h5"):
-        assert main(["das", str(p2), "-o", str(tmp_path / f"d.{ext}"), grid,
-                     "--backend", "numpy", "-q"]) == 0
-        assert main(["view", str(tmp_path / f"d.{ext}"), "--png", str(tmp_path / f"{ext}.png"),
-                     "--dynamic-range", "30"]) == 0
+        assert (
+            main(
+                ["das", str(p2), "-o", str(tmp_path / f"d.{ext}"), grid, "--backend", "numpy", "-q"]
+            )
+            == 0
+        )
+        assert (
+            main(
+                [
+                    "view",
+                    str(tmp_path / f"d.{ext}"),
+                    "--png",
+                    str(tmp_path / f"{ext}.png"),
+                    "--dynamic-range",
+                    "30",
+                ]
+            )
+            == 0
+        )
     assert np.array_equal(_pixels(tmp_path / "npz.png"), _pixels(tmp_path / "h5.png"))
 
 
@@ -171,7 +206,7 @@ def test_view_h5_volume_reads_slabs_like_the_npz(tmp_path, monkeypatch):
 
     def fill(out):
         d2 = np.sum((g.points().reshape(out.shape + (3,)) - centre) ** 2, axis=-1)
-        out[...] = np.exp(-d2 / (2 * 0.03 ** 2)) + 1e-3
+        out[...] = np.exp(-d2 / (2 * 0.03**2)) + 1e-3
 
     for ext in ("npz", "h5"):
         write_volume(tmp_path / f"v.{ext}", g, fill, np.complex64, {"method": "das"})
@@ -201,7 +236,7 @@ def test_view_h5_volume_renders_as_the_npz(tmp_path, capsys, iso, cl_env):
 
     def fill(out):
         d2 = np.sum((g.points().reshape(out.shape + (3,)) - (0.05, 0.95, 1.1)) ** 2, axis=-1)
-        out[...] = np.exp(-d2 / (2 * 0.05 ** 2)) + 1e-3
+        out[...] = np.exp(-d2 / (2 * 0.05**2)) + 1e-3
 
     for ext in ("npz", "h5"):
         write_volume(tmp_path / f"v.{ext}", g, fill, np.complex64, {"method": "das"})
@@ -263,6 +298,7 @@ def test_figure_uses_config_and_flags_like_image(p2, tmp_path, capsys, monkeypat
     (+-325 rad/m) merges +44 and +354 (310 apart) into 2, and 2000 (+-500)
     leaves 1."""
     from rpm_cl.viz import figures
+
     monkeypatch.setenv("MPLBACKEND", "Agg")
     drawn = []
     real = figures.figure
@@ -291,9 +327,12 @@ def wide_sparse(tmp_path_factory):
     from rpm_cl.simulate import simulate
     from rpm_cl.simulate.scene import PointTarget, Scene
 
-    data = simulate(Scene((PointTarget((0.3, 5.0)), PointTarget((-2.0, 8.0))), "wide"),
-                    Array((np.arange(21) - 10) * 1.0), Waveform(20e9, 0.2e9),
-                    np.arange(0.0, 12.0, 2.5e-3))
+    data = simulate(
+        Scene((PointTarget((0.3, 5.0)), PointTarget((-2.0, 8.0))), "wide"),
+        Array((np.arange(21) - 10) * 1.0),
+        Waveform(20e9, 0.2e9),
+        np.arange(0.0, 12.0, 2.5e-3),
+    )
     path = tmp_path_factory.mktemp("wide") / "wide.npz"
     save_data(path, data)
     return path
@@ -307,13 +346,15 @@ def test_huge_near_field_search_is_refused_at_once(wide_sparse, tmp_path, capsys
     # takes the plane-wave path, nearfield.near_field_wanted; asked for, the
     # near-field search is refused.)
     from rpm_cl.extract import nearfield
+
     maps = []
     real = nearfield._Search.focus_map
     monkeypatch.setattr(nearfield._Search, "focus_map", lambda s, x: maps.append(1) or real(s, x))
     out = tmp_path / "o.npz"
     # -q: its 67-wavelength pitch is also warned about (x in cm?)
-    line = _one_error(capsys, ["image", str(wide_sparse), "-o", str(out), "--near-field", "true",
-                               "-q"])
+    line = _one_error(
+        capsys, ["image", str(wide_sparse), "-o", str(out), "--near-field", "true", "-q"]
+    )
     assert "near-field search" in line and "too large" in line and "--near-field false" in line
     assert "22079 directions x 21 antennas" in line  # 4 pad L / lambda = 4 x 4 x 21 m / 15 mm
     assert maps == [] and not out.exists()

@@ -36,12 +36,15 @@ def _edited(tmp_path, p2, name, **changes):
     return out
 
 
-@pytest.mark.parametrize("key, value, words", [
-    ("fc", np.array(True), "fc must be a real number"),           # was read as 1 Hz
-    ("fc", np.array("20e9"), "fc must be a real number"),          # a string was accepted
-    ("x", (np.arange(21) * 5).astype("timedelta64[ms]"), "x must be real numbers"),
-    ("truth_boundary", None, "truth_boundary or truth_rp_range contains NaN"),  # traceback
-])
+@pytest.mark.parametrize(
+    "key, value, words",
+    [
+        ("fc", np.array(True), "fc must be a real number"),  # was read as 1 Hz
+        ("fc", np.array("20e9"), "fc must be a real number"),  # a string was accepted
+        ("x", (np.arange(21) * 5).astype("timedelta64[ms]"), "x must be real numbers"),
+        ("truth_boundary", None, "truth_boundary or truth_rp_range contains NaN"),  # traceback
+    ],
+)
 def test_wrong_kinds_and_non_finite_truth(tmp_path, capsys, p2, key, value, words):
     if key == "truth_boundary":
         value = np.array(np.load(p2)["truth_boundary"])
@@ -54,8 +57,9 @@ def test_wrong_kinds_and_non_finite_truth(tmp_path, capsys, p2, key, value, word
 
 def test_pad_bounded(tmp_path, capsys, p2):
     """A zero-padding factor of 1e20 was a traceback (the FFT's size)."""
-    line = _one_error(capsys, ["image", str(p2), "-o", str(tmp_path / "o.npz"),
-                               "--pad", "99999999999999999999"])
+    line = _one_error(
+        capsys, ["image", str(p2), "-o", str(tmp_path / "o.npz"), "--pad", "99999999999999999999"]
+    )
     assert "pad must be an integer from 1 to 64" in line
 
 
@@ -71,16 +75,22 @@ def test_complex64_extreme_amplitudes_match_complex128(p2):
     for scale in (1e19, 1e-19):
         big = RadarData((d.signal * scale).astype(np.complex64), d.array, d.range, d.waveform)
         assert big.signal.dtype == np.complex128
-        ref = RadarData((d.signal * scale).astype(np.complex64).astype(np.complex128), d.array,
-                        d.range, d.waveform)
+        ref = RadarData(
+            (d.signal * scale).astype(np.complex64).astype(np.complex128),
+            d.array,
+            d.range,
+            d.waveform,
+        )
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             a = run_method("kspace-rpm", big, default_params(big), reference)
         b = run_method("kspace-rpm", ref, default_params(ref), reference)
         np.testing.assert_array_equal(a.image.points, b.image.points)
     # ordinary amplitudes keep complex64 (half the memory)
-    assert RadarData(d.signal.astype(np.complex64), d.array, d.range,
-                     d.waveform).signal.dtype == np.complex64
+    assert (
+        RadarData(d.signal.astype(np.complex64), d.array, d.range, d.waveform).signal.dtype
+        == np.complex64
+    )
 
 
 def test_das_float32_range_and_rma_complex64(tmp_path, capsys, p2):
@@ -90,8 +100,10 @@ def test_das_float32_range_and_rma_complex64(tmp_path, capsys, p2):
     d = dict(np.load(p2))
     for scale in (1e40, 1e-50):
         src = _edited(tmp_path, p2, "s.npz", signal=d["signal"] * scale)
-        line = _one_error(capsys, ["das", str(src), "-o", str(tmp_path / "d.npz"),
-                                   "--grid=-0.1:0.1:0.01,0.3:0.5:0.01"])
+        line = _one_error(
+            capsys,
+            ["das", str(src), "-o", str(tmp_path / "d.npz"), "--grid=-0.1:0.1:0.01,0.3:0.5:0.01"],
+        )
         assert "float32" in line and "--precision float64" in line
         assert not list(tmp_path.glob("d.npz")) and not list(tmp_path.glob(".tmp-*"))
     src = _edited(tmp_path, p2, "r.npz", signal=(d["signal"] * 1e37).astype(np.complex64))
@@ -104,8 +116,10 @@ def test_rma_crop_outside_the_range_axis(tmp_path, capsys, p2):
     """y 100-200 m of a 1.5 m range axis showed the target's periodic copy at
     108.28 m as a target."""
     for lo, hi in (("100", "200"), ("-5", "-1")):
-        line = _one_error(capsys, ["rma", str(p2), "-o", str(tmp_path / "r.npz"),
-                                   f"--y-min={lo}", f"--y-max={hi}"])
+        line = _one_error(
+            capsys,
+            ["rma", str(p2), "-o", str(tmp_path / "r.npz"), f"--y-min={lo}", f"--y-max={hi}"],
+        )
         assert "must lie within -1.5 .. 1.5 m" in line
 
 
@@ -113,12 +127,18 @@ def test_two_sample_spectrum_window(tmp_path, capsys):
     """A Hann window over 2 frequency samples is all zero: it was reported as
     'signal contains NaN or Inf'."""
     src = tmp_path / "s.npz"
-    np.savez(src, spectrum=np.ones((21, 2), complex), frequency=np.array([19.9e9, 20.1e9]),
-             x=np.arange(21) * 5e-3)
+    np.savez(
+        src,
+        spectrum=np.ones((21, 2), complex),
+        frequency=np.array([19.9e9, 20.1e9]),
+        x=np.arange(21) * 5e-3,
+    )
     line = _one_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz")])
     assert "hann range window over 2 frequency samples is all zero" in line
-    assert main(["image", str(src), "-o", str(tmp_path / "o.npz"), "--range-window", "rect",
-                 "-q"]) == 0
+    assert (
+        main(["image", str(src), "-o", str(tmp_path / "o.npz"), "--range-window", "rect", "-q"])
+        == 0
+    )
 
 
 def test_messages_name_the_problem(tmp_path, capsys, p2):
@@ -127,12 +147,15 @@ def test_messages_name_the_problem(tmp_path, capsys, p2):
     sigma_x the array gave (x in the wrong unit) blamed sigma_x alone."""
     toml = tmp_path / "c.toml"
     toml.write_text("[kspace]\npad = 2\n")
-    assert "not a zip archive" in _one_error(capsys, ["view", str(toml), "--png",
-                                                      str(tmp_path / "v.png")])
-    assert "image it first" in _one_error(capsys, ["view", str(p2), "--png",
-                                                   str(tmp_path / "v.png")])
-    line = _one_error(capsys, ["image", str(p2), "-o", str(tmp_path / "o.npz"),
-                               "--chunk-slots", "0"])
+    assert "not a zip archive" in _one_error(
+        capsys, ["view", str(toml), "--png", str(tmp_path / "v.png")]
+    )
+    assert "image it first" in _one_error(
+        capsys, ["view", str(p2), "--png", str(tmp_path / "v.png")]
+    )
+    line = _one_error(
+        capsys, ["image", str(p2), "-o", str(tmp_path / "o.npz"), "--chunk-slots", "0"]
+    )
     assert "chunk_slots must be >= 1, got 0" in line and "max_cluster_rps" not in line
     src = _edited(tmp_path, p2, "xbig.npz", x=np.load(p2)["x"] * 1e6)
     line = _warned_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz")])
@@ -142,6 +165,7 @@ def test_messages_name_the_problem(tmp_path, capsys, p2):
 def test_error_is_one_line_whatever_the_message(capsys, monkeypatch):
     """A library message with newlines (h5py's) was printed on two lines."""
     from rpm_cl.cli import commands as cli
+
     def boom(args):
         raise InputError("first part\n  second part")
 
@@ -187,17 +211,31 @@ def test_sigterm_cleans_up(tmp_path):
     src = tmp_path / "p.npz"
     assert main(["simulate", "paper-2d", "-o", str(src), "-q"]) == 0
     out = tmp_path / "o.npz"
-    proc = subprocess.Popen([sys.executable, "-m", "rpm_cl.cli", "das", str(src), "-o", str(out),
-                             "--grid=-2:2:0.001,0.01:4:0.001", "--backend", "numpy"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            env={**os.environ, "POCL_MAX_PTHREAD_COUNT": "1"})
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "rpm_cl.cli",
+            "das",
+            str(src),
+            "-o",
+            str(out),
+            "--grid=-2:2:0.001,0.01:4:0.001",
+            "--backend",
+            "numpy",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "POCL_MAX_PTHREAD_COUNT": "1"},
+    )
     try:
         deadline = time.time() + 60
-        while (time.time() < deadline and proc.poll() is None
-               and not list(tmp_path.glob(".tmp-*"))):
+        while time.time() < deadline and proc.poll() is None and not list(tmp_path.glob(".tmp-*")):
             time.sleep(0.05)
-        assert proc.poll() is None and list(tmp_path.glob(".tmp-*")), \
+        assert proc.poll() is None and list(tmp_path.glob(".tmp-*")), (
             f"the run ended or never started writing: {proc.poll()}"
+        )
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=60)
     finally:
@@ -214,11 +252,26 @@ def test_absurd_pitch_is_refused_quickly(tmp_path, capsys, p2):
     the pitch, and ``--align false`` images it."""
     src = _edited(tmp_path, p2, "xbig.npz", x=np.load(p2)["x"] * 1e6)
     t0 = time.perf_counter()
-    line = _warned_error(capsys, ["image", str(src), "-o", str(tmp_path / "o.npz"),
-                                  "--sigma-x", "0.1"])
+    line = _warned_error(
+        capsys, ["image", str(src), "-o", str(tmp_path / "o.npz"), "--sigma-x", "0.1"]
+    )
     assert "alias directions" in line and "5000 m" in line and time.perf_counter() - t0 < 30
-    assert main(["image", str(src), "-o", str(tmp_path / "o.npz"), "--sigma-x", "0.1",
-                 "--align", "false", "-q"]) == 0
+    assert (
+        main(
+            [
+                "image",
+                str(src),
+                "-o",
+                str(tmp_path / "o.npz"),
+                "--sigma-x",
+                "0.1",
+                "--align",
+                "false",
+                "-q",
+            ]
+        )
+        == 0
+    )
 
 
 def test_extreme_amplitudes_image_or_are_refused(tmp_path, capsys, p2):

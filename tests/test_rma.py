@@ -46,8 +46,13 @@ def test_rejects_planar_data_and_bad_options():
     with pytest.raises(InputError, match="linear arrays only"):
         rma_image(data)
     lin = simulate(Scene((PointTarget((0.0, 0.5)),)), ARRAY, WF, np.arange(0.0, 1.0, 2.5e-3))
-    for kw in ({"pad_x": 0}, {"upsample_x": 1.5}, {"zero_pad_r": 0}, {"dy": -1.0},
-               {"y_min": 0.8, "y_max": 0.7}):
+    for kw in (
+        {"pad_x": 0},
+        {"upsample_x": 1.5},
+        {"zero_pad_r": 0},
+        {"dy": -1.0},
+        {"y_min": 0.8, "y_max": 0.7},
+    ):
         with pytest.raises(InputError):
             rma_image(lin, **kw)
 
@@ -118,4 +123,7 @@ def test_paper_2d_sparse_array_shows_grating_lobe_ghosts():
     target_levels = [np.max(level[np.abs(bearing - t) <= 1.5]) for t in targets]
     ghost = (near_target > 3.0) & (near_ghost <= 1.5)
     assert np.any(ghost) and np.max(level[ghost]) > min(target_levels), (
-        bearing[:8], level[:8], target_levels)
+        bearing[:8],
+        level[:8],
+        target_levels,
+    )

@@ -50,7 +50,7 @@ def test_crb_scales_with_noise_and_bandwidth():
 
     pos = _positions(g)
     centre = int(np.argmin(np.linalg.norm(pos - pos.mean(axis=0), axis=1)))
-    _, aa = _echoes(g, pos[centre:centre + 1])
+    _, aa = _echoes(g, pos[centre : centre + 1])
     f = g.fc - g.band / 2 + np.arange(g.nf) * g.band / (g.nf - 1)
     b_rms = np.std(f)
     want = [299792458.0 / (4 * np.pi * b_rms * np.sqrt(2 * g.nf * a**2 / 1e-6)) for a in aa[0]]
@@ -58,8 +58,21 @@ def test_crb_scales_with_noise_and_bandwidth():
 
 
 def test_table_lists_every_row():
-    rows = [{"scene": "s", "snr": None, "method": "m", "fraction": 1.0, "median": 0.001,
-             "hit": 3, "targets": 3, "points": 10, "seconds": 0.01, "crb_range": 0.0,
-             "crb_position": 0.0, "tol": 0.05}]
+    rows = [
+        {
+            "scene": "s",
+            "snr": None,
+            "method": "m",
+            "fraction": 1.0,
+            "median": 0.001,
+            "hit": 3,
+            "targets": 3,
+            "points": 10,
+            "seconds": 0.01,
+            "crb_range": 0.0,
+            "crb_position": 0.0,
+            "tol": 0.05,
+        }
+    ]
     text = table(rows)
     assert "| s | inf | m | 100.0 % (<= 50 mm) | 1.0 | 3/3 | 10 |" in text

@@ -89,9 +89,11 @@ def test_round_trip_to_the_scatterer(request, rng, engine):
     eng = ref if engine == "reference" else request.getfixturevalue(engine)
     target, x, z, r, amp, st, ct = exact_scene(rng)
     local = target[:, None] - np.stack([x, np.zeros_like(x), z])  # per main antenna
-    p0 = local + np.array([0.009, -0.006, 0.01])[:, None]         # 15 mm off
-    mode, dens, near, count = (np.asarray(v, np.float64) for v in
-                               eng.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, 5))
+    p0 = local + np.array([0.009, -0.006, 0.01])[:, None]  # 15 mm off
+    mode, dens, near, count = (
+        np.asarray(v, np.float64)
+        for v in eng.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, 5)
+    )
     # float32: candidates of the narrowest triplets here err by up to ~1e-4 m
     # (~50 eps R^2 (|a_j|+|a_k|)/|det|, test_spheres' model), and so may
     # their weighted mean: 2.5e-4 m = sigma_r / 80
@@ -122,8 +124,9 @@ def test_degenerate_triplets_never_nan(dev32, dev64):
         np.testing.assert_array_equal(got[1] > 0, want[1] > 0)
         np.testing.assert_allclose(got[0], want[0], atol=1e-5)
     # a cluster with no valid triplet: the points come back, density 0
-    got = dev32.meanshift_spheres(x[:4], z[:4], r[:4], amp[:4], st[:4], np.full(4, 4),
-                                  p0[:, :4], SD, SR, 3)
+    got = dev32.meanshift_spheres(
+        x[:4], z[:4], r[:4], amp[:4], st[:4], np.full(4, 4), p0[:, :4], SD, SR, 3
+    )
     np.testing.assert_array_equal(got[1], 0)
     np.testing.assert_allclose(got[0], p0[:, :4])
 
@@ -146,8 +149,12 @@ def test_params_validate():
     assert RPMParams(meanshift_neighbours=None, near_neighbours=8).meanshift_neighbours is None
     # near beyond the short list: that list is all nearest (neighbour_lists caps it)
     assert RPMParams(max_neighbours=32, near_neighbours=16).near_neighbours == 16
-    for bad in ({"meanshift_iters": -1}, {"meanshift_point": "centre"},
-                {"meanshift_neighbours": 1}, {"meanshift_neighbours": 5000}):
+    for bad in (
+        {"meanshift_iters": -1},
+        {"meanshift_point": "centre"},
+        {"meanshift_neighbours": 1},
+        {"meanshift_neighbours": 5000},
+    ):
         with pytest.raises(InputError):
             RPMParams(**bad)
 
@@ -166,8 +173,14 @@ def test_meanshift_only_in_clusters_up_to_max_rps(dev64, rng):
     x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=3e-3, dup=False)
     cl = np.repeat(np.arange(3), sizes)
     rps = RangePoints(ant, x, z, r, amp, cl)
-    base = RPMParams(sigma_x=SD, sigma_r=SR, meanshift_iters=2, meanshift_point="sphere",
-                     max_neighbours=16, meanshift_neighbours=6)
+    base = RPMParams(
+        sigma_x=SD,
+        sigma_r=SR,
+        meanshift_iters=2,
+        meanshift_point="sphere",
+        max_neighbours=16,
+        meanshift_neighbours=6,
+    )
     off = rpm_image(rps, replace(base, meanshift_iters=0), dev64)
     on = rpm_image(rps, replace(base, meanshift_max_rps=10_000), dev64)
     capped = rpm_image(rps, replace(base, meanshift_max_rps=25), dev64)
@@ -201,22 +214,25 @@ def test_density_kernels_match_reference(dev64, dev32, rng):
     off = rng.uniform(-1, 1, (3, ref.MS_DENSITY_T, x.size)) * (SR / 10 / np.sqrt(3))
     off[:, 0] = 0
     pts = mode[:, None, :] + off
-    pts[:, :, 5] += np.array([0.0, 5.0, 0.0])[:, None]       # 5 m off: nothing near
+    pts[:, :, 5] += np.array([0.0, 5.0, 0.0])[:, None]  # 5 m off: nothing near
     want = ref.density_spheres(x, z, r, amp, st, ct, pts, SD, SR)
     assert want.shape == (ref.MS_DENSITY_T, x.size)
     assert np.all(want[:, 5] == 0) and np.mean(want > 0) > 0.8
-    np.testing.assert_allclose(dev64.density_spheres(x, z, r, amp, st, ct, pts, SD, SR),
-                               want, rtol=5e-7, atol=1e-12)
+    np.testing.assert_allclose(
+        dev64.density_spheres(x, z, r, amp, st, ct, pts, SD, SR), want, rtol=5e-7, atol=1e-12
+    )
     got32 = dev32.density_spheres(x, z, r, amp, st, ct, pts, SD, SR)
     # float32: candidates ~1e-4 m off (see above) move G by <= 2 d dd / sigma_r^2
     np.testing.assert_allclose(got32, want, rtol=2e-2, atol=1e-6)
     # a chunk is the slice; more points than MS_DENSITY_T are refused
     np.testing.assert_array_equal(
         dev64.density_spheres(x, z, r, amp, st, ct, pts[:, :, 10:20], SD, SR, 10, 10),
-        dev64.density_spheres(x, z, r, amp, st, ct, pts, SD, SR)[:, 10:20])
+        dev64.density_spheres(x, z, r, amp, st, ct, pts, SD, SR)[:, 10:20],
+    )
     with pytest.raises(InputError):
-        dev64.density_spheres(x, z, r, amp, st, ct, np.zeros((3, ref.MS_DENSITY_T + 1, x.size)),
-                              SD, SR)
+        dev64.density_spheres(
+            x, z, r, amp, st, ct, np.zeros((3, ref.MS_DENSITY_T + 1, x.size)), SD, SR
+        )
 
 
 def test_default_point_is_the_exhaustive_argmax(dev64, rng):
@@ -238,10 +254,14 @@ def test_default_point_is_the_exhaustive_argmax(dev64, rng):
     x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=1e-3, dup=False)
     rps = RangePoints(ant, x, z, r, amp, np.repeat(np.arange(3), sizes))
     base = RPMParams(sigma_x=0.1, sigma_r=0.05)
-    exh = rpm_image(rps, replace(base, pair_cutoff=np.inf, max_neighbours=4096,
-                                 meanshift_iters=0), dev64)
-    rows = {"default": base, "sphere": replace(base, meanshift_point="sphere"),
-            "list": replace(base, meanshift_iters=0)}
+    exh = rpm_image(
+        rps, replace(base, pair_cutoff=np.inf, max_neighbours=4096, meanshift_iters=0), dev64
+    )
+    rows = {
+        "default": base,
+        "sphere": replace(base, meanshift_point="sphere"),
+        "list": replace(base, meanshift_iters=0),
+    }
     same = {}
     for name, params in rows.items():
         got = rpm_image(rps, params, dev64)
@@ -262,14 +282,16 @@ def test_newton_steps_converge_faster_than_mean_shift(rng, monkeypatch):
     x, z, r, amp, ant, st, ct = planar_cluster(rng, [40, 30], noise=1e-3, dup=False)
     sd, sr = 0.1, 0.05
     _, p0 = start_points(x, z, r, amp, ant, st, ct)
-    monkeypatch.setattr(ref, "MS_TOL", 1e-9)   # no early stop
+    monkeypatch.setattr(ref, "MS_TOL", 1e-9)  # no early stop
     mode = ref.meanshift_spheres(x, z, r, amp, st, ct, p0, sd, sr, 40)[0]
     newton = ref.meanshift_spheres(x, z, r, amp, st, ct, p0, sd, sr, 3)[0]
     monkeypatch.setattr(ref, "MS_NEWTON_PIVOT", np.inf)
     shift = ref.meanshift_spheres(x, z, r, amp, st, ct, p0, sd, sr, 3)[0]
     slow = ref.meanshift_spheres(x, z, r, amp, st, ct, p0, sd, sr, 40)[0]
-    near = {k: np.mean(np.linalg.norm(v - mode, axis=0) < 1e-6)
-            for k, v in (("newton", newton), ("shift", shift), ("slow", slow))}
+    near = {
+        k: np.mean(np.linalg.norm(v - mode, axis=0) < 1e-6)
+        for k, v in (("newton", newton), ("shift", shift), ("slow", slow))
+    }
     assert near["newton"] >= 0.6 and near["shift"] < 0.05 and near["slow"] >= 0.85
 
 
@@ -285,7 +307,7 @@ def test_short_list_only_where_one_rp_per_antenna(dev64, rng):
 
     sizes = [30, 40]
     x, z, r, amp, ant, st_, _ = planar_cluster(rng, sizes, noise=3e-3, dup=False)
-    x[1], z[1], ant[1] = x[0], z[0], ant[0]       # cluster 0: a second RP at an antenna
+    x[1], z[1], ant[1] = x[0], z[0], ant[0]  # cluster 0: a second RP at an antenna
     np.testing.assert_array_equal(_one_per_antenna(ant, st_), np.repeat([False, True], sizes))
     rps = RangePoints(ant, x, z, r, amp, np.repeat(np.arange(2), sizes))
     base = RPMParams(sigma_x=SD, sigma_r=SR, meanshift_point="sphere", max_neighbours=16)

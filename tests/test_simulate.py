@@ -16,8 +16,9 @@ def test_point_target_peak_and_phase():
     k = np.argmax(np.abs(s))
     assert abs(ax[k] - 0.8123) <= 1e-3
     # |s| at the echo's range equals its amplitude (matched filter normalised)
-    s_at = synthesize(np.array([0]), np.array([0.8123]), np.array([0.7]), 1, wf,
-                      np.array([0.0, 0.8123]))[0, 1]
+    s_at = synthesize(
+        np.array([0]), np.array([0.8123]), np.array([0.7]), 1, wf, np.array([0.0, 0.8123])
+    )[0, 1]
     assert abs(abs(s_at) - 0.7) < 1e-9
     assert abs(np.angle(s_at * np.exp(2j * wf.kc * 0.8123))) < 1e-9
 
@@ -39,8 +40,17 @@ def test_measured_snr_matches_definition():
     rng = np.random.default_rng(3)
     amp = 2.0
     clean = synthesize(np.arange(n_ant), np.full(n_ant, 0.5), np.full(n_ant, amp), n_ant, wf, ax)
-    noisy = synthesize(np.arange(n_ant), np.full(n_ant, 0.5), np.full(n_ant, amp), n_ant, wf, ax,
-                       snr_db=10.0, rng=rng, noise="receiver")
+    noisy = synthesize(
+        np.arange(n_ant),
+        np.full(n_ant, 0.5),
+        np.full(n_ant, amp),
+        n_ant,
+        wf,
+        ax,
+        snr_db=10.0,
+        rng=rng,
+        noise="receiver",
+    )
     noise = noisy - clean
     _f, p, window = _receiver_grid(wf, ax[-1])
     fs = C0 / (2 * 2.5e-3)
@@ -56,8 +66,9 @@ def test_measured_snr_matches_definition():
 
 def test_ellipse_specular_point_is_nearest_boundary_point(rng):
     for _ in range(5):
-        ell = Ellipsoid(rng.uniform(-0.3, 0.3, 2) + [0, 1.0], rng.uniform(0.01, 0.3, 2),
-                        rng.uniform(0, np.pi))
+        ell = Ellipsoid(
+            rng.uniform(-0.3, 0.3, 2) + [0, 1.0], rng.uniform(0.01, 0.3, 2), rng.uniform(0, np.pi)
+        )
         p = np.stack([rng.uniform(-1, 1, 20), np.zeros(20)], axis=1)
         _spec, d, radii = specular_point(ell, p)
         dense = boundary_samples(ell, 1e-5)
@@ -98,8 +109,9 @@ def test_blocked_path_is_dropped():
 
 def test_truth_matches_geometry():
     arr = Array(np.linspace(-0.05, 0.05, 5))
-    data = simulate(Scene((PointTarget([0.1, 0.4]),)), arr, Waveform(20e9, 0.2e9),
-                    np.arange(0, 1, 5e-3))
+    data = simulate(
+        Scene((PointTarget([0.1, 0.4]),)), arr, Waveform(20e9, 0.2e9), np.arange(0, 1, 5e-3)
+    )
     want = np.hypot(0.1 - arr.x, 0.4)
     np.testing.assert_allclose(data.truth.rp_range, want)
     assert data.signal.shape == (5, 200)
@@ -114,7 +126,7 @@ def test_mixed_dimensions_rejected():
 
 # --------------------------------------------------------------------------
 # the in-band noise model (rpm_cl.simulate, module notes, *Noise*)
-WF_WIDE = Waveform(20e9, 3e9)   # resolution c/2B = 50 mm
+WF_WIDE = Waveform(20e9, 3e9)  # resolution c/2B = 50 mm
 
 
 def _lone_echoes(n_ant, axis, snr_db=None, seed=None, noise="in-band", r_e=0.7125, amp=0.5):
@@ -123,13 +135,27 @@ def _lone_echoes(n_ant, axis, snr_db=None, seed=None, noise="in-band", r_e=0.712
     normalisation, test_point_target_peak_and_phase), so the clean peak
     power is amp^2 whatever grid the output is sampled on."""
     rng = None if seed is None else np.random.default_rng(seed)
-    return synthesize(np.arange(n_ant), np.full(n_ant, r_e), np.full(n_ant, amp), n_ant,
-                      WF_WIDE, axis, snr_db, rng, noise=noise)
+    return synthesize(
+        np.arange(n_ant),
+        np.full(n_ant, r_e),
+        np.full(n_ant, amp),
+        n_ant,
+        WF_WIDE,
+        axis,
+        snr_db,
+        rng,
+        noise=noise,
+    )
 
 
 @pytest.mark.parametrize("snr_db", [20.0, 0.0, -10.0])
-@pytest.mark.parametrize("axis", [np.arange(0.3, 1.3, 0.025),     # 40 gates of 25 mm
-                                  np.arange(0.0, 3.0, 0.010)])    # 300 gates of 10 mm
+@pytest.mark.parametrize(
+    "axis",
+    [
+        np.arange(0.3, 1.3, 0.025),  # 40 gates of 25 mm
+        np.arange(0.0, 3.0, 0.010),
+    ],
+)  # 300 gates of 10 mm
 def test_in_band_snr_is_the_requested_one(snr_db, axis):
     """Measured S/N = clean peak power / mean compressed noise power equals
     the requested one, on two range axes (different gate spacing and length,
@@ -146,7 +172,7 @@ def test_in_band_snr_is_the_requested_one(snr_db, axis):
     n_ant = 1500
     clean = _lone_echoes(n_ant, axis)
     noisy = _lone_echoes(n_ant, axis, snr_db, seed=7)
-    measured = 10 * np.log10(0.5 ** 2 / np.mean(np.abs(noisy - clean) ** 2))
+    measured = 10 * np.log10(0.5**2 / np.mean(np.abs(noisy - clean) ** 2))
     assert measured == pytest.approx(snr_db, abs=0.1)
 
 
@@ -168,17 +194,20 @@ def test_compressed_noise_has_the_bands_autocorrelation(noise):
     n_ant = 1500
     clean = _lone_echoes(n_ant, axis)
     nz = _lone_echoes(n_ant, axis, 10.0, seed=11, noise=noise) - clean
-    lags = np.arange(0, 31)          # 0 .. 150 mm in 5 mm steps
+    lags = np.arange(0, 31)  # 0 .. 150 mm in 5 mm steps
     zero = np.mean(np.abs(nz) ** 2)
-    got = np.array([np.mean(nz[:, :nz.shape[1] - m] * np.conj(nz[:, m:])) for m in lags]) / zero
+    got = np.array([np.mean(nz[:, : nz.shape[1] - m] * np.conj(nz[:, m:])) for m in lags]) / zero
     f = np.linspace(-WF_WIDE.bandwidth, WF_WIDE.bandwidth, 20001)
     w = np.cos(np.pi * f / (2 * WF_WIDE.bandwidth)) ** 4
-    want = np.array([np.sum(w * np.exp(-4j * np.pi * f * (m * 0.005) / C0)) for m in lags]) / w.sum()
+    want = (
+        np.array([np.sum(w * np.exp(-4j * np.pi * f * (m * 0.005) / C0)) for m in lags]) / w.sum()
+    )
     np.testing.assert_allclose(got, want, rtol=0, atol=0.02)
     # the tolerance tells the band from the cos^8 band of noise shaped by P
     w8 = w * w
-    shaped = np.array([np.sum(w8 * np.exp(-4j * np.pi * f * (m * 0.005) / C0))
-                       for m in lags]) / w8.sum()
+    shaped = (
+        np.array([np.sum(w8 * np.exp(-4j * np.pi * f * (m * 0.005) / C0)) for m in lags]) / w8.sum()
+    )
     assert np.max(np.abs(shaped - want)) > 0.1
 
 
@@ -211,7 +240,8 @@ def test_receiver_model_sits_above_the_in_band_one_by_the_noise_bandwidth():
     gain = 10 * np.log10(1.5 * (C0 / (2 * 2.5e-3)) / (2 * WF_WIDE.bandwidth))
     clean = _lone_echoes(1500, axis)
     rec = _lone_echoes(1500, axis, 10.0, seed=3, noise="receiver")
-    assert 10 * np.log10(0.25 / np.mean(np.abs(rec - clean) ** 2)) == pytest.approx(10 + gain,
-                                                                                    abs=0.1)
+    assert 10 * np.log10(0.25 / np.mean(np.abs(rec - clean) ** 2)) == pytest.approx(
+        10 + gain, abs=0.1
+    )
     same = _lone_echoes(1500, axis, 10.0 + gain, seed=3)
     np.testing.assert_allclose(same - clean, rec - clean, rtol=1e-3, atol=1e-12)

@@ -32,8 +32,9 @@ def _same_clusters(a, b):
         np.testing.assert_array_equal(ca.signal, cb.signal)
 
 
-@pytest.mark.parametrize("name,snr", [("paper-2d", None), ("paper-2d", 10.0),
-                                      ("human-body", None), ("human-body", 20.0)])
+@pytest.mark.parametrize(
+    "name,snr", [("paper-2d", None), ("paper-2d", 10.0), ("human-body", None), ("human-body", 20.0)]
+)
 def test_gate_skip_is_exact(name, snr):
     data, preset = simulate_preset(name, snr, 3, noise="receiver")
     ks = default_params(data, **preset.defaults).kspace
@@ -58,8 +59,16 @@ class _GateCounter:
 def _body_like(targets, snr=None, seed=0):
     preset = get_preset("human-body")
     scene = Scene(tuple(targets), "test")
-    return simulate(scene, preset.array, preset.waveform, preset.range_axis, snr, seed,
-                    boundary_spacing=5e-3, noise="receiver"), preset
+    return simulate(
+        scene,
+        preset.array,
+        preset.waveform,
+        preset.range_axis,
+        snr,
+        seed,
+        boundary_spacing=5e-3,
+        noise="receiver",
+    ), preset
 
 
 def test_work_follows_the_scene(monkeypatch):
@@ -68,8 +77,12 @@ def test_work_follows_the_scene(monkeypatch):
     fewer than the full search's two passes over every gate."""
     preset = get_preset("human-body")
     nr = preset.range_axis.size
-    zero = RadarData(np.zeros(preset.array.shape + (nr,), complex), preset.array,
-                     preset.range_axis, preset.waveform)
+    zero = RadarData(
+        np.zeros(preset.array.shape + (nr,), complex),
+        preset.array,
+        preset.range_axis,
+        preset.waveform,
+    )
     ks = default_params(zero, **preset.defaults).kspace
     count = _GateCounter(monkeypatch)
     assert decompose(zero, ks).clusters == ()
@@ -138,8 +151,12 @@ def test_noise_params_validated():
     from rpm_cl.extract.kspace import KSpaceParams
     from rpm_cl.io.data import InputError
 
-    for bad in ({"noise_pfa": 0.0}, {"noise_pfa": 1.5}, {"noise_power": -1.0},
-                {"noise_power": float("nan")}):
+    for bad in (
+        {"noise_pfa": 0.0},
+        {"noise_pfa": 1.5},
+        {"noise_power": -1.0},
+        {"noise_power": float("nan")},
+    ):
         with pytest.raises(InputError, match=next(iter(bad))):
             KSpaceParams(**bad)
 
@@ -176,16 +193,19 @@ def test_pair_cutoff_2d_long_array(dev32):
     # one point: two in one range cell (0.75 m at 0.2 GHz) are one cluster
     # focused on neither, which the exact focus (kspace step 5) keeps small
     scene = Scene((PointTarget((-0.1, 0.45)),), "long")
-    data = simulate(scene, arr, Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3), 30.0, 0,
-                    noise="receiver")
+    data = simulate(
+        scene, arr, Waveform(20e9, 0.2e9), np.arange(0.0, 1.5, 2.5e-3), 30.0, 0, noise="receiver"
+    )
     params = default_params(data, sigma_x=0.05, sigma_r=0.05)
     rps = run_method("kspace-rpm", data, params, dev32).rps
     idx, _, _, s, c = _prepare(rps, params.rpm)
     x = np.asarray(rps.x)[idx]
     w = pair_windows(x, s, c, 0.2)[1]
     # antennas exactly 0.2 m apart may fall either side of the cutoff (rounding)
-    near = [np.array([np.sum(np.abs(x[s0:s0 + c0] - xi) <= 0.2 + tol)
-                      for xi, s0, c0 in zip(x, s, c)]) for tol in (-1e-9, 1e-9)]
+    near = [
+        np.array([np.sum(np.abs(x[s0 : s0 + c0] - xi) <= 0.2 + tol) for xi, s0, c0 in zip(x, s, c)])
+        for tol in (-1e-9, 1e-9)
+    ]
     assert c.max() > 200 and np.all((near[0] <= w) & (w <= near[1])) and w.max() < 0.5 * c.max()
     cut = rpm_image(rps, params.rpm, dev32)
     full = rpm_image(rps, dataclasses.replace(params.rpm, pair_cutoff_2d=np.inf), dev32)

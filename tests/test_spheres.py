@@ -59,7 +59,7 @@ def test_neighbour_lists_respect_cluster_antenna_radius_and_order(rng):
     radius, kmax = 0.04, 12
     nbr, nn = neighbour_lists(x, z, ant, starts, counts, radius, kmax)
     for i in range(x.size):
-        lst = nbr[i, :nn[i]]
+        lst = nbr[i, : nn[i]]
         d = np.hypot(x[lst] - x[i], z[lst] - z[i])
         assert np.all((lst >= starts[i]) & (lst < starts[i] + counts[i]))
         assert np.all(ant[lst] != ant[i]) and np.all(d <= radius)
@@ -68,7 +68,7 @@ def test_neighbour_lists_respect_cluster_antenna_radius_and_order(rng):
         dall = np.hypot(x[lo:hi] - x[i], z[lo:hi] - z[i])
         eligible = np.sum((ant[lo:hi] != ant[i]) & (dall <= radius))
         assert nn[i] == min(kmax, eligible)
-        assert np.all(nbr[i, nn[i]:] == -1)
+        assert np.all(nbr[i, nn[i] :] == -1)
 
 
 def test_intersect_float64_matches_reference(dev64, rng):
@@ -168,8 +168,9 @@ def test_tangent_triplet_is_skipped():
     z = np.array([0.0, 0.0, d])
     p = np.array([0.5, 0.0, 0.5])  # in the array plane: y = 0, tangent case
     r = np.sqrt((p[0] - x) ** 2 + (p[2] - z) ** 2)
-    cand, _w, valid = ref.intersect_spheres(x, z, r, np.ones(3), np.array([[1, 2]] * 3),
-                                           np.array([2, 2, 2]), 0.03)
+    cand, _w, valid = ref.intersect_spheres(
+        x, z, r, np.ones(3), np.array([[1, 2]] * 3), np.array([2, 2, 2]), 0.03
+    )
     assert valid[0, 0] == 0 and np.all(np.isfinite(cand))
 
 
@@ -177,16 +178,23 @@ coord = st.floats(-0.5, 0.5, allow_nan=False)
 
 
 @settings(max_examples=200, deadline=None)
-@given(px=coord, py=st.floats(0.05, 20.0), pz=coord, dx=st.floats(5e-4, 0.05),
-       dz=st.floats(5e-4, 0.05), ang=st.floats(0.2, 2.9))
+@given(
+    px=coord,
+    py=st.floats(0.05, 20.0),
+    pz=coord,
+    dx=st.floats(5e-4, 0.05),
+    dz=st.floats(5e-4, 0.05),
+    ang=st.floats(0.2, 2.9),
+)
 @example(px=0.0, py=20.0, pz=0.0, dx=5e-4, dz=5e-4, ang=1.5)  # far and tiny: worst case
 def test_round_trip_recovers_scatterer(px, py, pz, dx, dz, ang):
     """Exact ranges from three non-collinear antennas intersect at the scatterer."""
     x = np.array([0.0, dx, dz * np.cos(ang)])
     z = np.array([0.0, 0.0, dz * np.sin(ang)])
     r = np.sqrt((px - x) ** 2 + py**2 + (pz - z) ** 2)
-    cand, _w, valid = ref.intersect_spheres(x, z, r, np.ones(3), np.array([[1, 2]] * 3),
-                                           np.array([2, 2, 2]), 0.1)
+    cand, _w, valid = ref.intersect_spheres(
+        x, z, r, np.ones(3), np.array([[1, 2]] * 3), np.array([2, 2, 2]), 0.1
+    )
     assert valid[0, 0] == 1
     # float64 rounding of R (~1e-16 R) amplified by R^2 / (baseline area).
     tol = 1e-14 * py**2 * (dx + dz) / (dx * dz * np.sin(ang)) + 1e-12
@@ -217,7 +225,7 @@ def test_neighbour_lists_near_plus_spread(rng):
     x, z, _r, _amp, ant, st_, ct = planar_cluster(rng, [60, 40], dup=False)
     nbr, nn = neighbour_lists(x, z, ant, st_, ct, 0.03, 12, near=4)
     for i in range(x.size):
-        lst = nbr[i, :nn[i]]
+        lst = nbr[i, : nn[i]]
         lo, hi = st_[i], st_[i] + ct[i]
         assert len(set(lst.tolist())) == len(lst) and np.all((lst >= lo) & (lst < hi))
         assert np.all(ant[lst] != ant[i]) and nn[i] == min(12, ct[i] - 1)
@@ -240,8 +248,8 @@ def test_neighbour_lists_per_cluster_length(rng):
         rows = kmax == k
         want, wn = neighbour_lists(x, z, ant, st_, ct, 0.03, k, near=4)
         np.testing.assert_array_equal(nn[rows], wn[rows])
-        np.testing.assert_array_equal(nbr[rows, :want.shape[1]], want[rows])
-        assert np.all(nbr[rows, want.shape[1]:] == -1) and nn[rows].max() == k
+        np.testing.assert_array_equal(nbr[rows, : want.shape[1]], want[rows])
+        assert np.all(nbr[rows, want.shape[1] :] == -1) and nn[rows].max() == k
 
 
 def grid_cluster(rng, steps=(7.5e-3, 5e-3), shape=(9, 7), keep=0.7, origin=(0.0, 0.0)):
@@ -282,9 +290,9 @@ def test_grid_ranking_is_exact_distance_then_index(rng, steps):
         others = [j for j in range(c) if ant[j] != ant[i]]
         want = sorted(others, key=lambda j: (d2[j], j))
         ties += len(others) - len({d2[j] for j in others})
-        assert order[i, :len(want)].tolist() == want
+        assert order[i, : len(want)].tolist() == want
         assert eligible[i] == len(others)
-        assert within[i] == sum(d2[j] * 0.25e-6 <= radius ** 2 for j in others)
+        assert within[i] == sum(d2[j] * 0.25e-6 <= radius**2 for j in others)
     assert ties > 0  # the layout has ties to break
 
 
@@ -311,9 +319,11 @@ def test_off_grid_antennas_take_the_float_ranking(rng):
     xg, zg, antg, *_ = grid_cluster(rng)
     xg[3] += 1e-4 * np.sqrt(2)  # one antenna moved off the grid (by 1e-4 it is on a 0.1 mm one)
     assert _grid_offsets(xg, zg) is None
-    nbr, nn = neighbour_lists(xg, zg, antg, np.zeros(xg.size, int), np.full(xg.size, xg.size), np.inf, 6)
+    nbr, nn = neighbour_lists(
+        xg, zg, antg, np.zeros(xg.size, int), np.full(xg.size, xg.size), np.inf, 6
+    )
     for i in range(xg.size):
-        d = np.hypot(xg[nbr[i, :nn[i]]] - xg[i], zg[nbr[i, :nn[i]]] - zg[i])
+        d = np.hypot(xg[nbr[i, : nn[i]]] - xg[i], zg[nbr[i, : nn[i]]] - zg[i])
         dall = np.sort(np.hypot(xg - xg[i], zg - zg[i])[antg != antg[i]])
         np.testing.assert_allclose(d, dall[:6])
 
@@ -337,5 +347,5 @@ def test_clusters_smaller_than_the_list(off_grid, near):
     for i in range(6):
         others = set(range(start[i], start[i] + count[i])) - {i}
         assert nn[i] == len(others)
-        assert set(nbr[i, :nn[i]].tolist()) == others
-        assert np.all(nbr[i, nn[i]:] == -1)
+        assert set(nbr[i, : nn[i]].tolist()) == others
+        assert np.all(nbr[i, nn[i] :] == -1)

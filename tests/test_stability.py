@@ -35,8 +35,15 @@ angle = st.floats(0.05, np.pi - 0.05)
 
 
 @settings(max_examples=150, deadline=None)
-@given(R=rng_m, th=st.floats(-1.2, 1.2), ph=st.floats(-1.2, 1.2), d=spacing, ang=angle,
-       n1=st.floats(-1e-3, 1e-3), n2=st.floats(-1e-3, 1e-3))
+@given(
+    R=rng_m,
+    th=st.floats(-1.2, 1.2),
+    ph=st.floats(-1.2, 1.2),
+    d=spacing,
+    ang=angle,
+    n1=st.floats(-1e-3, 1e-3),
+    n2=st.floats(-1e-3, 1e-3),
+)
 @example(R=20.0, th=0.0, ph=0.0, d=5e-4, ang=0.05, n1=0.0, n2=0.0)  # far, tiny, nearly collinear
 def test_swap_invariance_and_backward_error(R, th, ph, d, ang, n1, n2):
     """The candidate does not depend on the order of the two sub RPs, and it
@@ -64,8 +71,13 @@ def test_swap_invariance_and_backward_error(R, th, ph, d, ang, n1, n2):
 
 
 @settings(max_examples=100, deadline=None)
-@given(R=st.floats(0.05, 5.0), d=st.floats(2e-3, 0.05), ang=st.floats(0.3, np.pi - 0.3),
-       off_x=st.floats(-100.0, 100.0), off_z=st.floats(-100.0, 100.0))
+@given(
+    R=st.floats(0.05, 5.0),
+    d=st.floats(2e-3, 0.05),
+    ang=st.floats(0.3, np.pi - 0.3),
+    off_x=st.floats(-100.0, 100.0),
+    off_z=st.floats(-100.0, 100.0),
+)
 def test_translation_invariance(dev32, R, d, ang, off_x, off_z):
     """Moving array and scene together moves the point and nothing else,
     even 100 m from the origin in float32 (the host removes a common origin in

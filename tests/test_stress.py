@@ -21,8 +21,9 @@ def _finite(res):
 
 
 def _scene(ranges_deg, pitch, n_ant, r_axis, bw=0.2e9):
-    targets = tuple(PointTarget((r * np.sin(np.radians(a)), r * np.cos(np.radians(a))))
-                    for r, a in ranges_deg)
+    targets = tuple(
+        PointTarget((r * np.sin(np.radians(a)), r * np.cos(np.radians(a)))) for r, a in ranges_deg
+    )
     arr = Array((np.arange(n_ant) - (n_ant - 1) / 2) * pitch)
     return simulate(Scene(targets), arr, Waveform(20e9, bw), r_axis, boundary_spacing=1e-3)
 
@@ -37,11 +38,13 @@ def test_extreme_geometry_runs_clean(case, dev32):
     data = {
         "near": lambda: _scene([(0.06, -20), (0.08, 15)], 2e-3, 21, np.arange(0.0, 0.5, 1e-3), 3e9),
         "far": lambda: _scene([(15.0, -2)], 5e-3, 21, np.arange(14.0, 16.5, 2.5e-3)),
-        "far-pair": lambda: _scene([(15.0, -2), (15.4, 3)], 5e-3, 21,
-                                   np.arange(14.0, 16.5, 2.5e-3)),
+        "far-pair": lambda: _scene(
+            [(15.0, -2), (15.4, 3)], 5e-3, 21, np.arange(14.0, 16.5, 2.5e-3)
+        ),
         "fine": lambda: _scene([(0.45, -10), (0.47, 12)], 1e-3, 101, np.arange(0.0, 1.0, 2.5e-3)),
-        "sparse-50mm": lambda: _scene([(0.45, -10), (0.47, 12)], 50e-3, 11,
-                                      np.arange(0.0, 1.5, 2.5e-3)),
+        "sparse-50mm": lambda: _scene(
+            [(0.45, -10), (0.47, 12)], 50e-3, 11, np.arange(0.0, 1.5, 2.5e-3)
+        ),
     }[case]()
     res = run_method("kspace-rpm", data, default_params(data), dev32)
     _finite(res)
@@ -83,8 +86,9 @@ def test_amplitude_scale_does_not_change_the_image(scale, preset, dev32):
 def test_complex64_input_matches_complex128(dev32):
     data, pre = simulate_preset("human-body", 20.0, seed=1, noise="receiver")
     params = default_params(data, **pre.defaults)
-    single = RadarData(data.signal.astype(np.complex64), data.array, data.range, data.waveform,
-                       data.truth)
+    single = RadarData(
+        data.signal.astype(np.complex64), data.array, data.range, data.waveform, data.truth
+    )
     a = run_method("kspace-rpm", data, params, dev32)
     b = run_method("kspace-rpm", single, params, dev32)
     _finite(b)

@@ -18,30 +18,50 @@ import pytest
 
 from rpm_cl.cli import main
 
-ELL2 = {"type": "ellipsoid", "center": [0.0, 0.5], "semi_axes": [0.1, 0.05], "angles": [0.3],
-        "amplitude": 1.0}
+ELL2 = {
+    "type": "ellipsoid",
+    "center": [0.0, 0.5],
+    "semi_axes": [0.1, 0.05],
+    "angles": [0.3],
+    "amplitude": 1.0,
+}
 PT2 = {"type": "point", "position": [0.05, 0.4], "amplitude": 1.0}
 
 
 def _result_2d(**override):
     m, k = 12, 8
     t = np.linspace(0, np.pi, m)
-    out = {"points": np.stack([0.1 * np.cos(t), 0.5 - 0.05 * np.sin(t)], 1),
-           "cluster": np.arange(m) // 6,
-           "rp_x": np.linspace(-0.2, 0.2, k),
-           "meta": {"method": "kspace-rpm", "scene": {"name": "t", "targets": [ELL2, PT2]}}}
+    out = {
+        "points": np.stack([0.1 * np.cos(t), 0.5 - 0.05 * np.sin(t)], 1),
+        "cluster": np.arange(m) // 6,
+        "rp_x": np.linspace(-0.2, 0.2, k),
+        "meta": {"method": "kspace-rpm", "scene": {"name": "t", "targets": [ELL2, PT2]}},
+    }
     out.update(override)
     return out
 
 
 def _result_3d(**override):
     m, k = 10, 6
-    out = {"points": np.column_stack([np.linspace(-0.1, 0.1, m), np.full(m, 1.0), np.zeros(m)]),
-           "cluster": np.zeros(m, np.int64),
-           "rp_x": np.linspace(-0.2, 0.2, k), "rp_z": np.zeros(k),
-           "meta": {"method": "kspace-rpm", "scene": {"targets": [
-               {"type": "ellipsoid", "center": [0, 1, 0], "semi_axes": [0.1, 0.1, 0.3],
-                "angles": [0, 0, 0]}]}}}
+    out = {
+        "points": np.column_stack([np.linspace(-0.1, 0.1, m), np.full(m, 1.0), np.zeros(m)]),
+        "cluster": np.zeros(m, np.int64),
+        "rp_x": np.linspace(-0.2, 0.2, k),
+        "rp_z": np.zeros(k),
+        "meta": {
+            "method": "kspace-rpm",
+            "scene": {
+                "targets": [
+                    {
+                        "type": "ellipsoid",
+                        "center": [0, 1, 0],
+                        "semi_axes": [0.1, 0.1, 0.3],
+                        "angles": [0, 0, 0],
+                    }
+                ]
+            },
+        },
+    }
     out.update(override)
     return out
 
@@ -83,23 +103,34 @@ BAD = {
     "scene-list": (_result_2d(meta={"scene": [1, 2]}), "meta.scene must be a JSON object"),
     "targets-dict": (_result_2d(meta={"scene": {"targets": {"a": 1}}}), "targets must be a list"),
     "target-not-dict": (_result_2d(meta={"scene": {"targets": [3]}}), "targets[0] must be"),
-    "target-unknown-type": (_result_2d(meta={"scene": {"targets": [{"type": "cube"}]}}),
-                            "unknown type"),
-    "point-no-position": (_result_2d(meta={"scene": {"targets": [ELL2, {"type": "point"}]}}),
-                          "targets[1]: the point target has no position"),
+    "target-unknown-type": (
+        _result_2d(meta={"scene": {"targets": [{"type": "cube"}]}}),
+        "unknown type",
+    ),
+    "point-no-position": (
+        _result_2d(meta={"scene": {"targets": [ELL2, {"type": "point"}]}}),
+        "targets[1]: the point target has no position",
+    ),
     "ellipsoid-no-semi-axes": (
         _result_2d(meta={"scene": {"targets": [{"type": "ellipsoid", "center": [0, 1]}]}}),
-        "has no semi_axes"),
+        "has no semi_axes",
+    ),
     "ellipsoid-no-center": (
         _result_2d(meta={"scene": {"targets": [{"type": "ellipsoid", "semi_axes": [1, 1]}]}}),
-        "has no center"),
+        "has no center",
+    ),
     "ellipsoid-text-angles": (
-        _result_2d(meta={"scene": {"targets": [dict(ELL2, angles="up")]}}), "not numeric"),
+        _result_2d(meta={"scene": {"targets": [dict(ELL2, angles="up")]}}),
+        "not numeric",
+    ),
     "ellipsoid-negative-axis": (
-        _result_2d(meta={"scene": {"targets": [dict(ELL2, semi_axes=[-1, 1])]}}), "semi_axes"),
+        _result_2d(meta={"scene": {"targets": [dict(ELL2, semi_axes=[-1, 1])]}}),
+        "semi_axes",
+    ),
     "ellipsoid-3d-no-semi-axes": (
         _result_3d(meta={"scene": {"targets": [{"type": "ellipsoid", "center": [0, 1, 0]}]}}),
-        "has no semi_axes"),
+        "has no semi_axes",
+    ),
     # arrays
     "points-1d": (_result_2d(points=np.zeros(4)), "points must be"),
     "points-text": (_result_2d(points=np.full((12, 2), "a")), "points must be"),
@@ -135,8 +166,9 @@ def test_mkstemp_failure_is_an_input_error(tmp_path, capsys, monkeypatch):
     assert "Permission denied" in err
 
 
-@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0,
-                    reason="root writes into read-only folders")
+@pytest.mark.skipif(
+    not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root writes into read-only folders"
+)
 def test_read_only_folder_is_an_input_error(tmp_path, capsys):
     src = _write(tmp_path / "ok.npz", _result_2d())
     ro = tmp_path / "ro"
@@ -223,11 +255,18 @@ def test_render_then_opencl_build_in_one_process(tmp_path):
         "from rpm_cl.rpm import DeviceRPM\n"
         "s = DeviceRPM(create_env()).score_candidates(np.zeros((3, 1, 8)), np.ones((1, 8)),\n"
         "                                             np.ones((1, 8), np.int8), 0.05)\n"
-        "print('score', s[0, 0])\n")
+        "print('score', s[0, 0])\n"
+    )
     env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
-    res = subprocess.run([sys.executable, "-c", code, str(out), str(tmp_path / "r.png")],
-                         capture_output=True, text=True, env=env, timeout=300, check=False,
-                         cwd=tmp_path)  # not the checkout: import the installed package
+    res = subprocess.run(
+        [sys.executable, "-c", code, str(out), str(tmp_path / "r.png")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+        check=False,
+        cwd=tmp_path,
+    )  # not the checkout: import the installed package
     assert res.returncode == 0, res.stderr[-2000:]
     assert res.stdout.strip().endswith("score 8.0")
     assert (tmp_path / "r.png").stat().st_size > 0

@@ -27,9 +27,9 @@ from rpm_cl.rpm import reference
 from rpm_cl.simulate import echoes, simulate_preset
 from rpm_cl.simulate.scene import PointTarget, Scene
 
-ARRAY = Array((np.arange(21) - 10) * 5e-3)       # 0.1 m: no focusing beyond 0.33 m
+ARRAY = Array((np.arange(21) - 10) * 5e-3)  # 0.1 m: no focusing beyond 0.33 m
 SCENE = Scene((PointTarget((0.05, 0.6)), PointTarget((-0.1, 0.8)), PointTarget((0.12, 1.0))))
-FREQ = 20e9 + np.linspace(-1.5e9, 1.5e9, 121)     # df = 25 MHz: unambiguous range 6 m
+FREQ = 20e9 + np.linspace(-1.5e9, 1.5e9, 121)  # df = 25 MHz: unambiguous range 6 m
 
 
 def _spectrum(f=FREQ, scene=SCENE, arr=ARRAY):
@@ -67,7 +67,7 @@ def test_presets_load_and_image_silently(tmp_path, preset):
     for ext in (".npz", ".h5"):
         save_data(tmp_path / f"p{ext}", data)
         back = _silent(load_data, tmp_path / f"p{ext}")
-    if preset != "human-body":   # the body's imaging is tested elsewhere; loading is the point
+    if preset != "human-body":  # the body's imaging is tested elsewhere; loading is the point
         _silent(_image, back)
 
 
@@ -113,18 +113,24 @@ def test_conjugate_flag_on_the_command_line(tmp_path, capsys):
     assert capsys.readouterr().err == ""
     assert main(["image", str(_file(tmp_path, "ok.npz")), "-o", str(tmp_path / "c.npz")]) == 0
     assert capsys.readouterr().err == ""
-    np.testing.assert_array_equal(np.load(tmp_path / "b.npz")["points"],
-                                  np.load(tmp_path / "c.npz")["points"])
+    np.testing.assert_array_equal(
+        np.load(tmp_path / "b.npz")["points"], np.load(tmp_path / "c.npz")["points"]
+    )
     assert main(["image", str(bad), "-o", str(tmp_path / "d.npz"), "-q"]) == 0
-    assert capsys.readouterr().err == ""   # -q: errors only
+    assert capsys.readouterr().err == ""  # -q: errors only
 
 
 # --------------------------------------------------------------------------
 # units: both input paths alike
 def _time_domain(tmp_path, name="td.npz", **over):
     data = simulate_preset("paper-2d")[0]
-    arrays = {"signal": data.signal, "range": data.range, "x": data.array.x,
-              "fc": np.float64(20e9), "bandwidth": np.float64(0.2e9)}
+    arrays = {
+        "signal": data.signal,
+        "range": data.range,
+        "x": data.array.x,
+        "fc": np.float64(20e9),
+        "bandwidth": np.float64(0.2e9),
+    }
     arrays.update(over)
     path = tmp_path / name
     np.savez(path, **arrays)
@@ -134,8 +140,7 @@ def _time_domain(tmp_path, name="td.npz", **over):
 @pytest.mark.parametrize("factor, unit", [(1e-9, "GHz numbers"), (1e-6, "MHz numbers")])
 def test_gigahertz_and_megahertz_numbers_refused_in_both_domains(tmp_path, capsys, factor, unit):
     spec = _file(tmp_path, "f.npz", frequency=FREQ * factor)
-    td = _time_domain(tmp_path, fc=np.float64(20e9 * factor),
-                      bandwidth=np.float64(0.2e9 * factor))
+    td = _time_domain(tmp_path, fc=np.float64(20e9 * factor), bandwidth=np.float64(0.2e9 * factor))
     for path in (spec, td):
         assert main(["image", str(path), "-o", str(tmp_path / "o.npz")]) == 2
         err = capsys.readouterr().err.strip().splitlines()
@@ -189,26 +194,30 @@ def test_range_sidelobe_levels():
 
 def test_rect_window_warns_and_hann_is_silent(tmp_path, capsys):
     path = _file(tmp_path, "ok.npz")
-    rect = _silent(load_data, path, range_window="rect")   # loading alone is fine
-    with pytest.warns(DataWarning, match=r"sidelobes reach -13\.3 dB, above the k-space peak "
-                                         r"threshold -20 dB.*--range-window hann"):
+    rect = _silent(load_data, path, range_window="rect")  # loading alone is fine
+    with pytest.warns(
+        DataWarning,
+        match=r"sidelobes reach -13\.3 dB, above the k-space peak "
+        r"threshold -20 dB.*--range-window hann",
+    ):
         res_rect = _image(rect)
     res_hann = _silent(_image, _silent(load_data, path))
     # what the warning is about: spurious clusters of sidelobe points
     assert len(set(res_hann.rps.cluster.tolist())) == 3
     assert len(res_rect.image.points) > 3 * len(res_hann.image.points)
-    _silent(_image, rect, peak_threshold_db=-12.0)   # above the sidelobes: no warning
+    _silent(_image, rect, peak_threshold_db=-12.0)  # above the sidelobes: no warning
     hann = _silent(load_data, path)
-    with pytest.warns(DataWarning, match=r"sidelobes reach -31\.5 dB, above the k-space peak "
-                                         r"threshold -40 dB"):
+    with pytest.warns(
+        DataWarning,
+        match=r"sidelobes reach -31\.5 dB, above the k-space peak "
+        r"threshold -40 dB",
+    ):
         _image(hann, peak_threshold_db=-40.0)
-    assert main(["image", str(path), "-o", str(tmp_path / "o.npz"), "--range-window",
-                 "rect"]) == 0
+    assert main(["image", str(path), "-o", str(tmp_path / "o.npz"), "--range-window", "rect"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("rpm-cl: warning: the range compression's")
     for w in sorted(set(RANGE_WINDOWS) - {"rect"}):
-        assert main(["image", str(path), "-o", str(tmp_path / "o.npz"), "--range-window",
-                     w]) == 0
+        assert main(["image", str(path), "-o", str(tmp_path / "o.npz"), "--range-window", w]) == 0
         assert capsys.readouterr().err == "", w
 
 
@@ -219,7 +228,10 @@ def test_echo_near_the_unambiguous_range_warned(tmp_path):
     power in the last quarter, reads as a conjugated spectrum instead.)"""
     far = Scene(SCENE.targets + (PointTarget((0.0, 5.8), 3.0),))
     spec = _file(tmp_path, "far.npz", spectrum=_spectrum(scene=far))
-    with pytest.warns(DataWarning, match=r"an echo at 5\.8\d* m lies within 5% of the "
-                                         r"unambiguous range c/\(2 df\) = 6 m"):
+    with pytest.warns(
+        DataWarning,
+        match=r"an echo at 5\.8\d* m lies within 5% of the "
+        r"unambiguous range c/\(2 df\) = 6 m",
+    ):
         load_data(spec)
     _silent(load_data, _file(tmp_path, "near.npz"))

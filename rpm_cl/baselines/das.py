@@ -39,9 +39,20 @@ import numpy as np
 from ..io.data import C0, InputError, RadarData
 from ..io.images import GRID_COORD_MAX, Grid, check_disk, parse_grid, write_image
 
-__all__ = ["GRID_COORD_MAX", "MEMORY_BUDGET_DEFAULT", "DASPlan", "DeviceDAS", "Grid",
-           "check_disk", "check_float32_range", "das_adjoint", "das_numpy", "image_points",
-           "parse_grid", "write_image"]
+__all__ = [
+    "GRID_COORD_MAX",
+    "MEMORY_BUDGET_DEFAULT",
+    "DASPlan",
+    "DeviceDAS",
+    "Grid",
+    "check_disk",
+    "check_float32_range",
+    "das_adjoint",
+    "das_numpy",
+    "image_points",
+    "parse_grid",
+    "write_image",
+]
 
 #: Default bound on the memory a DAS run may hold (temporaries, tables), bytes.
 MEMORY_BUDGET_DEFAULT = 2_000_000_000
@@ -73,13 +84,14 @@ def check_float32_range(data: RadarData) -> None:
     peak = float(np.max(np.abs(data.signal))) if data.signal.size else 0.0
     n = data.array.n
     if peak > 0 and (peak * n > F32_MAX_SUM or peak < F32_MIN_PEAK):
-        raise InputError(f"signal amplitudes up to {peak:.3g} are outside what a float32 DAS "
-                         f"image holds ({F32_MIN_PEAK:g} .. {F32_MAX_SUM / n:.3g} for {n} "
-                         f"antennas); use --precision float64, or scale the signal")
+        raise InputError(
+            f"signal amplitudes up to {peak:.3g} are outside what a float32 DAS "
+            f"image holds ({F32_MIN_PEAK:g} .. {F32_MAX_SUM / n:.3g} for {n} "
+            f"antennas); use --precision float64, or scale the signal"
+        )
 
 
-def _weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float,
-             medium=None):
+def _weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float, medium=None):
     """Sample index (n, A), the two complex weights (n, A) for voxels p (n, 3);
     ``medium`` a half-space: refracted ranges."""
     if medium is not None and medium.half_space:
@@ -118,8 +130,7 @@ def _chunk_voxels(n_ant: int, budget: float, per: int = BYTES_PER_TERM) -> int:
 
 
 def _per(medium) -> int:
-    return BYTES_PER_TERM_REFRACTED if medium is not None and medium.half_space \
-        else BYTES_PER_TERM
+    return BYTES_PER_TERM_REFRACTED if medium is not None and medium.half_space else BYTES_PER_TERM
 
 
 def _seen(data: RadarData, medium):
@@ -133,8 +144,14 @@ def _seen(data: RadarData, medium):
     return in_medium(data, medium), (medium if medium.half_space else None)
 
 
-def das_numpy(data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_DEFAULT,
-              out: np.ndarray | None = None, progress=None, medium=None) -> np.ndarray:
+def das_numpy(
+    data: RadarData,
+    grid: Grid,
+    memory_budget: float = MEMORY_BUDGET_DEFAULT,
+    out: np.ndarray | None = None,
+    progress=None,
+    medium=None,
+) -> np.ndarray:
     """DAS image, float64 NumPy (the specification of the kernel).
 
     Parameters
@@ -170,8 +187,7 @@ def das_numpy(data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_
     a_idx = np.arange(len(ant))[None, :]
     for lo in range(0, grid.size, step):
         hi = min(grid.size, lo + step)
-        i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2,
-                             refr)
+        i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2, refr)
         w0 *= sig[a_idx, i]
         w1 *= sig[a_idx, i + 1]
         w0 += w1
@@ -204,11 +220,10 @@ def das_adjoint(image: np.ndarray, data: RadarData, grid: Grid, medium=None) -> 
     a_idx = np.broadcast_to(np.arange(len(ant))[None, :], (min(step, x.size), len(ant)))
     for lo in range(0, x.size, step):
         hi = min(x.size, lo + step)
-        i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2,
-                             refr)
+        i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2, refr)
         xa = x[lo:hi, None]
-        np.add.at(out, (a_idx[:hi - lo], i), np.conj(w0) * xa)
-        np.add.at(out, (a_idx[:hi - lo], i + 1), np.conj(w1) * xa)
+        np.add.at(out, (a_idx[: hi - lo], i), np.conj(w0) * xa)
+        np.add.at(out, (a_idx[: hi - lo], i + 1), np.conj(w1) * xa)
     return out.reshape(data.signal.shape)
 
 
@@ -234,16 +249,19 @@ class DASPlan:
 
     BYTES_PER_TERM = 20
 
-    def __init__(self, data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_DEFAULT,
-                 medium=None):
+    def __init__(
+        self, data: RadarData, grid: Grid, memory_budget: float = MEMORY_BUDGET_DEFAULT, medium=None
+    ):
         self.medium = medium
         data, refr = _seen(data, medium)
         ant = _geometry(data, grid)
         need = float(grid.size) * len(ant) * self.BYTES_PER_TERM
         if need > memory_budget:
-            raise InputError(f"the DAS reuse tables for {grid.size} voxels x {len(ant)} antennas "
-                             f"need {need / 1e9:.1f} GB, more than the {memory_budget / 1e9:.1f} GB "
-                             "budget; use the direct back-projection")
+            raise InputError(
+                f"the DAS reuse tables for {grid.size} voxels x {len(ant)} antennas "
+                f"need {need / 1e9:.1f} GB, more than the {memory_budget / 1e9:.1f} GB "
+                "budget; use the direct back-projection"
+            )
         self.grid, self.shape = grid, data.signal.shape
         self.range0, self.dr = float(data.range[0]), data.dr
         self.fc, self.positions = data.waveform.fc, data.array.positions()
@@ -264,18 +282,23 @@ class DASPlan:
     def apply(self, data: RadarData) -> np.ndarray:
         """DAS image of one frame with the same geometry, shape grid.shape."""
         data, _ = _seen(data, self.medium)
-        if (data.signal.shape != self.shape or float(data.range[0]) != self.range0
-                or data.dr != self.dr or data.waveform.fc != self.fc
-                or not np.array_equal(data.array.positions(), self.positions)):
+        if (
+            data.signal.shape != self.shape
+            or float(data.range[0]) != self.range0
+            or data.dr != self.dr
+            or data.waveform.fc != self.fc
+            or not np.array_equal(data.array.positions(), self.positions)
+        ):
             raise InputError("this frame's array, range axis or carrier differs from the plan's")
         check_float32_range(data)
         s = np.ascontiguousarray(data.signal.reshape(-1), np.complex64)
         out = np.empty(self.grid.size, np.complex64)
         step = max(1, 2_000_000 // self.index.shape[1])
         for lo in range(0, self.grid.size, step):
-            i = self.index[lo:lo + step]
-            out[lo:lo + step] = (s[i] * self.w0[lo:lo + step]
-                                 + s[i + 1] * self.w1[lo:lo + step]).sum(axis=1)
+            i = self.index[lo : lo + step]
+            out[lo : lo + step] = (
+                s[i] * self.w0[lo : lo + step] + s[i + 1] * self.w1[lo : lo + step]
+            ).sum(axis=1)
         return out.reshape(self.grid.shape)
 
 
@@ -290,8 +313,9 @@ class DeviceDAS:
         Bound on the device output buffer of one chunk, bytes.
     """
 
-    def __init__(self, env, precision: str = "float32",
-                 memory_budget: float = MEMORY_BUDGET_DEFAULT):
+    def __init__(
+        self, env, precision: str = "float32", memory_budget: float = MEMORY_BUDGET_DEFAULT
+    ):
         from ..cl import get_kernels
 
         if precision not in ("float32", "float64"):
@@ -333,11 +357,19 @@ class DeviceDAS:
         a = np.ascontiguousarray(a, dtype)
         if a.size == 0:
             a = np.zeros(1, dtype)
-        return cl.Buffer(self.env.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR,
-                         hostbuf=a)
+        return cl.Buffer(
+            self.env.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a
+        )
 
-    def backproject(self, data: RadarData, grid: Grid, out: np.ndarray | None = None,
-                    reduce=None, progress=None, medium=None):
+    def backproject(
+        self,
+        data: RadarData,
+        grid: Grid,
+        out: np.ndarray | None = None,
+        reduce=None,
+        progress=None,
+        medium=None,
+    ):
         """DAS image on the device, row chunk by row chunk.
 
         Parameters
@@ -398,15 +430,33 @@ class DeviceDAS:
         k2 = 4 * np.pi * data.waveform.fc / C0
         for r0 in range(0, rows, step):
             n = min(step, rows - r0)
-            kernel(self.env.queue, (nq, n), None, sig, np.int32(len(ant)), np.int32(nr), ax, az,
-                   self.real.type(data.range[0]), self.real.type(1.0 / data.dr),
-                   self.real.type(k2 * data.dr), gx, gy, gz, np.int32(ny), np.int32(nlast),
-                   np.int32(grid.dim), np.int64(r0), np.int32(n), buf)
+            kernel(
+                self.env.queue,
+                (nq, n),
+                None,
+                sig,
+                np.int32(len(ant)),
+                np.int32(nr),
+                ax,
+                az,
+                self.real.type(data.range[0]),
+                self.real.type(1.0 / data.dr),
+                self.real.type(k2 * data.dr),
+                gx,
+                gy,
+                gz,
+                np.int32(ny),
+                np.int32(nlast),
+                np.int32(grid.dim),
+                np.int64(r0),
+                np.int32(n),
+                buf,
+            )
             cl.enqueue_copy(self.env.queue, host[:n], buf)
             if reduce is not None:
                 reduce(r0, host[:n])
             else:
-                flat[r0:r0 + n] = host[:n]
+                flat[r0 : r0 + n] = host[:n]
             if progress:
                 progress((r0 + n) * nlast, grid.size)
         return None if reduce is not None else out
@@ -424,8 +474,9 @@ class DeviceDAS:
         return None
 
 
-def image_points(image: np.ndarray, grid: Grid, threshold_db: float = -10.0,
-                 along: int = 1) -> np.ndarray:
+def image_points(
+    image: np.ndarray, grid: Grid, threshold_db: float = -10.0, along: int = 1
+) -> np.ndarray:
     """Points of a DAS/RMA image for the paper's Err_RPM: the maximum of |I|
     along ``along`` (the range-like y axis) in each column, kept when above
     ``threshold_db`` of the image maximum and a local maximum along that axis.

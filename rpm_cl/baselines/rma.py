@@ -78,8 +78,9 @@ def _positive_int(name: str, v) -> int:
     return int(v)
 
 
-def _stolt(spec: np.ndarray, kx: np.ndarray, k: np.ndarray, ky: np.ndarray,
-           jacobian: bool) -> np.ndarray:
+def _stolt(
+    spec: np.ndarray, kx: np.ndarray, k: np.ndarray, ky: np.ndarray, jacobian: bool
+) -> np.ndarray:
     """Resample ``S(kx, k)`` onto ``S(kx, ky)``, ``ky = sqrt(4 k^2 - kx^2)``.
 
     Linear interpolation in ``k`` at ``k = sqrt(kx^2 + ky^2) / 2`` (the
@@ -116,9 +117,18 @@ def _stolt(spec: np.ndarray, kx: np.ndarray, k: np.ndarray, ky: np.ndarray,
     return np.where(inside, out, 0)
 
 
-def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_r: int = 8,
-              dy: float | None = None, y_min: float | None = None,
-              y_max: float | None = None, jacobian: bool = True, medium=None):
+def rma_image(
+    data: RadarData,
+    *,
+    pad_x: int = 8,
+    upsample_x: int = 1,
+    zero_pad_r: int = 8,
+    dy: float | None = None,
+    y_min: float | None = None,
+    y_max: float | None = None,
+    jacobian: bool = True,
+    medium=None,
+):
     """f-k migration image of a linear array's data.
 
     Parameters
@@ -175,7 +185,7 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
     from ..io.medium import Medium, in_medium
 
     medium = Medium() if medium is None else medium
-    data = in_medium(data, medium)   # a homogeneous medium: its equivalent air scene
+    data = in_medium(data, medium)  # a homogeneous medium: its equivalent air scene
     n_in, height = (medium.n, medium.antenna_height) if medium.half_space else (1.0, 0.0)
     pad_x = _positive_int("pad_x", pad_x)
     upsample_x = _positive_int("upsample_x", upsample_x)
@@ -187,24 +197,36 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
     # which would read as targets; below a surface the deepest point an
     # air-equivalent range R reaches is h + (R - h) / n
     r_max = float(data.range[-1]) + data.dr
-    lo_lim, hi_lim = ((height, height + max(r_max - height, 0.0) / n_in) if medium.half_space
-                      else (-r_max, r_max))
-    y_lo = (float(data.range[0]) if not medium.half_space else lo_lim) if y_min is None \
+    lo_lim, hi_lim = (
+        (height, height + max(r_max - height, 0.0) / n_in) if medium.half_space else (-r_max, r_max)
+    )
+    y_lo = (
+        (float(data.range[0]) if not medium.half_space else lo_lim)
+        if y_min is None
         else float(y_min)
-    y_hi = (float(data.range[-1]) if not medium.half_space else hi_lim) if y_max is None \
+    )
+    y_hi = (
+        (float(data.range[-1]) if not medium.half_space else hi_lim)
+        if y_max is None
         else float(y_max)
+    )
     if not (np.isfinite(y_lo) and np.isfinite(y_hi) and y_hi > y_lo):
         raise InputError(f"need y_min < y_max, got {y_lo} and {y_hi}")
     if y_lo < lo_lim or y_hi > hi_lim:
-        what = ("the material below the surface at y = h and the depth the range axis reaches"
-                if medium.half_space else "the data's range axis: no target lies farther")
-        raise InputError(f"the y crop {y_lo:g} .. {y_hi:g} m must lie within {lo_lim:g} .. "
-                         f"{hi_lim:g} m ({what})")
+        what = (
+            "the material below the surface at y = h and the depth the range axis reaches"
+            if medium.half_space
+            else "the data's range axis: no target lies farther"
+        )
+        raise InputError(
+            f"the y crop {y_lo:g} .. {y_hi:g} m must lie within {lo_lim:g} .. {hi_lim:g} m ({what})"
+        )
 
     # frequency samples with the matched-filter weight (a tapered spectrum:
     # low range sidelobes), from the zero-padded FFT of the windowed profiles
-    f, y_f = frequency_samples(data, min_weight=RMA_MIN_WEIGHT, min_period_cells=0.0,
-                               deconvolve=False, zero_pad=zero_pad_r)
+    f, y_f = frequency_samples(
+        data, min_weight=RMA_MIN_WEIGHT, min_period_cells=0.0, deconvolve=False, zero_pad=zero_pad_r
+    )
     k = 2 * np.pi * (data.waveform.fc + f) / C0  # (L,)
     nx, dx = data.array.x.size, data.array.dx
     n_kx = pad_x * nx
@@ -214,14 +236,14 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
         # phase shift through the air layer: the data referred to the surface
         kz2 = 4 * k[None, :] ** 2 - kx[:, None] ** 2
         spec = np.where(kz2 > 0, spec * np.exp(1j * np.sqrt(np.maximum(kz2, 0.0)) * height), 0)
-        k = n_in * k   # then Stolt with the material's wavenumber
+        k = n_in * k  # then Stolt with the material's wavenumber
 
     # uniform ky grid over every ky the band reaches, spaced 2 dk (the spacing
     # of ky = 2k at kx = 0, so the y period stays c / 2 df)
     dk = k[1] - k[0]
     dky = 2 * dk
     ky_max = 2 * k[-1]
-    ky_min = np.sqrt(max(4 * k[0] ** 2 - np.max(kx ** 2), 0.0))
+    ky_min = np.sqrt(max(4 * k[0] ** 2 - np.max(kx**2), 0.0))
     ky = ky_min + dky * np.arange(int(np.floor((ky_max - ky_min) / dky)) + 1)
     ky = ky[ky > 0]
     img_k = _stolt(spec, kx, k, ky, jacobian)  # (n_kx, nky)
@@ -232,7 +254,7 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
         full = np.zeros((n_x, ky.size), np.complex128)
         h = n_kx // 2
         full[:h] = img_k[:h]
-        full[n_x - (n_kx - h):] = img_k[h:]
+        full[n_x - (n_kx - h) :] = img_k[h:]
         img_k = full
     period_y = 2 * np.pi / dky
     dy_nat = 2 * np.pi / (ky.size * dky)
@@ -259,8 +281,15 @@ def rma_image(data: RadarData, *, pad_x: int = 8, upsample_x: int = 1, zero_pad_
     return img[:, iy % n_y], x_axis, height + iy * ny_step
 
 
-def image_peaks(image: np.ndarray, x: np.ndarray, y: np.ndarray, *, n_peaks: int = 10,
-                min_separation: float = 0.0, rel_threshold_db: float = -20.0):
+def image_peaks(
+    image: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    *,
+    n_peaks: int = 10,
+    min_separation: float = 0.0,
+    rel_threshold_db: float = -20.0,
+):
     """The strongest local maxima of ``|image|``, at least ``min_separation`` apart.
 
     Local maxima over the 3 x 3 neighbourhood, taken strongest first; a
@@ -295,13 +324,15 @@ def image_peaks(image: np.ndarray, x: np.ndarray, y: np.ndarray, *, n_peaks: int
         raise InputError(f"min_separation must be >= 0, got {min_separation}")
     a = np.abs(np.asarray(image))
     if a.shape != (np.size(x), np.size(y)):
-        raise InputError(f"image shape {a.shape} does not match the axes "
-                         f"({np.size(x)}, {np.size(y)})")
+        raise InputError(
+            f"image shape {a.shape} does not match the axes ({np.size(x)}, {np.size(y)})"
+        )
     top = float(a.max()) if a.size else 0.0
     if top <= 0:
         return np.zeros((0, 2)), np.zeros(0)
     local = (a == maximum_filter(a, size=3, mode="constant")) & (
-        a >= top * 10.0 ** (rel_threshold_db / 20.0))
+        a >= top * 10.0 ** (rel_threshold_db / 20.0)
+    )
     i, j = np.nonzero(local)
     order = np.argsort(-a[i, j], kind="stable")
     pts, lev = [], []

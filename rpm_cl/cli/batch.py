@@ -161,8 +161,9 @@ class BatchConfig:
         if not (np.isfinite(self.memory_budget) and self.memory_budget > 0):
             raise InputError(f"memory_budget must be > 0 bytes, got {self.memory_budget}")
         if self.das_reuse not in DAS_REUSE:
-            raise InputError(f"das_reuse must be one of {', '.join(DAS_REUSE)}, "
-                             f"got {self.das_reuse!r}")
+            raise InputError(
+                f"das_reuse must be one of {', '.join(DAS_REUSE)}, got {self.das_reuse!r}"
+            )
         if not float(self.frame_timeout) > 0:  # NaN fails too
             raise InputError(f"frame_timeout must be > 0 s, got {self.frame_timeout}")
         if self.frame_memory is not None and not float(self.frame_memory) > 0:
@@ -212,9 +213,13 @@ def frame_sources(source) -> list[FrameSource]:
     source = os.fspath(source)
     suffixes = NPZ_SUFFIXES + H5_SUFFIXES
     if os.path.isdir(source):
-        files = sorted(os.path.join(source, f) for f in os.listdir(source)
-                       if not f.startswith(".") and f.lower().endswith(suffixes)
-                       and os.path.isfile(os.path.join(source, f)))
+        files = sorted(
+            os.path.join(source, f)
+            for f in os.listdir(source)
+            if not f.startswith(".")
+            and f.lower().endswith(suffixes)
+            and os.path.isfile(os.path.join(source, f))
+        )
         if not files:
             raise InputError(f"{source}: no .npz or .h5 frames in this folder")
     elif os.path.isfile(source):
@@ -229,8 +234,10 @@ def frame_sources(source) -> list[FrameSource]:
     names = [s.name for s in out]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
-        raise InputError(f"{source}: several inputs would write the same result "
-                         f"({', '.join(dup[:3])}); rename them")
+        raise InputError(
+            f"{source}: several inputs would write the same result "
+            f"({', '.join(dup[:3])}); rename them"
+        )
     return out
 
 
@@ -259,8 +266,14 @@ class _WorkerEngine(_WorkerPlugin):
 
     name = PLUGIN_NAME
 
-    def __init__(self, device: str | None, precision: str, das: bool, memory_budget: float,
-                 das_reuse: str = "auto"):
+    def __init__(
+        self,
+        device: str | None,
+        precision: str,
+        das: bool,
+        memory_budget: float,
+        das_reuse: str = "auto",
+    ):
         self.device, self.precision, self.das = device, precision, das
         self.memory_budget, self.das_reuse = memory_budget, das_reuse
 
@@ -337,8 +350,17 @@ class _WorkerEngine(_WorkerPlugin):
         if medium is not None:
             data = in_medium(data, medium)
             refr = medium if medium.half_space else None
-        key = (data.signal.shape, float(data.range[0]), data.dr, data.waveform.fc,
-               data.array.positions().tobytes(), grid.shape, grid.x[0], grid.y[0], refr)
+        key = (
+            data.signal.shape,
+            float(data.range[0]),
+            data.dr,
+            data.waveform.fc,
+            data.array.positions().tobytes(),
+            grid.shape,
+            grid.x[0],
+            grid.y[0],
+            refr,
+        )
         with self._lock:
             if self._plan is None or self._plan[0] != key:
                 self._plan = None  # free the old tables first
@@ -363,7 +385,7 @@ class _WorkerEngine(_WorkerPlugin):
         t0 = time.perf_counter()
         img = plan.apply(data)
         t_plan = time.perf_counter() - t0
-        if self.das_reuse == "plan" or refr is not None:   # the host's direct one is slower
+        if self.das_reuse == "plan" or refr is not None:  # the host's direct one is slower
             return "plan", plan, img
         das.backproject(data, grid)  # warm-up: PoCL compiles at the first launch
         t0 = time.perf_counter()
@@ -406,8 +428,9 @@ def _limit_failure(out_dir: str, src: FrameSource, config: BatchConfig) -> str |
     except FileNotFoundError:
         return None
     for path in _outputs(out_dir, src, config):
-        partial = glob.glob(os.path.join(glob.escape(out_dir),
-                                         glob.escape(temp_prefix(path)) + "*"))
+        partial = glob.glob(
+            os.path.join(glob.escape(out_dir), glob.escape(temp_prefix(path)) + "*")
+        )
         for p in [path, *partial]:
             if os.path.exists(p):
                 os.remove(p)
@@ -447,20 +470,30 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
             rec.update(device=env.name, setup_s=setup_s)
             if watchdog is not None:
                 memory = config.frame_memory
-                watchdog.arm(_marker(out_dir, src), config.frame_timeout,
-                             engine.default_frame_memory if memory is None else memory)
+                watchdog.arm(
+                    _marker(out_dir, src),
+                    config.frame_timeout,
+                    engine.default_frame_memory if memory is None else memory,
+                )
             t0 = time.perf_counter()
             data = _load_frame(src.path, src.frame)
             timings = {"load": time.perf_counter() - t0}
             params = resolve(data, dict(config.overrides))
             grid = config.grid()
             if grid is not None and grid.dim != data.array.dim:
-                raise InputError(f"{src.path}: --das-grid has {grid.dim} axes; this array needs "
-                                 f"{data.array.dim}")
+                raise InputError(
+                    f"{src.path}: --das-grid has {grid.dim} axes; this array needs {data.array.dim}"
+                )
             result = run_method(config.method, data, params, rpm)
             timings.update({k: v for k, v in result.timings.items() if k != "total"})
-            meta = {"version": __version__, "device": env.name, "precision": config.precision,
-                    "input": src.path, "frame": src.frame, "params": asdict(params)}
+            meta = {
+                "version": __version__,
+                "device": env.name,
+                "precision": config.precision,
+                "input": src.path,
+                "frame": src.frame,
+                "params": asdict(params),
+            }
             if data.truth is not None and data.truth.scene not in ("", "{}"):
                 import json
 
@@ -477,8 +510,13 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
                     out[...] = img
 
                 t0 = time.perf_counter()
-                write_image(os.path.join(out_dir, f"{src.name}_das.npz"), grid, fill, img.dtype,
-                            {**meta, "method": "das", "das_mode": mode, "grid": config.das_grid})
+                write_image(
+                    os.path.join(out_dir, f"{src.name}_das.npz"),
+                    grid,
+                    fill,
+                    img.dtype,
+                    {**meta, "method": "das", "das_mode": mode, "grid": config.das_grid},
+                )
                 timings["save"] = time.perf_counter() - t0
             t0 = time.perf_counter()
             # written last: its presence marks the frame done (see _outputs)
@@ -491,9 +529,10 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
         finally:
             if watchdog is not None:
                 watchdog.disarm()
-    rec["warnings"] = [" ".join(str(w.message).split()) for w in caught
-                       if issubclass(w.category, DataWarning)]
-    for w in caught:   # the others go where they went without the capture
+    rec["warnings"] = [
+        " ".join(str(w.message).split()) for w in caught if issubclass(w.category, DataWarning)
+    ]
+    for w in caught:  # the others go where they went without the capture
         if not issubclass(w.category, DataWarning):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     return rec
@@ -598,8 +637,9 @@ def _connect(workers: int, scheduler: str | None):
         try:
             with warnings.catch_warnings():  # "Port 8787 is already in use": another port is taken
                 warnings.filterwarnings("ignore", message="Port .* is already in use")
-                cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                       dashboard_address=None)
+                cluster = LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None
+                )
         finally:
             if main:
                 signal.signal(signal.SIGINT, old)
@@ -608,8 +648,9 @@ def _connect(workers: int, scheduler: str | None):
         return Client(scheduler, timeout="10s"), None
     except (OSError, ValueError, TypeError) as exc:
         line = str(exc).strip().splitlines()
-        raise InputError(f"cannot connect to the Dask scheduler {scheduler!r}"
-                         f"{': ' + line[0] if line else ''}") from None
+        raise InputError(
+            f"cannot connect to the Dask scheduler {scheduler!r}{': ' + line[0] if line else ''}"
+        ) from None
 
 
 def _median_stages(records: list[dict]) -> dict:
@@ -620,8 +661,15 @@ def _median_stages(records: list[dict]) -> dict:
     return {k: float(np.median(v)) for k, v in stages.items()}
 
 
-def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int = 1,
-              scheduler: str | None = None, client=None, progress=None) -> BatchSummary:
+def run_batch(
+    source,
+    out_dir,
+    config: BatchConfig = BatchConfig(),
+    workers: int = 1,
+    scheduler: str | None = None,
+    client=None,
+    progress=None,
+) -> BatchSummary:
     """Image every frame of ``source`` into ``out_dir`` on a Dask cluster.
 
     Parameters
@@ -656,10 +704,9 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
         raise InputError(f"workers must be >= 1, got {workers}")
     sources = frame_sources(source)
     out_dir = prepare_output(out_dir, sources)
-    todo = [s for s in sources
-            if not all(os.path.isfile(p) for p in _outputs(out_dir, s, config))]
+    todo = [s for s in sources if not all(os.path.isfile(p) for p in _outputs(out_dir, s, config))]
     skipped = len(sources) - len(todo)
-    _clear_markers(out_dir, sources)   # a run stopped while a limit's report was on its way
+    _clear_markers(out_dir, sources)  # a run stopped while a limit's report was on its way
     cluster = None
     own = client is None and bool(todo)  # nothing to do: no cluster started
     if own:
@@ -670,12 +717,19 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
             n_workers = len(client.scheduler_info().get("workers", {}))
             address = client.scheduler.address
             t0 = time.perf_counter()
-            client.register_plugin(_WorkerEngine(config.device, config.precision,
-                                                 config.das_grid is not None,
-                                                 config.memory_budget, config.das_reuse),
-                                   name=PLUGIN_NAME)
-            futures = client.map(_image_frame, todo, out_dir=out_dir, config=config,
-                                 pure=False, retries=1)
+            client.register_plugin(
+                _WorkerEngine(
+                    config.device,
+                    config.precision,
+                    config.das_grid is not None,
+                    config.memory_budget,
+                    config.das_reuse,
+                ),
+                name=PLUGIN_NAME,
+            )
+            futures = client.map(
+                _image_frame, todo, out_dir=out_dir, config=config, pure=False, retries=1
+            )
             by_key = {f.key: s for f, s in zip(futures, todo)}
             pending = as_completed(futures)
             del futures
@@ -685,8 +739,13 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
                 except Exception as exc:  # noqa: BLE001 - e.g. KilledWorker: recorded
                     s = by_key[fut.key]
                     reason = _limit_failure(out_dir, s, config)
-                    rec = {"frame": s.name, "input": s.path, "index": s.frame,
-                           "status": "failed", "error": reason or _error_line(exc)}
+                    rec = {
+                        "frame": s.name,
+                        "input": s.path,
+                        "index": s.frame,
+                        "status": "failed",
+                        "error": reason or _error_line(exc),
+                    }
                 # released at once: a result left on a worker that a limit then kills
                 # would be computed again
                 fut.release()
@@ -701,18 +760,29 @@ def run_batch(source, out_dir, config: BatchConfig = BatchConfig(), workers: int
             client.close()
             if cluster is not None:
                 cluster.close()
-    _clear_markers(out_dir, todo)   # the limits' reports, read into the records
+    _clear_markers(out_dir, todo)  # the limits' reports, read into the records
     done = [r for r in records if r["status"] == "done"]
-    failed = sorted(({k: r[k] for k in ("frame", "input", "error")}
-                     for r in records if r["status"] != "done"), key=lambda r: r["frame"])
+    failed = sorted(
+        ({k: r[k] for k in ("frame", "input", "error")} for r in records if r["status"] != "done"),
+        key=lambda r: r["frame"],
+    )
     summary = BatchSummary(
-        frames=len(sources), done=len(done), skipped=skipped, failed=failed,
-        frames_per_s=len(done) / wall if done and wall > 0 else 0.0, wall_s=wall,
+        frames=len(sources),
+        done=len(done),
+        skipped=skipped,
+        failed=failed,
+        frames_per_s=len(done) / wall if done and wall > 0 else 0.0,
+        wall_s=wall,
         stage_median_s=_median_stages(done),
         worker_setup_s=[r["setup_s"] for r in records if r.get("setup_s")],
-        workers=n_workers, device=sorted({r["device"] for r in records if "device" in r}),
-        scheduler=address, method=config.method, precision=config.precision,
-        das_modes=sorted({r["das_mode"] for r in done if "das_mode" in r}))
-    atomic_write_text(os.path.join(out_dir, "summary.json"),
-                      json.dumps(asdict(summary), indent=2) + "\n")
+        workers=n_workers,
+        device=sorted({r["device"] for r in records if "device" in r}),
+        scheduler=address,
+        method=config.method,
+        precision=config.precision,
+        das_modes=sorted({r["das_mode"] for r in done if "das_mode" in r}),
+    )
+    atomic_write_text(
+        os.path.join(out_dir, "summary.json"), json.dumps(asdict(summary), indent=2) + "\n"
+    )
     return summary

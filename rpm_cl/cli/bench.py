@@ -20,9 +20,13 @@ from ..simulate.synth import simulate_preset
 __all__ = ["bench_case", "run_bench"]
 
 #: (label, preset, S/N) of the benchmarked scenes.
-SCENES = [("points-5mm", "paper-2d", None), ("points-5mm", "paper-2d", 20.0),
-          ("sparse-20mm", "paper-2d-sparse", None), ("human-body", "human-body", None),
-          ("human-body", "human-body", 20.0)]
+SCENES = [
+    ("points-5mm", "paper-2d", None),
+    ("points-5mm", "paper-2d", 20.0),
+    ("sparse-20mm", "paper-2d-sparse", None),
+    ("human-body", "human-body", None),
+    ("human-body", "human-body", 20.0),
+]
 
 
 def bench_case(engine, preset: str, snr, method: str, repeats: int = 20, seed: int = 0) -> dict:
@@ -45,7 +49,9 @@ def bench_case(engine, preset: str, snr, method: str, repeats: int = 20, seed: i
         rp10=s["rp_within_10mm"] / max(1, s["rp_total"]),
         rpm50=s["rpm_within_50mm"] / max(1, s["rpm_total"]),
         rpm100=s["rpm_within_100mm"] / max(1, s["rpm_total"]),
-        rps=len(res.rps), points=s["rpm_total"], clusters=len(set(res.rps.cluster.tolist())),
+        rps=len(res.rps),
+        points=s["rpm_total"],
+        clusters=len(set(res.rps.cluster.tolist())),
     )
     out.update(kernel_profile(engine, method, data, params))
     return out
@@ -87,8 +93,10 @@ def kernel_profile(engine, method, data, params, runs: int = PROFILE_RUNS) -> di
         engine.timing = old
     kt = {k: float(np.median([t[k] for t in times])) for k in times[0]}
     out = {f"{k}_ms": 1e3 * v for k, v in kt.items()}
-    out["kernel_evals"] = engine.kernel_evals   # the same every run
-    out["kernel_evals_per_s"] = engine.kernel_evals / kt["score"] if kt["score"] > 0 else float("nan")
+    out["kernel_evals"] = engine.kernel_evals  # the same every run
+    out["kernel_evals_per_s"] = (
+        engine.kernel_evals / kt["score"] if kt["score"] > 0 else float("nan")
+    )
     return out
 
 
@@ -118,9 +126,16 @@ def bench_das(das, preset: str, snr, repeats: int = 3, seed: int = 0, volume: bo
         sec = float(np.median(times))
         e = err_rpm(pts, data.truth)
         n = max(1, len(e))
-        out.append({"label": label, "total_ms": 1e3 * sec, "points": len(e),
-                    "bp_per_s": grid.size * data.array.n / sec,
-                    "rpm50": cumulative(e, 0.05)[0] / n, "rpm100": cumulative(e, 0.10)[0] / n})
+        out.append(
+            {
+                "label": label,
+                "total_ms": 1e3 * sec,
+                "points": len(e),
+                "bp_per_s": grid.size * data.array.n / sec,
+                "rpm50": cumulative(e, 0.05)[0] / n,
+                "rpm100": cumulative(e, 0.10)[0] / n,
+            }
+        )
     return out
 
 
@@ -140,13 +155,24 @@ def bench_rma(preset: str, snr, repeats: int = 3, seed: int = 0):
         times.append(sec)
     e = err_rpm(pts, data.truth)
     n = max(1, len(e))
-    return {"label": f"{label}, {shape[0]} x {shape[1]} px", "total_ms": 1e3 * float(np.median(times)),
-            "points": len(e), "rpm50": cumulative(e, 0.05)[0] / n,
-            "rpm100": cumulative(e, 0.10)[0] / n}
+    return {
+        "label": f"{label}, {shape[0]} x {shape[1]} px",
+        "total_ms": 1e3 * float(np.median(times)),
+        "points": len(e),
+        "rpm50": cumulative(e, 0.05)[0] / n,
+        "rpm100": cumulative(e, 0.10)[0] / n,
+    }
 
 
-def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: bool = False,
-              bar: bool | None = False) -> str:
+def run_bench(
+    engine,
+    env,
+    repeats: int = 20,
+    scenes=None,
+    das=None,
+    volume: bool = False,
+    bar: bool | None = False,
+) -> str:
     """All methods on :data:`SCENES` (or the labels in ``scenes``); the table as text.
 
     With ``das`` (a :class:`rpm_cl.baselines.das.DeviceDAS`), the DAS rows of each scene
@@ -158,14 +184,24 @@ def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: boo
     from ..progress import progress
 
     chosen = [sc for sc in SCENES if scenes is None or sc[0] in scenes]
-    pbar = progress(total=len(chosen) * (len(METHODS) + 1 + (das is not None)), desc="bench",
-                    enabled=bar, unit="row")
-    lines = [(f"device: {env.name} | precision: {getattr(engine, 'precision', 'float64')} | "
-             f"host: {platform.processor() or platform.machine()} | "
-             f"median of {repeats} runs after warm-up"),
-             (f"{'case':12s} {'S/N':>4s} {'method':11s} {'total':>8s} {'decomp':>7s} "
-             f"{'RPs':>6s} {'RPM':>7s} {'isect':>6s} {'score':>7s} {'RP<=10mm':>9s} "
-             f"{'RPM<=50':>8s} {'RPM<=100':>9s} {'kernel evals/s':>15s}")]
+    pbar = progress(
+        total=len(chosen) * (len(METHODS) + 1 + (das is not None)),
+        desc="bench",
+        enabled=bar,
+        unit="row",
+    )
+    lines = [
+        (
+            f"device: {env.name} | precision: {getattr(engine, 'precision', 'float64')} | "
+            f"host: {platform.processor() or platform.machine()} | "
+            f"median of {repeats} runs after warm-up"
+        ),
+        (
+            f"{'case':12s} {'S/N':>4s} {'method':11s} {'total':>8s} {'decomp':>7s} "
+            f"{'RPs':>6s} {'RPM':>7s} {'isect':>6s} {'score':>7s} {'RP<=10mm':>9s} "
+            f"{'RPM<=50':>8s} {'RPM<=100':>9s} {'kernel evals/s':>15s}"
+        ),
+    ]
     t0 = time.perf_counter()
     for label, preset, snr in chosen:
         for method in METHODS:
@@ -178,7 +214,8 @@ def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: boo
                 f"{b.get('range_points_ms', 0.0):6.2f} {b['rpm_ms']:7.2f} "
                 f"{b.get('intersect_ms', float('nan')):6.2f} {b.get('score_ms', float('nan')):7.2f} "
                 f"{b['rp10']:9.0%} {b['rpm50']:8.0%} {b['rpm100']:9.0%} "
-                f"{b.get('kernel_evals_per_s', float('nan')):15.3g}")
+                f"{b.get('kernel_evals_per_s', float('nan')):15.3g}"
+            )
         rma = bench_rma(preset, snr, max(1, min(repeats, 5)))
         pbar.update()
         if rma is not None:
@@ -186,7 +223,8 @@ def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: boo
                 f"{label:12s} {'inf' if snr is None else f'{snr:g}':>4s} {'rma':11s} "
                 f"{rma['total_ms']:8.1f} {'':7s} {'':6s} {'':7s} {'':6s} {'':7s} {'-':>9s} "
                 f"{rma['rpm50']:8.0%} {rma['rpm100']:9.0%} {'':17s}  "
-                f"({rma['label']}, {rma['points']} points)")
+                f"({rma['label']}, {rma['points']} points)"
+            )
         if das is not None:
             pbar.set_postfix_str(f"{label} das")
             rows_das = bench_das(das, preset, snr, max(1, min(repeats, 5)), volume=volume)
@@ -196,12 +234,15 @@ def run_bench(engine, env, repeats: int = 20, scenes=None, das=None, volume: boo
                     f"{label:12s} {'inf' if snr is None else f'{snr:g}':>4s} {'das':11s} "
                     f"{b['total_ms']:8.1f} {'':7s} {'':6s} {'':7s} {'':6s} {'':7s} {'-':>9s} "
                     f"{b['rpm50']:8.0%} {b['rpm100']:9.0%} {b['bp_per_s']:12.3g} bp/s  "
-                    f"({b['label']}, {b['points']} points)")
+                    f"({b['label']}, {b['points']} points)"
+                )
     pbar.close()
-    lines.append(f"(wall time of the benchmark: {time.perf_counter() - t0:.1f} s.  Times in ms: "
-                 "total, decomp(osition), RPs (extraction) and RPM are stage medians; isect and "
-                 f"score are the intersection and scoring kernels, medians of {PROFILE_RUNS} extra runs "
-                 "with each kernel waited for; kernel evals/s = Gaussian evaluations of the scoring "
-                 "kernel per second of it; das rows: back-projections (voxels x antennas) per "
-                 "second, points = the image's peaks, or its -6 dB pixels for a section)")
+    lines.append(
+        f"(wall time of the benchmark: {time.perf_counter() - t0:.1f} s.  Times in ms: "
+        "total, decomp(osition), RPs (extraction) and RPM are stage medians; isect and "
+        f"score are the intersection and scoring kernels, medians of {PROFILE_RUNS} extra runs "
+        "with each kernel waited for; kernel evals/s = Gaussian evaluations of the scoring "
+        "kernel per second of it; das rows: back-projections (voxels x antennas) per "
+        "second, points = the image's peaks, or its -6 dB pixels for a section)"
+    )
     return "\n".join(lines)

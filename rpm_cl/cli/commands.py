@@ -58,14 +58,16 @@ def _snr(text):
     if v == float("inf"):
         return None
     if not (math.isfinite(v) and abs(v) <= 300):
-        raise argparse.ArgumentTypeError(f"S/N must be a number of dB in [-300, 300] or 'inf', "
-                                         f"got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"S/N must be a number of dB in [-300, 300] or 'inf', got {text!r}"
+        )
     return v
 
 
 def _int_at_least(lo: int, what: str):
     """argparse type: an integer >= lo, else one line ``{what}must be an
     integer >= lo, got ...``."""
+
     def parse(text):
         try:
             v = int(text)
@@ -74,6 +76,7 @@ def _int_at_least(lo: int, what: str):
         if v < lo:
             raise argparse.ArgumentTypeError(f"{what}must be an integer >= {lo}, got {text!r}")
         return v
+
     return parse
 
 
@@ -88,8 +91,14 @@ def _bind_negative_values(argv: list) -> list:
     while i < len(argv):
         tok = argv[i]
         nxt = argv[i + 1] if i + 1 < len(argv) else None
-        if (tok.startswith("--") and "=" not in tok and nxt is not None and nxt.startswith("-")
-                and len(nxt) > 1 and (nxt[1].isdigit() or nxt[1] == ".")):
+        if (
+            tok.startswith("--")
+            and "=" not in tok
+            and nxt is not None
+            and nxt.startswith("-")
+            and len(nxt) > 1
+            and (nxt[1].isdigit() or nxt[1] == ".")
+        ):
             out.append(f"{tok}={nxt}")
             i += 2
         else:
@@ -100,6 +109,7 @@ def _bind_negative_values(argv: list) -> list:
 
 def _bounded_float(lo: float, hi: float, what: str):
     """argparse type: a finite float in [lo, hi], else one line naming ``what``."""
+
     def parse(text):
         try:
             v = float(text)
@@ -108,12 +118,14 @@ def _bounded_float(lo: float, hi: float, what: str):
         if not (math.isfinite(v) and lo <= v <= hi):
             raise argparse.ArgumentTypeError(f"{what}, got {text!r}")
         return v
+
     return parse
 
 
 _dynamic_range = _bounded_float(1e-3, 400, "dynamic range must be between 0.001 and 400 dB")
-_iso_db = _bounded_float(-400, -1e-6, "iso-surface level must be below the maximum, in "
-                         "[-400, 0) dB")
+_iso_db = _bounded_float(
+    -400, -1e-6, "iso-surface level must be below the maximum, in [-400, 0) dB"
+)
 _budget_gb = _bounded_float(1e-3, 1e6, "memory budget must be between 0.001 and 1e6 GB")
 _metres = _bounded_float(-1e4, 1e4, "must be a length in m within +-1e4")
 
@@ -138,6 +150,7 @@ _positive_int = _int_at_least(1, "")
 def _positive_quantity(parse, what: str, examples: str, none_ok: bool):
     """argparse type: ``parse(text)`` as a float > 0, or with ``none_ok``
     ``none`` (inf); else one line naming ``what`` and ``examples``."""
+
     def convert(text):
         from ..io.data import InputError
 
@@ -148,9 +161,11 @@ def _positive_quantity(parse, what: str, examples: str, none_ok: bool):
         except (ValueError, KeyError, TypeError, InputError):
             v = float("nan")
         if not (math.isfinite(v) and v > 0):
-            raise argparse.ArgumentTypeError(f"{what} > 0 (e.g. {examples})"
-                                             f"{' or none' if none_ok else ''}, got {text!r}")
+            raise argparse.ArgumentTypeError(
+                f"{what} > 0 (e.g. {examples}){' or none' if none_ok else ''}, got {text!r}"
+            )
         return v
+
     return convert
 
 
@@ -166,12 +181,13 @@ def _bytes(text):
     return parse_bytes(text)
 
 
-_frame_timeout = _positive_quantity(_dask_time, "frame timeout must be a time",
-                                    "90, 90s, 10m, 1h", True)
-_frame_memory = _positive_quantity(_bytes, "frame memory must be a size",
-                                   "2G, 500MB, 1.5GiB", True)
-_memory_size = _positive_quantity(_bytes, "a memory size must be a number of bytes",
-                                  "8G, 512MB, 1.5GiB", False)
+_frame_timeout = _positive_quantity(
+    _dask_time, "frame timeout must be a time", "90, 90s, 10m, 1h", True
+)
+_frame_memory = _positive_quantity(_bytes, "frame memory must be a size", "2G, 500MB, 1.5GiB", True)
+_memory_size = _positive_quantity(
+    _bytes, "a memory size must be a number of bytes", "8G, 512MB, 1.5GiB", False
+)
 
 
 # --------------------------------------------------------------------------
@@ -183,8 +199,10 @@ def cmd_info(args) -> int:
     print(f"rpm-cl {__version__}")
     for d in devices:
         mark = "*" if d.spec == chosen.spec else " "
-        print(f"{mark} [{d.spec}] {d.kind:4s} {d.name} | {d.platform} | "
-              f"{d.compute_units} compute units | float64: {'yes' if d.double else 'no'}")
+        print(
+            f"{mark} [{d.spec}] {d.kind:4s} {d.name} | {d.platform} | "
+            f"{d.compute_units} compute units | float64: {'yes' if d.double else 'no'}"
+        )
     print(f"chosen: [{chosen.spec}] {chosen.name} (--device or PYOPENCL_CTX picks another)")
     return 0
 
@@ -196,8 +214,10 @@ def cmd_simulate(args) -> int:
     check_output(args.output, DATA_EXTENSIONS, "data output")
     data, _ = simulate_preset(args.scene, args.snr, args.seed, noise=args.noise)
     save_data(args.output, data)
-    print(f"wrote {args.output}: {args.scene}, signal {data.signal.shape}, "
-          f"S/N {'inf' if args.snr is None else f'{args.snr:g} dB ({args.noise} noise)'}")
+    print(
+        f"wrote {args.output}: {args.scene}, signal {data.signal.shape}, "
+        f"S/N {'inf' if args.snr is None else f'{args.snr:g} dB ({args.noise} noise)'}"
+    )
     return 0
 
 
@@ -208,8 +228,9 @@ def _band(text):
     except ValueError:
         f0 = f1 = float("nan")
     if not (math.isfinite(f0) and math.isfinite(f1) and 0 < f0 < f1):
-        raise argparse.ArgumentTypeError(f"band must be F0:F1 in Hz with 0 < F0 < F1 "
-                                         f"(e.g. 2e9:4e9), got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"band must be F0:F1 in Hz with 0 < F0 < F1 (e.g. 2e9:4e9), got {text!r}"
+        )
     return f0, f1
 
 
@@ -219,8 +240,9 @@ def cmd_convert(args) -> int:
     from ..io.gprmax import SourceWaveform
     from ..io.readers import FORMATS, convert, save
 
-    inputs = list(args.inputs) + list(args.background or []) + (
-        [args.sidecar] if args.sidecar else [])
+    inputs = (
+        list(args.inputs) + list(args.background or []) + ([args.sidecar] if args.sidecar else [])
+    )
     check_output(args.output, DATA_EXTENSIONS, "data output")
     refuse_overwrite(args.output, inputs)
     names = {o for f in FORMATS.values() for o in f.options}
@@ -230,9 +252,11 @@ def cmd_convert(args) -> int:
     fmt, arrays = convert(args.inputs, args.format, **options)
     save(args.output, arrays, inputs)
     data = "spectrum" if "spectrum" in arrays else "signal"
-    print(f"wrote {args.output}: {fmt}, {data} {arrays[data].shape}, {_axes_line(arrays)}"
-          f"{', with the sidecar truth' if 'truth_boundary' in arrays else ''}"
-          f"{'; no background subtracted' if fmt == 'gprmax' and not args.background else ''}")
+    print(
+        f"wrote {args.output}: {fmt}, {data} {arrays[data].shape}, {_axes_line(arrays)}"
+        f"{', with the sidecar truth' if 'truth_boundary' in arrays else ''}"
+        f"{'; no background subtracted' if fmt == 'gprmax' and not args.background else ''}"
+    )
     return 0
 
 
@@ -243,8 +267,10 @@ def _axes_line(arrays) -> str:
         r = arrays["range"]
         return f"range {r[0]:.4g}..{r[-1]:.4g} m, {pos}"
     f = arrays["frequency"]
-    return (f"{f[0] / 1e9:g}-{f[-1] / 1e9:g} GHz at {(f[1] - f[0]) / 1e6:.4g} MHz "
-            f"({f.size} samples), {pos}")
+    return (
+        f"{f[0] / 1e9:g}-{f[-1] / 1e9:g} GHz at {(f[1] - f[0]) / 1e6:.4g} MHz "
+        f"({f.size} samples), {pos}"
+    )
 
 
 def _params(args, data, base=None):
@@ -254,7 +280,9 @@ def _params(args, data, base=None):
 
     flags = flag_values(args)
     sources = {k: str(args.config) for k in args.cfg_file}
-    sources.update({(s.section, s.name): s.flag for s in settings() if (s.section, s.name) in flags})
+    sources.update(
+        {(s.section, s.name): s.flag for s in settings() if (s.section, s.name) in flags}
+    )
     params = resolve(data, merge(args.cfg_file, flags), base, sources)
     if log.isEnabledFor(logging.INFO):
         log.info("resolved parameters:\n%s", dump_toml(params, comments=False).rstrip())
@@ -276,8 +304,13 @@ def _load_config(args) -> None:
 
 def _imaging_config_unused(args, what: str) -> None:
     if any(k[0] != "engine" for k in args.cfg_file):
-        log.warning("%s: only the [engine] section of %s applies (%s uses the paper's "
-                    "parameters of each scene)", args.command, args.config, what)
+        log.warning(
+            "%s: only the [engine] section of %s applies (%s uses the paper's "
+            "parameters of each scene)",
+            args.command,
+            args.config,
+            what,
+        )
 
 
 def cmd_image(args) -> int:
@@ -289,18 +322,29 @@ def cmd_image(args) -> int:
     from ..metrics import summary
 
     check_output(args.output, RESULT_EXTENSIONS, "result")
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
-                     conjugate=args.conjugate, max_memory=args.max_memory)
+    data = load_data(
+        args.input,
+        frame=args.frame,
+        range_window=args.range_window,
+        conjugate=args.conjugate,
+        max_memory=args.max_memory,
+    )
     params = _params(args, data)
     engine, env = _engine(args)
     verbose = log.isEnabledFor(logging.INFO) and hasattr(engine, "kernel_times")
     if verbose:  # each kernel waited for and timed
         engine.timing = True
     result = run_method(args.method, data, params, engine)
-    meta = {"version": __version__, "device": env.name, "precision": args.precision,
-            "input": args.input, "frame": args.frame, "range_window": args.range_window,
-            "conjugate": args.conjugate,
-            "params": asdict(params)}
+    meta = {
+        "version": __version__,
+        "device": env.name,
+        "precision": args.precision,
+        "input": args.input,
+        "frame": args.frame,
+        "range_window": args.range_window,
+        "conjugate": args.conjugate,
+        "params": asdict(params),
+    }
     if data.truth is not None and data.truth.scene not in ("", "{}"):
         meta["scene"] = json.loads(data.truth.scene)  # for `rpm-cl view`
     t0 = time.perf_counter()
@@ -309,13 +353,20 @@ def cmd_image(args) -> int:
     if verbose:
         stages.update({f"rpm.{k}": v for k, v in engine.kernel_times.items()})
     log.info("stage timings (ms): %s", ", ".join(f"{k} {1e3 * v:.1f}" for k, v in stages.items()))
-    dropped = "".join(f", {n} {why}" for why, n in (
-        ("double-bounce points dropped", result.dropped.get("multipath", 0)),
-        ("points beyond the antennas' reach dropped", result.dropped.get("reach", 0))) if n)
-    print(f"{args.method}: {len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} "
-          f"clusters -> {len(result.image.points)} points{dropped}, "
-          f"{1e3 * result.timings['total']:.1f} ms; wrote {args.output}")
-    truth = shift_truth(data.truth, params.time_zero)   # as the method measured ranges
+    dropped = "".join(
+        f", {n} {why}"
+        for why, n in (
+            ("double-bounce points dropped", result.dropped.get("multipath", 0)),
+            ("points beyond the antennas' reach dropped", result.dropped.get("reach", 0)),
+        )
+        if n
+    )
+    print(
+        f"{args.method}: {len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} "
+        f"clusters -> {len(result.image.points)} points{dropped}, "
+        f"{1e3 * result.timings['total']:.1f} ms; wrote {args.output}"
+    )
+    truth = shift_truth(data.truth, params.time_zero)  # as the method measured ranges
     if truth is not None:
         s = summary(result.rps, result.image, truth)
         print(_accuracy_line(s))
@@ -327,13 +378,21 @@ def cmd_params(args) -> int:
     from ..io.formats import load_data
     from .config import dump_toml
 
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
-                     conjugate=args.conjugate, max_memory=args.max_memory)
+    data = load_data(
+        args.input,
+        frame=args.frame,
+        range_window=args.range_window,
+        conjugate=args.conjugate,
+        max_memory=args.max_memory,
+    )
     params = _params(args, data)
-    text = dump_toml(params, args.engine_params,
-                     header=f"rpm-cl {__version__}: parameters resolved for {args.input}\n"
-                            "(derived from the data, then --config, then flags); read back "
-                            "with --config.\n\"auto\" stands for None: see each key's comment.")
+    text = dump_toml(
+        params,
+        args.engine_params,
+        header=f"rpm-cl {__version__}: parameters resolved for {args.input}\n"
+        "(derived from the data, then --config, then flags); read back "
+        'with --config.\n"auto" stands for None: see each key\'s comment.',
+    )
     if args.output:
         atomic_write_text(args.output, text)
         print(f"wrote {args.output}")
@@ -345,11 +404,16 @@ def cmd_params(args) -> int:
 def _accuracy_line(s: dict) -> str:
     from .reproduce import pct
 
-    rp = ("unavailable (no truth_rp_*)" if s["rp_within_10mm"] is None
-          else pct(s["rp_within_10mm"], s["rp_total"]))
-    return (f"Err_range<=10mm {rp}, "
-            f"Err_RPM<=50mm {pct(s['rpm_within_50mm'], s['rpm_total'])}, "
-            f"<=100mm {pct(s['rpm_within_100mm'], s['rpm_total'])}")
+    rp = (
+        "unavailable (no truth_rp_*)"
+        if s["rp_within_10mm"] is None
+        else pct(s["rp_within_10mm"], s["rp_total"])
+    )
+    return (
+        f"Err_range<=10mm {rp}, "
+        f"Err_RPM<=50mm {pct(s['rpm_within_50mm'], s['rpm_total'])}, "
+        f"<=100mm {pct(s['rpm_within_100mm'], s['rpm_total'])}"
+    )
 
 
 def cmd_reproduce(args) -> int:
@@ -363,15 +427,34 @@ def cmd_reproduce(args) -> int:
         from ..baselines.das import DeviceDAS
 
         das = DeviceDAS(env, args.precision)
-    rows = reproduce(args.name, engine, trials=args.trials, seed=args.seed, progress=progress,
-                     das=das, skip_volume=args.skip_volume, rma=not args.no_rma, bar=None)
-    print(f"{args.name} on {env.name} ({args.precision}); noisy rows pooled over "
-          f"{args.trials} noise realisations")
+    rows = reproduce(
+        args.name,
+        engine,
+        trials=args.trials,
+        seed=args.seed,
+        progress=progress,
+        das=das,
+        skip_volume=args.skip_volume,
+        rma=not args.no_rma,
+        bar=None,
+    )
+    print(
+        f"{args.name} on {env.name} ({args.precision}); noisy rows pooled over "
+        f"{args.trials} noise realisations"
+    )
     print(format_table(rows))
     if args.json:
-        write_json(args.json, rows, {"version": __version__, "device": env.name,
-                                     "precision": args.precision, "trials": args.trials,
-                                     "seed": args.seed})
+        write_json(
+            args.json,
+            rows,
+            {
+                "version": __version__,
+                "device": env.name,
+                "precision": args.precision,
+                "trials": args.trials,
+                "seed": args.seed,
+            },
+        )
         print(f"wrote {args.json}")
     return 0
 
@@ -386,24 +469,34 @@ def cmd_demo(args) -> int:
     # the paper's scenes with the paper's S/N definition (rpm_cl.simulate)
     data, preset = simulate_preset("paper-2d", None, seed=args.seed, noise="receiver")
     params = _params(args, data, preset.defaults)
-    print("\npaper-2d: 3 point targets within 80 mm of range (0.1 of the 750 mm range "
-          "resolution), 21 antennas at 5 mm, noise-free")
+    print(
+        "\npaper-2d: 3 point targets within 80 mm of range (0.1 of the 750 mm range "
+        "resolution), 21 antennas at 5 mm, noise-free"
+    )
     for method in dict.fromkeys((DEFAULT_METHOD, "kspace-rpm", "mf-rpm")):
         r, sec, _ = timed_run(method, data, params, engine)
-        print(f"  {method:10s}: {len(r.rps):3d} RPs -> {len(r.image.points):3d} points in "
-              f"{1e3 * sec:6.2f} ms | {_accuracy_line(summary(r.rps, r.image, data.truth))}")
+        print(
+            f"  {method:10s}: {len(r.rps):3d} RPs -> {len(r.image.points):3d} points in "
+            f"{1e3 * sec:6.2f} ms | {_accuracy_line(summary(r.rps, r.image, data.truth))}"
+        )
 
-    data, preset = simulate_preset("human-body", args.snr, seed=args.seed, progress=None,
-                                   noise="receiver")
+    data, preset = simulate_preset(
+        "human-body", args.snr, seed=args.seed, progress=None, noise="receiver"
+    )
     params = _params(args, data, preset.defaults)
     res, sec, stages = timed_run(DEFAULT_METHOD, data, params, engine)
     label = "noise-free" if args.snr is None else f"S/N {args.snr:g} dB"
-    print(f"\nhuman-body: 11 ellipsoids about 1 m away, 20 GHz / 3 GHz, 11 x 17 antennas "
-          f"at 7.5 mm, {label}")
+    print(
+        f"\nhuman-body: 11 ellipsoids about 1 m away, 20 GHz / 3 GHz, 11 x 17 antennas "
+        f"at 7.5 mm, {label}"
+    )
     n_clusters = len(set(res.rps.cluster.tolist()))
-    print(f"  {DEFAULT_METHOD}: {len(res.rps)} RPs in {n_clusters} clusters "
-          f"-> {len(res.image.points)} points in {1e3 * sec:.0f} ms ("
-          + ", ".join(f"{k} {1e3 * v:.0f}" for k, v in stages.items() if k != "total") + " ms)")
+    print(
+        f"  {DEFAULT_METHOD}: {len(res.rps)} RPs in {n_clusters} clusters "
+        f"-> {len(res.image.points)} points in {1e3 * sec:.0f} ms ("
+        + ", ".join(f"{k} {1e3 * v:.0f}" for k, v in stages.items() if k != "total")
+        + " ms)"
+    )
     print(f"  {_accuracy_line(summary(res.rps, res.image, data.truth))}")
     print(f"  {'body part':16s} {'points':>6s} {'median Err_RPM':>15s}")
     for name, n, med in _points_per_part(res.image.points, preset.scene):
@@ -421,8 +514,10 @@ def cmd_demo(args) -> int:
             view(out, args.png)
         print(f"  wrote {args.png}")
     else:
-        print("  (--png FILE draws it; or: rpm-cl simulate human-body -o hb.npz && "
-              "rpm-cl image hb.npz -o out.npz && rpm-cl view out.npz --png out.png)")
+        print(
+            "  (--png FILE draws it; or: rpm-cl simulate human-body -o hb.npz && "
+            "rpm-cl image hb.npz -o out.npz && rpm-cl view out.npz --png out.png)"
+        )
     return 0
 
 
@@ -439,8 +534,14 @@ def _points_per_part(points, scene):
     d = np.stack([t.query(points)[0] for t in trees], axis=1)
     part = np.argmin(d, axis=1)
     best = d[np.arange(len(points)), part]
-    return [(name, int(np.sum(part == k)), float(np.median(best[part == k])) if np.any(part == k) else 0.0)
-            for k, (name, _, _) in enumerate(HUMAN_BODY_PARTS)]
+    return [
+        (
+            name,
+            int(np.sum(part == k)),
+            float(np.median(best[part == k])) if np.any(part == k) else 0.0,
+        )
+        for k, (name, _, _) in enumerate(HUMAN_BODY_PARTS)
+    ]
 
 
 def cmd_view(args) -> int:
@@ -466,10 +567,20 @@ def cmd_figure(args) -> int:
             from ..baselines.das import DeviceDAS
 
             das = DeviceDAS(env, args.precision)
-    figure(args.name, args.input, args.png, size=args.size, dynamic_range=args.dynamic_range,
-           grid=grid, engine=engine, das=das, frame=args.frame, range_window=args.range_window,
-           conjugate=args.conjugate,
-           params=lambda data: _params(args, data))  # --config and flags, as `image`
+    figure(
+        args.name,
+        args.input,
+        args.png,
+        size=args.size,
+        dynamic_range=args.dynamic_range,
+        grid=grid,
+        engine=engine,
+        das=das,
+        frame=args.frame,
+        range_window=args.range_window,
+        conjugate=args.conjugate,
+        params=lambda data: _params(args, data),
+    )  # --config and flags, as `image`
     if args.png:
         print(f"wrote {args.png}")
     return 0
@@ -486,13 +597,20 @@ def cmd_das(args) -> int:
     from ..progress import callback
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
-                     conjugate=args.conjugate, max_memory=args.max_memory,
-                     with_truth=False)
+    data = load_data(
+        args.input,
+        frame=args.frame,
+        range_window=args.range_window,
+        conjugate=args.conjugate,
+        max_memory=args.max_memory,
+        with_truth=False,
+    )
     grid = parse_grid(args.grid)
     if grid.dim != data.array.dim:
-        raise CLIError(f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
-                       f" array needs {data.array.dim} (x, y{', z' if data.array.planar else ''})")
+        raise CLIError(
+            f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
+            f" array needs {data.array.dim} (x, y{', z' if data.array.planar else ''})"
+        )
     medium = _medium(args)
     check_medium(data, medium)
     budget = args.memory_budget * 1e9
@@ -501,8 +619,10 @@ def cmd_das(args) -> int:
     backend = args.backend
     if medium.half_space and backend == "opencl":
         # the kernel's distances are straight lines from its grid axes
-        log.info("das: above a half-space the refracted ranges are computed on the host "
-                 "(the numpy backend, float64)")
+        log.info(
+            "das: above a half-space the refracted ranges are computed on the host "
+            "(the numpy backend, float64)"
+        )
         backend = "numpy"
     if backend == "opencl":
         from ..cl import create_env
@@ -528,15 +648,26 @@ def cmd_das(args) -> int:
                 das_numpy(data, grid, budget, out=out, progress=bar, medium=medium)
                 timing["seconds"] = time.perf_counter() - t0
 
-    meta = {"version": __version__, "method": "das", "backend": backend, "device": device,
-            "precision": args.precision if backend == "opencl" else "float64",
-            "input": args.input, "frame": args.frame, "range_window": args.range_window,
-            "conjugate": args.conjugate, "medium": asdict(medium),
-            "grid": args.grid, "timing": timing}
+    meta = {
+        "version": __version__,
+        "method": "das",
+        "backend": backend,
+        "device": device,
+        "precision": args.precision if backend == "opencl" else "float64",
+        "input": args.input,
+        "frame": args.frame,
+        "range_window": args.range_window,
+        "conjugate": args.conjugate,
+        "medium": asdict(medium),
+        "grid": args.grid,
+        "timing": timing,
+    }
     write_volume(args.output, grid, fill, dtype, meta)
     sec = timing.get("seconds", float("nan"))
-    print(f"das ({backend}): image {grid.shape} from {data.array.n} antennas in {sec:.3f} s "
-          f"({n_bp / sec:.3g} back-projections/s); wrote {args.output}")
+    print(
+        f"das ({backend}): image {grid.shape} from {data.array.n} antennas in {sec:.3f} s "
+        f"({n_bp / sec:.3g} back-projections/s); wrote {args.output}"
+    )
     return 0
 
 
@@ -549,19 +680,31 @@ def cmd_rma(args) -> int:
     from ..io.formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = load_data(args.input, frame=args.frame, range_window=args.range_window,
-                     conjugate=args.conjugate, max_memory=args.max_memory,
-                     with_truth=False)
+    data = load_data(
+        args.input,
+        frame=args.frame,
+        range_window=args.range_window,
+        conjugate=args.conjugate,
+        max_memory=args.max_memory,
+        with_truth=False,
+    )
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
     medium = _medium(args)
     check_medium(data, medium)
     t0 = time.perf_counter()
-    img, x, y = rma_image(data, upsample_x=args.upsample_x, y_min=args.y_min, y_max=args.y_max,
-                          medium=medium)
+    img, x, y = rma_image(
+        data, upsample_x=args.upsample_x, y_min=args.y_min, y_max=args.y_max, medium=medium
+    )
     sec = time.perf_counter() - t0
-    meta = {"version": __version__, "method": "rma", "input": args.input, "seconds": sec,
-            "upsample_x": args.upsample_x, "medium": asdict(medium)}
+    meta = {
+        "version": __version__,
+        "method": "rma",
+        "input": args.input,
+        "seconds": sec,
+        "upsample_x": args.upsample_x,
+        "medium": asdict(medium),
+    }
 
     def fill(out):
         out[...] = img
@@ -587,8 +730,17 @@ def cmd_bench(args) -> int:
         geos = GEOMETRIES_2D if args.robustness == "quick" else (*GEOMETRIES_2D, GEOMETRY_3D)
         print(table(run(engine, das, geos, SNRS, (0,))))
         return 0
-    print(run_bench(engine, env, repeats=args.repeats, scenes=args.scene, das=das,
-                    volume=args.das_volume, bar=None))
+    print(
+        run_bench(
+            engine,
+            env,
+            repeats=args.repeats,
+            scenes=args.scene,
+            das=das,
+            volume=args.das_volume,
+            bar=None,
+        )
+    )
     return 0
 
 
@@ -596,8 +748,10 @@ def cmd_batch(args) -> int:
     from .batch import BatchConfig, run_batch
 
     if args.scheduler is not None and args.workers is not None:
-        raise CLIError("--workers sizes the embedded cluster; with --scheduler the cluster's "
-                       "own workers run the frames")
+        raise CLIError(
+            "--workers sizes the embedded cluster; with --scheduler the cluster's "
+            "own workers run the frames"
+        )
     import os
 
     from ..io.formats import DATA_EXTENSIONS, frame_count
@@ -608,9 +762,17 @@ def cmd_batch(args) -> int:
 
     values = merge(args.cfg_file, flag_values(args))
     overrides = tuple((k, v) for k, v in values.items() if k[0] != "engine")
-    config = BatchConfig(args.method, overrides, args.device, args.precision, args.das_grid,
-                         args.memory_budget * 1e9, args.das_reuse, args.frame_timeout,
-                         args.frame_memory)
+    config = BatchConfig(
+        args.method,
+        overrides,
+        args.device,
+        args.precision,
+        args.das_grid,
+        args.memory_budget * 1e9,
+        args.das_reuse,
+        args.frame_timeout,
+        args.frame_memory,
+    )
 
     from ..io.data import DataWarning
 
@@ -621,12 +783,20 @@ def cmd_batch(args) -> int:
             what = "done" if rec["status"] == "done" else f"FAILED: {rec['error']}"
             print(f"  {rec['frame']}: {what}", file=sys.stderr)
 
-    s = run_batch(args.input, args.output, config, workers=args.workers or 1,
-                  scheduler=args.scheduler, progress=progress)
-    print(f"batch: {s.frames} frames, {s.done} done, {s.skipped} skipped, {len(s.failed)} failed "
-          f"on {s.workers} workers; {s.frames_per_s:.2f} frames/s, median "
-          f"{1e3 * s.stage_median_s.get('total', float('nan')):.1f} ms per frame; "
-          f"wrote {args.output}/summary.json")
+    s = run_batch(
+        args.input,
+        args.output,
+        config,
+        workers=args.workers or 1,
+        scheduler=args.scheduler,
+        progress=progress,
+    )
+    print(
+        f"batch: {s.frames} frames, {s.done} done, {s.skipped} skipped, {len(s.failed)} failed "
+        f"on {s.workers} workers; {s.frames_per_s:.2f} frames/s, median "
+        f"{1e3 * s.stage_median_s.get('total', float('nan')):.1f} ms per frame; "
+        f"wrote {args.output}/summary.json"
+    )
     for f in s.failed:
         print(f"  failed {f['frame']}: {f['error']}", file=sys.stderr)
     return s.exit_code
@@ -650,25 +820,42 @@ def build_parser() -> argparse.ArgumentParser:
         # --device, --precision: the [engine] section (rpm_cl.cli.config.EngineParams)
         from .config import add_flags
 
-        sp.add_argument("--config", metavar="FILE.toml",
-                        help="parameters from this TOML file (flags override it; see "
-                             "`rpm-cl params` and examples/config.toml)")
+        sp.add_argument(
+            "--config",
+            metavar="FILE.toml",
+            help="parameters from this TOML file (flags override it; see "
+            "`rpm-cl params` and examples/config.toml)",
+        )
         add_flags(sp, ("engine",))
 
     def input_opts(sp):
-        sp.add_argument("--frame", type=_frame, help="frame N (from 0) of a stacked input "
-                        "(signal/spectrum with a leading frame axis)")
-        sp.add_argument("--range-window", choices=sorted(RANGE_WINDOWS), default="hann",
-                        help="window of the range compression of frequency-domain input "
-                        "(spectrum + frequency; default hann)")
-        sp.add_argument("--conjugate", action="store_true",
-                        help="conjugate a spectrum before compressing it (samples recorded as "
-                        "exp(+j 4 pi f R / c), whose echoes land at the unambiguous range "
-                        "minus their range)")
-        sp.add_argument("--max-memory", metavar="BYTES", type=_memory_size,
-                        help="refuse an input whose run would need more memory than this "
-                        "(e.g. 8G; default RPM_CL_MAX_MEMORY or half the machine's memory), "
-                        "checked from the file's headers before any data is read")
+        sp.add_argument(
+            "--frame",
+            type=_frame,
+            help="frame N (from 0) of a stacked input (signal/spectrum with a leading frame axis)",
+        )
+        sp.add_argument(
+            "--range-window",
+            choices=sorted(RANGE_WINDOWS),
+            default="hann",
+            help="window of the range compression of frequency-domain input "
+            "(spectrum + frequency; default hann)",
+        )
+        sp.add_argument(
+            "--conjugate",
+            action="store_true",
+            help="conjugate a spectrum before compressing it (samples recorded as "
+            "exp(+j 4 pi f R / c), whose echoes land at the unambiguous range "
+            "minus their range)",
+        )
+        sp.add_argument(
+            "--max-memory",
+            metavar="BYTES",
+            type=_memory_size,
+            help="refuse an input whose run would need more memory than this "
+            "(e.g. 8G; default RPM_CL_MAX_MEMORY or half the machine's memory), "
+            "checked from the file's headers before any data is read",
+        )
 
     sp = sub.add_parser("info", help="list OpenCL platforms/devices and the one chosen")
     sp.add_argument("--device")
@@ -678,33 +865,47 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("scene", choices=sorted(PRESETS))
     sp.add_argument("-o", "--output", required=True)
     sp.add_argument("--snr", type=_snr, default=None, help="S/N in dB (default: noise-free)")
-    sp.add_argument("--noise", choices=NOISE_MODELS, default="in-band",
-                    help="noise model of --snr: in-band (default; white noise on the band's "
-                         "frequency samples, S/N = peak / mean noise power of the range "
-                         "profiles) or receiver (the paper's tables: white noise at the range "
-                         "axis's sample rate, S/N before the matched filter)")
+    sp.add_argument(
+        "--noise",
+        choices=NOISE_MODELS,
+        default="in-band",
+        help="noise model of --snr: in-band (default; white noise on the band's "
+        "frequency samples, S/N = peak / mean noise power of the range "
+        "profiles) or receiver (the paper's tables: white noise at the range "
+        "axis's sample rate, S/N before the matched filter)",
+    )
     sp.add_argument("--seed", type=_seed, default=0)
     sp.set_defaults(func=cmd_simulate)
 
-    sp = sub.add_parser("convert", help="recorded or simulated data -> the input schema: "
-                        "gprMax output, MATLAB/NumPy/HDF5 arrays by a key mapping, GSSI .dzt, "
-                        "TI DCA1000 .bin")
+    sp = sub.add_parser(
+        "convert",
+        help="recorded or simulated data -> the input schema: "
+        "gprMax output, MATLAB/NumPy/HDF5 arrays by a key mapping, GSSI .dzt, "
+        "TI DCA1000 .bin",
+    )
     convert_opts(sp)
     sp.set_defaults(func=cmd_convert)
 
-    sp = sub.add_parser("image", help="image an .npz or .h5 (input schema in the README); "
-                        "-o .npz, .h5, .ply or .vtp")
+    sp = sub.add_parser(
+        "image",
+        help="image an .npz or .h5 (input schema in the README); -o .npz, .h5, .ply or .vtp",
+    )
     sp.add_argument("input")
     sp.add_argument("-o", "--output", required=True)
-    sp.add_argument("--method", choices=sorted(METHODS), default=DEFAULT_METHOD,
-                    help=f"imaging method (default {DEFAULT_METHOD}; kspace-rpm is the paper's)")
+    sp.add_argument(
+        "--method",
+        choices=sorted(METHODS),
+        default=DEFAULT_METHOD,
+        help=f"imaging method (default {DEFAULT_METHOD}; kspace-rpm is the paper's)",
+    )
     input_opts(sp)
     device_opts(sp)
     param_opts(sp)
     sp.set_defaults(func=cmd_image)
 
-    sp = sub.add_parser("params", help="print the parameters resolved for an input as TOML "
-                        "(a starting --config)")
+    sp = sub.add_parser(
+        "params", help="print the parameters resolved for an input as TOML (a starting --config)"
+    )
     sp.add_argument("input")
     sp.add_argument("-o", "--output", help="write the TOML here instead of stdout")
     input_opts(sp)
@@ -715,48 +916,88 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("reproduce", help="reproduce the paper's tables")
     sp.add_argument("name", choices=sorted(CASES))
     sp.add_argument("--json", help="write the rows as JSON here")
-    sp.add_argument("--trials", type=_positive_int, default=10, help="noise realisations per noisy row")
+    sp.add_argument(
+        "--trials", type=_positive_int, default=10, help="noise realisations per noisy row"
+    )
     sp.add_argument("--no-das", action="store_true", help="leave out the DAS (SAR) rows")
     sp.add_argument("--no-rma", action="store_true", help="leave out the RMA rows")
-    sp.add_argument("--skip-volume", action="store_true",
-                    help="leave out the full 2 m x 2 m x 2 m DAS volume of paper-3d (minutes)")
+    sp.add_argument(
+        "--skip-volume",
+        action="store_true",
+        help="leave out the full 2 m x 2 m x 2 m DAS volume of paper-3d (minutes)",
+    )
     sp.add_argument("--seed", type=_seed, default=0)
     device_opts(sp)
     sp.set_defaults(func=cmd_reproduce)
 
     sp = sub.add_parser("demo", help="simulate, image and score the paper's scenes end to end")
     sp.add_argument("--seed", type=_seed, default=0)
-    sp.add_argument("--snr", type=_snr, default=None, help="S/N of the human body in dB, "
-                    "receiver noise model as in the paper's tables (default: noise-free)")
+    sp.add_argument(
+        "--snr",
+        type=_snr,
+        default=None,
+        help="S/N of the human body in dB, "
+        "receiver noise model as in the paper's tables (default: noise-free)",
+    )
     sp.add_argument("--png", help="also draw the human-body image here (needs pyvista)")
     device_opts(sp)
     param_opts(sp)
     sp.set_defaults(func=cmd_demo)
 
     sp = sub.add_parser("view", help="draw an image result (3-D: pyvista; 2-D: matplotlib)")
-    sp.add_argument("input", help="a result .npz or .h5 of `rpm-cl image`, or an image "
-                    ".npz or .h5 of `rpm-cl das` / `rpm-cl rma`")
+    sp.add_argument(
+        "input",
+        help="a result .npz or .h5 of `rpm-cl image`, or an image "
+        ".npz or .h5 of `rpm-cl das` / `rpm-cl rma`",
+    )
     sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
-    sp.add_argument("--dynamic-range", type=_dynamic_range, default=40.0, metavar="DB",
-                    help="DAS/RMA images: dB below the maximum shown (default 40)")
-    sp.add_argument("--iso", type=_iso_db, metavar="DB", help="3-D DAS images: an iso-surface "
-                    "at this level (dB below the maximum, < 0) instead of slices")
+    sp.add_argument(
+        "--dynamic-range",
+        type=_dynamic_range,
+        default=40.0,
+        metavar="DB",
+        help="DAS/RMA images: dB below the maximum shown (default 40)",
+    )
+    sp.add_argument(
+        "--iso",
+        type=_iso_db,
+        metavar="DB",
+        help="3-D DAS images: an iso-surface "
+        "at this level (dB below the maximum, < 0) instead of slices",
+    )
     sp.set_defaults(func=cmd_view)
 
     sp = sub.add_parser("figure", help="paper-style figures of a data file (matplotlib)")
-    sp.add_argument("name", choices=("kspace", "rps", "compare"),
-                    help="kspace: |S(kx, R)| with the cluster centres; rps: decomposed RPs per "
-                         "cluster over the true RPs; compare: RPM points beside the DAS image")
+    sp.add_argument(
+        "name",
+        choices=("kspace", "rps", "compare"),
+        help="kspace: |S(kx, R)| with the cluster centres; rps: decomposed RPs per "
+        "cluster over the true RPs; compare: RPM points beside the DAS image",
+    )
     sp.add_argument("input", help="an input .npz (input contract)")
     sp.add_argument("--png", help="write the picture here (off-screen) instead of opening a window")
-    sp.add_argument("--dynamic-range", type=_dynamic_range, default=40.0, metavar="DB",
-                    help="dB below the maximum shown on the maps (default 40)")
-    sp.add_argument("--grid", help="compare: the DAS grid 'x0:x1:dx,y0:y1:dy', m (default: the "
-                    "scene's box plus 0.15 m, at most 400 pixels a side)")
-    sp.add_argument("--backend", choices=("opencl", "numpy"), default="opencl",
-                    help="compare: where DAS runs")
-    sp.add_argument("--size", type=_picture_size, default=(1200, 700), metavar="WxH",
-                    help="picture size in pixels (default 1200x700)")
+    sp.add_argument(
+        "--dynamic-range",
+        type=_dynamic_range,
+        default=40.0,
+        metavar="DB",
+        help="dB below the maximum shown on the maps (default 40)",
+    )
+    sp.add_argument(
+        "--grid",
+        help="compare: the DAS grid 'x0:x1:dx,y0:y1:dy', m (default: the "
+        "scene's box plus 0.15 m, at most 400 pixels a side)",
+    )
+    sp.add_argument(
+        "--backend", choices=("opencl", "numpy"), default="opencl", help="compare: where DAS runs"
+    )
+    sp.add_argument(
+        "--size",
+        type=_picture_size,
+        default=(1200, 700),
+        metavar="WxH",
+        help="picture size in pixels (default 1200x700)",
+    )
     device_opts(sp)
     input_opts(sp)
     param_opts(sp)
@@ -765,12 +1006,19 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("das", help="SAR / delay-and-sum back-projection onto a grid")
     sp.add_argument("input")
     sp.add_argument("-o", "--output", required=True)
-    sp.add_argument("--grid", required=True,
-                    help="'x0:x1:dx,y0:y1:dy' (linear array) or 'x0:x1:dx,y0:y1:dy,z0:z1:dz' "
-                         "(planar), m, ends inclusive")
+    sp.add_argument(
+        "--grid",
+        required=True,
+        help="'x0:x1:dx,y0:y1:dy' (linear array) or 'x0:x1:dx,y0:y1:dy,z0:z1:dz' "
+        "(planar), m, ends inclusive",
+    )
     sp.add_argument("--backend", choices=("opencl", "numpy"), default="opencl")
-    sp.add_argument("--memory-budget", type=_budget_gb, default=2.0,
-                    help="GB the back-projection may hold (default 2)")
+    sp.add_argument(
+        "--memory-budget",
+        type=_budget_gb,
+        default=2.0,
+        help="GB the back-projection may hold (default 2)",
+    )
     input_opts(sp)
     device_opts(sp)
     medium_opts(sp)
@@ -781,53 +1029,94 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("-o", "--output", required=True)
     sp.add_argument("--y-min", type=_metres, help="crop the image to y >= this, m")
     sp.add_argument("--y-max", type=_metres, help="crop the image to y <= this, m")
-    sp.add_argument("--upsample-x", type=_positive_int, default=1,
-                    help="x pixels per array pitch (default 1)")
+    sp.add_argument(
+        "--upsample-x", type=_positive_int, default=1, help="x pixels per array pitch (default 1)"
+    )
     input_opts(sp)
     medium_opts(sp)
     sp.set_defaults(func=cmd_rma)
 
     sp = sub.add_parser("bench", help="time each method and stage on the paper's scenes")
     sp.add_argument("--repeats", type=_positive_int, default=20)
-    sp.add_argument("--scene", action="append", choices=sorted({s[0] for s in SCENES}),
-                    help="benchmark only this scene (repeatable; default: all)")
+    sp.add_argument(
+        "--scene",
+        action="append",
+        choices=sorted({s[0] for s in SCENES}),
+        help="benchmark only this scene (repeatable; default: all)",
+    )
     sp.add_argument("--no-das", action="store_true", help="leave out the DAS rows")
-    sp.add_argument("--das-volume", action="store_true",
-                    help="add the human body's full 2 m x 2 m x 2 m DAS volume at 3 mm (minutes)")
-    sp.add_argument("--robustness", nargs="?", const="full", choices=("full", "quick"),
-                    help="instead: accuracy of every method against in-band S/N on "
-                    "independently synthesised scenes (rpm_cl.cli.robustness; 'quick': the 2-D "
-                    "scenes only; benchmarks/robustness.py pools several noise seeds)")
+    sp.add_argument(
+        "--das-volume",
+        action="store_true",
+        help="add the human body's full 2 m x 2 m x 2 m DAS volume at 3 mm (minutes)",
+    )
+    sp.add_argument(
+        "--robustness",
+        nargs="?",
+        const="full",
+        choices=("full", "quick"),
+        help="instead: accuracy of every method against in-band S/N on "
+        "independently synthesised scenes (rpm_cl.cli.robustness; 'quick': the 2-D "
+        "scenes only; benchmarks/robustness.py pools several noise seeds)",
+    )
     device_opts(sp)
     sp.set_defaults(func=cmd_bench)
 
-    sp = sub.add_parser("batch", help="image every frame of a folder or HDF5 stack on a Dask "
-                        "cluster")
+    sp = sub.add_parser(
+        "batch", help="image every frame of a folder or HDF5 stack on a Dask cluster"
+    )
     sp.add_argument("input", help="folder of .npz/.h5 frames, or an HDF5 stack")
     sp.add_argument("-o", "--output", required=True, help="output folder (results, summary.json)")
-    sp.add_argument("--workers", type=_positive_int, help="worker processes of the embedded "
-                    "Dask LocalCluster (default 1)")
-    sp.add_argument("--scheduler", help="address of an existing Dask scheduler "
-                    "(tcp://host:port) instead of the embedded cluster")
-    sp.add_argument("--method", choices=sorted(METHODS), default=DEFAULT_METHOD,
-                    help=f"imaging method (default {DEFAULT_METHOD}; kspace-rpm is the paper's)")
-    sp.add_argument("--das-grid", help="also write a DAS image per frame on this grid "
-                    "(as `das --grid`)")
-    sp.add_argument("--memory-budget", type=_budget_gb, default=2.0,
-                    help="GB per worker for the DAS reuse tables (default 2)")
-    sp.add_argument("--das-reuse", choices=("auto", "plan", "direct"), default="auto",
-                    help="DAS per frame from reuse tables built once per worker, by the direct "
-                    "kernel, or whichever was faster on the first frame (default auto)")
-    sp.add_argument("--frame-timeout", type=_frame_timeout, metavar="SECONDS",
-                    default=DEFAULT_FRAME_TIMEOUT,
-                    help="wall-time limit of one frame (90, 90s, 10m, 1h, or none; default "
-                    f"{DEFAULT_FRAME_TIMEOUT:g} s); a frame over it is stopped and reported failed")
-    sp.add_argument("--frame-memory", type=_frame_memory, metavar="BYTES",
-                    help="limit of a worker's resident memory while it runs a frame (2G, 500MB, "
-                    "1.5GiB, or none; default "
-                    f"{100 * DEFAULT_FRAME_MEMORY_FRACTION:g} %% of the worker's Dask memory limit, "
-                    "i.e. of RAM / workers on the embedded cluster); a frame over it is stopped "
-                    "and reported failed")
+    sp.add_argument(
+        "--workers",
+        type=_positive_int,
+        help="worker processes of the embedded Dask LocalCluster (default 1)",
+    )
+    sp.add_argument(
+        "--scheduler",
+        help="address of an existing Dask scheduler "
+        "(tcp://host:port) instead of the embedded cluster",
+    )
+    sp.add_argument(
+        "--method",
+        choices=sorted(METHODS),
+        default=DEFAULT_METHOD,
+        help=f"imaging method (default {DEFAULT_METHOD}; kspace-rpm is the paper's)",
+    )
+    sp.add_argument(
+        "--das-grid", help="also write a DAS image per frame on this grid (as `das --grid`)"
+    )
+    sp.add_argument(
+        "--memory-budget",
+        type=_budget_gb,
+        default=2.0,
+        help="GB per worker for the DAS reuse tables (default 2)",
+    )
+    sp.add_argument(
+        "--das-reuse",
+        choices=("auto", "plan", "direct"),
+        default="auto",
+        help="DAS per frame from reuse tables built once per worker, by the direct "
+        "kernel, or whichever was faster on the first frame (default auto)",
+    )
+    sp.add_argument(
+        "--frame-timeout",
+        type=_frame_timeout,
+        metavar="SECONDS",
+        default=DEFAULT_FRAME_TIMEOUT,
+        help="wall-time limit of one frame (90, 90s, 10m, 1h, or none; default "
+        f"{DEFAULT_FRAME_TIMEOUT:g} s); a frame over it is stopped and reported failed",
+    )
+    sp.add_argument(
+        "--frame-memory",
+        type=_frame_memory,
+        metavar="BYTES",
+        help="limit of a worker's resident memory while it runs a frame (2G, 500MB, "
+        "1.5GiB, or none; default "
+        f"{100 * DEFAULT_FRAME_MEMORY_FRACTION:g} %% of the worker's Dask memory limit, "
+        "i.e. of RAM / workers on the embedded cluster); a frame over it is stopped "
+        "and reported failed",
+    )
     device_opts(sp)
     param_opts(sp)
     sp.set_defaults(func=cmd_batch)
@@ -845,77 +1134,162 @@ def convert_opts(sp) -> None:
 
     hz = _bounded_float(1.0, 1e15, "start frequency must be in Hz, 1 .. 1e15")
     scale = _bounded_float(1e-15, 1e15, "a scale factor must be 1e-15 .. 1e15")
-    sp.add_argument("inputs", nargs="+", metavar="IN", help="the file(s) to convert: gprMax "
-                    ".out/.h5 (a merged B-scan or the per-trace files), .mat/.npz/.npy/.h5 "
-                    "with --map, GSSI .dzt, DCA1000 .bin (several: concatenated in order)")
+    sp.add_argument(
+        "inputs",
+        nargs="+",
+        metavar="IN",
+        help="the file(s) to convert: gprMax "
+        ".out/.h5 (a merged B-scan or the per-trace files), .mat/.npz/.npy/.h5 "
+        "with --map, GSSI .dzt, DCA1000 .bin (several: concatenated in order)",
+    )
     sp.add_argument("-o", "--output", required=True, help="OUT.npz or OUT.h5")
-    sp.add_argument("--format", choices=sorted(FORMATS), help="the reader (default: from the "
-                    "extension; .h5 with --map is arrays, without it gprmax)")
+    sp.add_argument(
+        "--format",
+        choices=sorted(FORMATS),
+        help="the reader (default: from the "
+        "extension; .h5 with --map is arrays, without it gprmax)",
+    )
     g = sp.add_argument_group("gprMax output (--format gprmax)")
-    g.add_argument("--background", nargs="+", metavar="BG", help="the same scan without "
-                   "targets (merged, or per-trace files), subtracted trace by trace")
-    g.add_argument("--band", type=_band, metavar="F0:F1", help="frequency band kept, Hz "
-                   "(e.g. 2e9:4e9); required for gprMax; dzt: default the antenna's nominal "
-                   "band")
-    g.add_argument("--waveform", metavar="KIND:FREQ[:AMP]", help="gprMax's source waveform, "
-                   "e.g. ricker:3e9 (else from --sidecar or the trace files)")
-    g.add_argument("--sidecar", metavar="F.json", help="JSON with the waveform, scan positions "
-                   "and geometry (tests/data/gprmax/scene.json is one); the geometry becomes "
-                   "the truth_* arrays")
-    g.add_argument("--df", type=_bounded_float(1.0, 1e12, "df must be a frequency step in "
-                   "Hz, 1 .. 1e12"), help="frequency step, Hz (default: the band in at least "
-                   "64 steps, and at most 1/(2T) for a record of T)")
-    g.add_argument("--rx", type=_positive_int, help="gprmax: the receiver number (default 1); "
-                   "dca1000: the number of receivers enabled (default 4)")
+    g.add_argument(
+        "--background",
+        nargs="+",
+        metavar="BG",
+        help="the same scan without "
+        "targets (merged, or per-trace files), subtracted trace by trace",
+    )
+    g.add_argument(
+        "--band",
+        type=_band,
+        metavar="F0:F1",
+        help="frequency band kept, Hz "
+        "(e.g. 2e9:4e9); required for gprMax; dzt: default the antenna's nominal "
+        "band",
+    )
+    g.add_argument(
+        "--waveform",
+        metavar="KIND:FREQ[:AMP]",
+        help="gprMax's source waveform, e.g. ricker:3e9 (else from --sidecar or the trace files)",
+    )
+    g.add_argument(
+        "--sidecar",
+        metavar="F.json",
+        help="JSON with the waveform, scan positions "
+        "and geometry (tests/data/gprmax/scene.json is one); the geometry becomes "
+        "the truth_* arrays",
+    )
+    g.add_argument(
+        "--df",
+        type=_bounded_float(1.0, 1e12, "df must be a frequency step in Hz, 1 .. 1e12"),
+        help="frequency step, Hz (default: the band in at least "
+        "64 steps, and at most 1/(2T) for a record of T)",
+    )
+    g.add_argument(
+        "--rx",
+        type=_positive_int,
+        help="gprmax: the receiver number (default 1); "
+        "dca1000: the number of receivers enabled (default 4)",
+    )
     g = sp.add_argument_group("named arrays (--format arrays: .mat, .npz, .npy, .h5)")
-    g.add_argument("--map", metavar="NAME=KEY,...", help="schema name = key in the file, e.g. "
-                   "spectrum=F,frequency=f,x=da (time domain: signal, range, fc, bandwidth, x; "
-                   "z for a planar array; a .npy's key is its file name)")
-    g.add_argument("--transpose", action="store_true", help="reverse the axes of the data "
-                   "array (MATLAB's F(nf, nx) -> (nx, nf))")
+    g.add_argument(
+        "--map",
+        metavar="NAME=KEY,...",
+        help="schema name = key in the file, e.g. "
+        "spectrum=F,frequency=f,x=da (time domain: signal, range, fc, bandwidth, x; "
+        "z for a planar array; a .npy's key is its file name)",
+    )
+    g.add_argument(
+        "--transpose",
+        action="store_true",
+        help="reverse the axes of the data array (MATLAB's F(nf, nx) -> (nx, nf))",
+    )
     g.add_argument("--scale-x", type=scale, help="factor to metres for x and z (1e-3: mm)")
-    g.add_argument("--scale-f", type=scale, help="factor to Hz for frequency, fc and bandwidth "
-                   "(1e9: GHz)")
-    g.add_argument("--conjugate", action="store_true", help="conjugate a spectrum recorded "
-                   "as exp(+j 4 pi f R / c)")
+    g.add_argument(
+        "--scale-f", type=scale, help="factor to Hz for frequency, fc and bandwidth (1e9: GHz)"
+    )
+    g.add_argument(
+        "--conjugate",
+        action="store_true",
+        help="conjugate a spectrum recorded as exp(+j 4 pi f R / c)",
+    )
     g = sp.add_argument_group("GSSI DZT (--format dzt)")
-    g.add_argument("--dx", type=_bounded_float(1e-9, 1e4, "dx must be a length in m, 1e-9 .. "
-                   "1e4"), help="dzt: scan spacing, m (default 1 / the header's scans per "
-                   "metre); dca1000: the radar's step between frames, m")
-    g.add_argument("--time-zero", type=_bounded_float(0, 1e6, "time zero must be a sample "
-                   "number >= 0"), metavar="SAMPLE", help="sample of time zero (the transmit "
-                   "instant; may be fractional; default 0, the window's start)")
-    g.add_argument("--channel", type=_int_at_least(0, "channel "), help="channel, from 0 "
-                   "(default 0)")
-    g.add_argument("--subtract-mean", action="store_true", help="subtract the mean trace "
-                   "(direct coupling, ground bounce, horizontal bands)")
+    g.add_argument(
+        "--dx",
+        type=_bounded_float(1e-9, 1e4, "dx must be a length in m, 1e-9 .. 1e4"),
+        help="dzt: scan spacing, m (default 1 / the header's scans per "
+        "metre); dca1000: the radar's step between frames, m",
+    )
+    g.add_argument(
+        "--time-zero",
+        type=_bounded_float(0, 1e6, "time zero must be a sample number >= 0"),
+        metavar="SAMPLE",
+        help="sample of time zero (the transmit "
+        "instant; may be fractional; default 0, the window's start)",
+    )
+    g.add_argument(
+        "--channel", type=_int_at_least(0, "channel "), help="channel, from 0 (default 0)"
+    )
+    g.add_argument(
+        "--subtract-mean",
+        action="store_true",
+        help="subtract the mean trace (direct coupling, ground bounce, horizontal bands)",
+    )
     g = sp.add_argument_group("TI mmWave + DCA1000 (--format dca1000)")
-    g.add_argument("--slope", type=_bounded_float(1e6, 1e16, "slope must be Hz/s, 1e6 .. "
-                   "1e16 (TI's MHz/us x 1e12)"), metavar="HZ/S", help="chirp slope, Hz/s")
-    g.add_argument("--adc-rate", type=_bounded_float(1.0, 1e10, "ADC rate must be samples/s, "
-                   "1 .. 1e10"), metavar="SPS", help="ADC sample rate, samples/s")
-    g.add_argument("--samples", type=_int_at_least(2, "samples "), metavar="N",
-                   help="ADC samples per chirp")
+    g.add_argument(
+        "--slope",
+        type=_bounded_float(1e6, 1e16, "slope must be Hz/s, 1e6 .. 1e16 (TI's MHz/us x 1e12)"),
+        metavar="HZ/S",
+        help="chirp slope, Hz/s",
+    )
+    g.add_argument(
+        "--adc-rate",
+        type=_bounded_float(1.0, 1e10, "ADC rate must be samples/s, 1 .. 1e10"),
+        metavar="SPS",
+        help="ADC sample rate, samples/s",
+    )
+    g.add_argument(
+        "--samples", type=_int_at_least(2, "samples "), metavar="N", help="ADC samples per chirp"
+    )
     g.add_argument("--start-freq", type=hz, metavar="HZ", help="start frequency of the ramp, Hz")
-    g.add_argument("--adc-start-time", type=_bounded_float(0, 1.0, "ADC start time must be "
-                   "0 .. 1 s"), metavar="S", help="first ADC sample after the ramp's start, s "
-                   "(TI's adcStartTime; default 0)")
-    g.add_argument("--chirps", type=_positive_int, metavar="N", help="chirps per frame, "
-                   "averaged per position (default 1)")
-    g.add_argument("--layout", choices=sorted(LAYOUTS), help="complex-2lane (xWR16xx/18xx/"
-                   "68xx, default), complex-4lane (xWR12xx/14xx), real")
-    g.add_argument("--rx-spacing", type=_bounded_float(1e-9, 1e4, "rx spacing must be a "
-                   "length in m, 1e-9 .. 1e4"), metavar="M", help="receiver spacing, m: the "
-                   "receivers as the array, at their midpoints with the transmitter (d/2 apart)")
-    g.add_argument("--receiver", type=_int_at_least(0, "receiver "), help="with --dx: the "
-                   "receiver used, from 0 (default 0)")
+    g.add_argument(
+        "--adc-start-time",
+        type=_bounded_float(0, 1.0, "ADC start time must be 0 .. 1 s"),
+        metavar="S",
+        help="first ADC sample after the ramp's start, s (TI's adcStartTime; default 0)",
+    )
+    g.add_argument(
+        "--chirps",
+        type=_positive_int,
+        metavar="N",
+        help="chirps per frame, averaged per position (default 1)",
+    )
+    g.add_argument(
+        "--layout",
+        choices=sorted(LAYOUTS),
+        help="complex-2lane (xWR16xx/18xx/68xx, default), complex-4lane (xWR12xx/14xx), real",
+    )
+    g.add_argument(
+        "--rx-spacing",
+        type=_bounded_float(1e-9, 1e4, "rx spacing must be a length in m, 1e-9 .. 1e4"),
+        metavar="M",
+        help="receiver spacing, m: the "
+        "receivers as the array, at their midpoints with the transmitter (d/2 apart)",
+    )
+    g.add_argument(
+        "--receiver",
+        type=_int_at_least(0, "receiver "),
+        help="with --dx: the receiver used, from 0 (default 0)",
+    )
 
 
 def common_opts(sp) -> None:
     """-v/--verbose and -q/--quiet (a group of every subcommand)."""
     g = sp.add_mutually_exclusive_group()
-    g.add_argument("-v", "--verbose", action="store_true",
-                   help="resolved parameters and stage timings on stderr")
+    g.add_argument(
+        "-v",
+        "--verbose",
+        action="store_true",
+        help="resolved parameters and stage timings on stderr",
+    )
     g.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
 
 
@@ -933,9 +1307,11 @@ def medium_opts(sp) -> None:
     from .config import add_flags
 
     if not any("--config" in a.option_strings for a in sp._actions):
-        sp.add_argument("--config", metavar="FILE.toml",
-                        help="parameters from this TOML file (its [medium] section; flags "
-                             "override it)")
+        sp.add_argument(
+            "--config",
+            metavar="FILE.toml",
+            help="parameters from this TOML file (its [medium] section; flags override it)",
+        )
     add_flags(sp, ("medium",))
 
 
@@ -946,7 +1322,9 @@ def _medium(args):
 
     flags = flag_values(args)
     sources = {k: str(args.config) for k in args.cfg_file}
-    sources.update({(s.section, s.name): s.flag for s in settings() if (s.section, s.name) in flags})
+    sources.update(
+        {(s.section, s.name): s.flag for s in settings() if (s.section, s.name) in flags}
+    )
     return resolve_medium(merge(args.cfg_file, flags), sources)
 
 
@@ -970,6 +1348,7 @@ def _show_warning(shown):
             log.warning("warning: %s", " ".join(str(message).split()))
         else:
             shown(message, category, filename, lineno, file, line)
+
     return show
 
 
@@ -1061,13 +1440,18 @@ def main(argv=None) -> int:
     handler.setFormatter(logging.Formatter("rpm-cl: %(message)s"))
     # only where SIGTERM would kill us anyway (not when a supervisor set it
     # to be ignored, nor over a handler of the embedding program)
-    term = (threading.current_thread() is threading.main_thread()
-            and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
+    term = (
+        threading.current_thread() is threading.main_thread()
+        and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    )
     if term:
         signal.signal(signal.SIGTERM, _on_sigterm)
-    sigint = (not argv_given and threading.current_thread() is threading.main_thread()
-              and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
-    _SIGINT_SEEN.clear()   # a call's own interrupts only
+    sigint = (
+        not argv_given
+        and threading.current_thread() is threading.main_thread()
+        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    )
+    _SIGINT_SEEN.clear()  # a call's own interrupts only
     if sigint:
         signal.signal(signal.SIGINT, _on_sigint)
     try:
@@ -1075,8 +1459,9 @@ def main(argv=None) -> int:
         args = build_parser().parse_args(argv)
         log.addHandler(handler)
         log.propagate = False
-        log.setLevel(logging.ERROR if args.quiet else logging.INFO if args.verbose
-                     else logging.WARNING)
+        log.setLevel(
+            logging.ERROR if args.quiet else logging.INFO if args.verbose else logging.WARNING
+        )
         with contextlib.ExitStack() as stack:
             if args.quiet:
                 from ..progress import bars_off
@@ -1103,18 +1488,22 @@ def main(argv=None) -> int:
         if _SIGINT_SEEN:
             return _end_interrupted(argv_given)
         line = _declared_too_large(args) if args is not None else None
-        print(f"rpm-cl: error: {line or 'out of memory; lower the problem size or the RPM chunk size'}",
-              file=sys.stderr)
+        print(
+            f"rpm-cl: error: {line or 'out of memory; lower the problem size or the RPM chunk size'}",
+            file=sys.stderr,
+        )
         return 2
     except Exception as exc:
-        if _SIGINT_SEEN:   # an interrupted import's ImportError, and the like
+        if _SIGINT_SEEN:  # an interrupted import's ImportError, and the like
             return _end_interrupted(argv_given)
         if _user_error(exc):  # one line, whatever a library put in the message
             print(f"rpm-cl: error: {' '.join(str(exc).split())}", file=sys.stderr)
             return 2
         if type(exc).__module__.startswith("pyopencl"):  # not the user's input
-            print(f"rpm-cl: error: OpenCL: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
-                  file=sys.stderr)
+            print(
+                f"rpm-cl: error: OpenCL: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}",
+                file=sys.stderr,
+            )
             return 2
         raise
     finally:

@@ -42,8 +42,19 @@ from typing import Any, Literal
 
 from ..io.data import InputError
 
-__all__ = ["EngineParams", "Setting", "add_flags", "dump_toml", "flag_values", "load_config",
-           "merge", "resolve", "resolve_engine", "resolve_medium", "settings"]
+__all__ = [
+    "EngineParams",
+    "Setting",
+    "add_flags",
+    "dump_toml",
+    "flag_values",
+    "load_config",
+    "merge",
+    "resolve",
+    "resolve_engine",
+    "resolve_medium",
+    "settings",
+]
 
 _AUTO = ("auto", "none")
 
@@ -72,20 +83,20 @@ class EngineParams:
 # fields whose class docstring has no Attributes entry
 _EXTRA_DOCS = {
     "rp_threshold_db": "RPs below this level relative to their cluster's maximum are "
-                       "dropped, dB (< 0).",
+    "dropped, dB (< 0).",
     "multipath": "phase-rpm: points of clusters that a double bounce between two other "
-                 "objects explains (rpm_cl.rpm.multipath) are dropped ('drop'), or kept with a "
-                 "'multipath' column in the result ('flag').",
+    "objects explains (rpm_cl.rpm.multipath) are dropped ('drop'), or kept with a "
+    "'multipath' column in the result ('flag').",
     "background": "Before imaging (rpm_cl.extract.preprocess): subtract the mean or median range "
-                  "profile over the antennas per gate ('none', 'mean', 'median').",
+    "profile over the antennas per gate ('none', 'mean', 'median').",
     "time_zero": "Before imaging: this range becomes 0 (the antenna's own pulse, or the "
-                 "surface echo of a ground-coupled antenna), m; earlier gates are dropped.",
+    "surface echo of a ground-coupled antenna), m; earlier gates are dropped.",
     "gain_db_per_m": "Before imaging: amplitudes times 10^(g R / 20), a gain of g dB per "
-                     "metre of range after time_zero.",
+    "metre of range after time_zero.",
     "max_range": "Before imaging: gates beyond this range (after time_zero) are dropped, "
-                 "m; None keeps all.",
+    "m; None keeps all.",
     "reach_deg": "phase-rpm: points seen from their main RP's antenna farther than this "
-                 "from boresight are dropped, deg (0 < reach_deg <= 90; 90 keeps all).",
+    "from boresight are dropped, deg (0 < reach_deg <= 90; 90 keeps all).",
 }
 
 
@@ -134,8 +145,9 @@ class Setting:
         if self.choices:
             what = " or ".join(repr(c) for c in self.choices)
         else:
-            what = {float: "a number", int: "an integer", bool: "true or false",
-                    str: "a string"}[self.kind]
+            what = {float: "a number", int: "an integer", bool: "true or false", str: "a string"}[
+                self.kind
+            ]
         return what + (" or 'auto'" if self.optional else "")
 
     def coerce(self, value):
@@ -216,8 +228,11 @@ def _section_classes() -> dict:
     from ..imaging import ImagingParams
 
     hints = typing.get_type_hints(ImagingParams)
-    out = {f.name: hints[f.name] for f in dataclasses.fields(ImagingParams)
-           if dataclasses.is_dataclass(hints[f.name])}
+    out = {
+        f.name: hints[f.name]
+        for f in dataclasses.fields(ImagingParams)
+        if dataclasses.is_dataclass(hints[f.name])
+    }
     out["imaging"] = ImagingParams
     out["engine"] = EngineParams
     return out
@@ -242,16 +257,26 @@ def settings() -> list[Setting]:
                 continue  # a section of its own
             kind = _kind(hints[f.name])
             if kind is None:
-                raise TypeError(f"{cls.__name__}.{f.name}: type {hints[f.name]} is not a "
-                                "setting type")
-            default = (f.default if f.default is not dataclasses.MISSING
-                       else f.default_factory() if f.default_factory is not dataclasses.MISSING
-                       else None)
+                raise TypeError(
+                    f"{cls.__name__}.{f.name}: type {hints[f.name]} is not a setting type"
+                )
+            default = (
+                f.default
+                if f.default is not dataclasses.MISSING
+                else f.default_factory()
+                if f.default_factory is not dataclasses.MISSING
+                else None
+            )
             out.append(Setting(section, f.name, *kind, default, docs.get(f.name, "")))
     names = [s.name for s in out]
-    return [dataclasses.replace(s, flag="--" + (s.name if names.count(s.name) == 1
-                                                 else f"{s.section}_{s.name}").replace("_", "-"))
-            for s in out]
+    return [
+        dataclasses.replace(
+            s,
+            flag="--"
+            + (s.name if names.count(s.name) == 1 else f"{s.section}_{s.name}").replace("_", "-"),
+        )
+        for s in out
+    ]
 
 
 # --------------------------------------------------------------------------
@@ -282,8 +307,10 @@ def load_config(path) -> dict:
 
     path = regular_file(path, "config")
     if os.path.getsize(path) > CONFIG_MAX_BYTES:
-        raise InputError(f"{path}: a config of {os.path.getsize(path)} bytes is not a "
-                         f"parameter file (at most {CONFIG_MAX_BYTES} bytes)")
+        raise InputError(
+            f"{path}: a config of {os.path.getsize(path)} bytes is not a "
+            f"parameter file (at most {CONFIG_MAX_BYTES} bytes)"
+        )
     try:
         with open(path, "rb") as fh:
             doc = tomllib.load(fh)
@@ -294,24 +321,30 @@ def load_config(path) -> dict:
     except UnicodeDecodeError:
         raise InputError(f"{path}: not valid TOML: not UTF-8 text") from None
     except RecursionError:  # tomllib parses nested arrays and tables recursively
-        raise InputError(f"{path}: not a parameter file: arrays or tables nested too deep "
-                         f"to parse") from None
+        raise InputError(
+            f"{path}: not a parameter file: arrays or tables nested too deep to parse"
+        ) from None
     by_section = {}
     for s in settings():
         by_section.setdefault(s.section, {})[s.name] = s
     out = {}
     for section, table in doc.items():
         if section not in by_section:
-            raise InputError(f"{path}: unknown section [{section}]" if isinstance(table, dict)
-                             else f"{path}: unknown key {section!r} outside a section; "
-                             f"sections: {', '.join(by_section)}")
+            raise InputError(
+                f"{path}: unknown section [{section}]"
+                if isinstance(table, dict)
+                else f"{path}: unknown key {section!r} outside a section; "
+                f"sections: {', '.join(by_section)}"
+            )
         if not isinstance(table, dict):
             raise InputError(f"{path}: {section} must be a section [{section}], not a value")
         for name, value in table.items():
             spec = by_section[section].get(name)
             if spec is None:
-                raise InputError(f"{path}: unknown key [{section}] {name}; known: "
-                                 f"{', '.join(by_section[section])}")
+                raise InputError(
+                    f"{path}: unknown key [{section}] {name}; known: "
+                    f"{', '.join(by_section[section])}"
+                )
             try:
                 out[(section, name)] = spec.coerce(value)
             except ValueError as exc:
@@ -334,8 +367,9 @@ def _toml_value(v) -> str:
     return json.dumps(str(v))
 
 
-def dump_toml(params, engine: EngineParams | None = None, header: str = "",
-              comments: bool = True) -> str:
+def dump_toml(
+    params, engine: EngineParams | None = None, header: str = "", comments: bool = True
+) -> str:
     """The parameters as TOML text that :func:`load_config` reads back to
     the same values (every field written; None as ``"auto"``).
 
@@ -386,22 +420,33 @@ def add_flags(parser, sections=("kspace", "rpm", "imaging")) -> None:
     """Add a flag for every field of ``sections`` to an argparse parser (an
     argument group each); a flag not given leaves no attribute
     (``argparse.SUPPRESS``), so :func:`flag_values` sees what was given."""
-    titles = {"kspace": "k-space decomposition", "rpm": "RPM", "imaging": "range points",
-              "medium": "medium", "engine": "engine"}
+    titles = {
+        "kspace": "k-space decomposition",
+        "rpm": "RPM",
+        "imaging": "range points",
+        "medium": "medium",
+        "engine": "engine",
+    }
     groups = {}
     for s in settings():
         if s.section not in sections:
             continue
         if s.section not in groups:
             groups[s.section] = parser.add_argument_group(
-                f"{titles.get(s.section, s.section)} parameters ([{s.section}] of --config)")
+                f"{titles.get(s.section, s.section)} parameters ([{s.section}] of --config)"
+            )
         doc = s.doc.replace("%", "%%")
         default = "auto" if s.default is None else s.default
         kind = {float: "X", int: "N", bool: "BOOL", str: "TEXT"}[s.kind]
         groups[s.section].add_argument(
-            s.flag, dest=s.dest, type=s.parse, default=argparse.SUPPRESS,
-            choices=s.choices, metavar=None if s.choices else kind + ("|auto" if s.optional else ""),
-            help=f"{doc} (default {default}; `rpm-cl params IN` shows the value for IN)")
+            s.flag,
+            dest=s.dest,
+            type=s.parse,
+            default=argparse.SUPPRESS,
+            choices=s.choices,
+            metavar=None if s.choices else kind + ("|auto" if s.optional else ""),
+            help=f"{doc} (default {default}; `rpm-cl params IN` shows the value for IN)",
+        )
 
 
 def flag_values(args) -> dict:

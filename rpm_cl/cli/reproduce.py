@@ -35,14 +35,20 @@ PAPER = {
     ("points-5mm", "capon-rpm", 20.0): {"rp10": 0.0, "rpm50": 0.0, "rpm100": 0.0},
     ("points-5mm", "capon-rpm", 10.0): {"rp10": 0.0, "rpm50": 0.0, "rpm100": 0.0},
     ("points-5mm", "capon-rpm", 0.0): {"rp10": 0.0, "rpm50": 0.0, "rpm100": 0.0},
-    ("human-body", "capon-rpm", None): {"rp10": 1.00, "rpm50": 0.99, "rp10_n": 678,
-                                        "rpm50_n": 341},
-    ("human-body", "capon-rpm", 20.0): {"rp10": 0.026, "rpm50": 0.0, "rp10_n": 16,
-                                        "rpm50_n": 0},
-    ("human-body", "kspace-rpm", None): {"rp10": 0.98, "rpm50": 0.95, "rp10_n": 2248,
-                                         "rpm50_n": 1155},
-    ("human-body", "kspace-rpm", 20.0): {"rp10": 0.98, "rpm50": 0.95, "rp10_n": 2253,
-                                         "rpm50_n": 1170},
+    ("human-body", "capon-rpm", None): {"rp10": 1.00, "rpm50": 0.99, "rp10_n": 678, "rpm50_n": 341},
+    ("human-body", "capon-rpm", 20.0): {"rp10": 0.026, "rpm50": 0.0, "rp10_n": 16, "rpm50_n": 0},
+    ("human-body", "kspace-rpm", None): {
+        "rp10": 0.98,
+        "rpm50": 0.95,
+        "rp10_n": 2248,
+        "rpm50_n": 1155,
+    },
+    ("human-body", "kspace-rpm", 20.0): {
+        "rp10": 0.98,
+        "rpm50": 0.95,
+        "rp10_n": 2253,
+        "rpm50_n": 1170,
+    },
 }
 
 #: Cases of each reproduction: name -> (preset, S/N list).
@@ -86,8 +92,10 @@ class ReproRow:
 DAS_GRIDS = {
     "paper-2d": [("image 1 mm", "-0.3:0.3:0.001,0.2:0.7:0.001", "image")],
     "paper-2d-sparse": [("image 1 mm", "-0.3:0.3:0.001,0.2:0.7:0.001", "image")],
-    "human-body": [("section y=1 m, 3 mm", "-1:1:0.003,1.0:1.0:0.003,0:2:0.003", "section"),
-                   ("volume 2x2x2 m, 3 mm", "-1:1:0.003,0:2:0.003,0:2:0.003", "volume")],
+    "human-body": [
+        ("section y=1 m, 3 mm", "-1:1:0.003,1.0:1.0:0.003,0:2:0.003", "section"),
+        ("volume 2x2x2 m, 3 mm", "-1:1:0.003,0:2:0.003,0:2:0.003", "volume"),
+    ],
 }
 
 
@@ -153,15 +161,17 @@ def image_peak_points(img: np.ndarray, axes, threshold_db: float = -10.0) -> np.
     mag = np.abs(img)
     if mag.size == 0 or mag.max() == 0:
         return np.zeros((0, 2))
-    peak = (mag == ndimage.maximum_filter(mag, size=5, mode="nearest"))
+    peak = mag == ndimage.maximum_filter(mag, size=5, mode="nearest")
     peak &= mag >= mag.max() * 10 ** (threshold_db / 20)
     idx = np.nonzero(peak)
     return np.stack([axes[0][idx[0]], axes[1][idx[1]]], axis=1)
 
 
 #: RMA rows (linear arrays): preset -> (label, y_min, y_max) of the image.
-RMA_IMAGES = {"paper-2d": ("image y 0.2-0.7 m", 0.2, 0.7),
-              "paper-2d-sparse": ("image y 0.2-0.7 m", 0.2, 0.7)}
+RMA_IMAGES = {
+    "paper-2d": ("image y 0.2-0.7 m", 0.2, 0.7),
+    "paper-2d-sparse": ("image y 0.2-0.7 m", 0.2, 0.7),
+}
 
 
 def rma_points(data, y_min: float, y_max: float):
@@ -195,8 +205,19 @@ def _rma_rows(case, preset_name, snr, datasets, progress):
         tot["rpm_total"] += len(e)
         tot["rpm_within_50mm"] += cumulative(e, 0.05)[0]
         tot["rpm_within_100mm"] += cumulative(e, 0.10)[0]
-    return [ReproRow(case, "rma", snr, len(datasets), 0, 0, seconds=float(np.median(times)),
-                     grid=label, **tot)]
+    return [
+        ReproRow(
+            case,
+            "rma",
+            snr,
+            len(datasets),
+            0,
+            0,
+            seconds=float(np.median(times)),
+            grid=label,
+            **tot,
+        )
+    ]
 
 
 def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress, bar=False):
@@ -219,14 +240,34 @@ def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress,
             tot["rpm_total"] += len(e)
             tot["rpm_within_50mm"] += cumulative(e, 0.05)[0]
             tot["rpm_within_100mm"] += cumulative(e, 0.10)[0]
-        rows.append(ReproRow(case, "das", snr, len(datasets), 0, 0, seconds=float(np.median(times)),
-                             grid=label, **tot))
+        rows.append(
+            ReproRow(
+                case,
+                "das",
+                snr,
+                len(datasets),
+                0,
+                0,
+                seconds=float(np.median(times)),
+                grid=label,
+                **tot,
+            )
+        )
     return rows
 
 
-def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
-              progress=None, das=None, skip_volume: bool = False,
-              rma: bool = True, bar: bool | None = False) -> list[ReproRow]:
+def reproduce(
+    name: str,
+    engine,
+    methods=None,
+    trials: int = 10,
+    seed: int = 0,
+    progress=None,
+    das=None,
+    skip_volume: bool = False,
+    rma: bool = True,
+    bar: bool | None = False,
+) -> list[ReproRow]:
     """Run every case of reproduction ``name`` with every method.
 
     Parameters
@@ -276,8 +317,13 @@ def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
                 if progress:
                     progress(f"{case} {method} S/N={'inf' if snr is None else snr}")
                 pbar.set_postfix_str(f"{case} {method} S/N={'inf' if snr is None else snr}")
-                tot = {"rp_total": 0, "rp_within_10mm": 0, "rpm_total": 0,
-                       "rpm_within_50mm": 0, "rpm_within_100mm": 0}
+                tot = {
+                    "rp_total": 0,
+                    "rp_within_10mm": 0,
+                    "rpm_total": 0,
+                    "rpm_within_50mm": 0,
+                    "rpm_within_100mm": 0,
+                }
                 times = []
                 for data, preset in datasets:
                     pbar.update()
@@ -287,11 +333,13 @@ def reproduce(name: str, engine, methods=None, trials: int = 10, seed: int = 0,
                     s = summary(res.rps, res.image, data.truth)
                     for k in tot:
                         tot[k] += s[k]
-                rows.append(ReproRow(case, method, snr, n_trials, seconds=float(np.median(times)),
-                                     **tot))
+                rows.append(
+                    ReproRow(case, method, snr, n_trials, seconds=float(np.median(times)), **tot)
+                )
             if das is not None:
-                rows += _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress,
-                                       bar)
+                rows += _coherent_rows(
+                    case, preset_name, snr, datasets, das, skip_volume, progress, bar
+                )
             if rma:
                 rows += _rma_rows(case, preset_name, snr, datasets, progress)
     pbar.close()
@@ -305,19 +353,30 @@ def pct(n: int, d: int) -> str:
 
 def format_table(rows: list[ReproRow]) -> str:
     """The rows as a text table with the paper's figures beside ours."""
-    head = (f"{'case':12s} {'method':11s} {'S/N':>5s} {'RP<=10mm':>20s} {'RPM<=50mm':>20s} "
-            f"{'RPM<=100mm':>20s} {'ms':>9s}   paper (RP10/RPM50/RPM100) | grid")
+    head = (
+        f"{'case':12s} {'method':11s} {'S/N':>5s} {'RP<=10mm':>20s} {'RPM<=50mm':>20s} "
+        f"{'RPM<=100mm':>20s} {'ms':>9s}   paper (RP10/RPM50/RPM100) | grid"
+    )
     lines = [head, "-" * len(head)]
     for r in rows:
         snr = "inf" if r.snr_db is None else f"{r.snr_db:g}"
         ref = PAPER.get((r.case, r.method, r.snr_db))
-        ref_s = "" if ref is None else " / ".join(
-            (f"{100 * ref[k]:.0f}%" + (f" ({ref[k + '_n']})" if k + "_n" in ref else ""))
-            if k in ref else "-" for k in ("rp10", "rpm50", "rpm100"))
-        lines.append(f"{r.case:12s} {r.method:11s} {snr:>5s} {pct(r.rp_within_10mm, r.rp_total):>20s} "
-                     f"{pct(r.rpm_within_50mm, r.rpm_total):>20s} "
-                     f"{pct(r.rpm_within_100mm, r.rpm_total):>20s} {1e3 * r.seconds:9.2f}   {ref_s}"
-                     + (f" | {r.grid}" if r.grid else ""))
+        ref_s = (
+            ""
+            if ref is None
+            else " / ".join(
+                (f"{100 * ref[k]:.0f}%" + (f" ({ref[k + '_n']})" if k + "_n" in ref else ""))
+                if k in ref
+                else "-"
+                for k in ("rp10", "rpm50", "rpm100")
+            )
+        )
+        lines.append(
+            f"{r.case:12s} {r.method:11s} {snr:>5s} {pct(r.rp_within_10mm, r.rp_total):>20s} "
+            f"{pct(r.rpm_within_50mm, r.rpm_total):>20s} "
+            f"{pct(r.rpm_within_100mm, r.rpm_total):>20s} {1e3 * r.seconds:9.2f}   {ref_s}"
+            + (f" | {r.grid}" if r.grid else "")
+        )
     return "\n".join(lines)
 
 
@@ -325,5 +384,6 @@ def write_json(path, rows: list[ReproRow], meta: dict) -> None:
     """Write ``{"rows": [...], "meta": {...}}`` atomically."""
     from ..io.data import atomic_write_text
 
-    atomic_write_text(path, json.dumps({"rows": [r.as_dict() for r in rows], "meta": meta},
-                                       indent=2))
+    atomic_write_text(
+        path, json.dumps({"rows": [r.as_dict() for r in rows], "meta": meta}, indent=2)
+    )

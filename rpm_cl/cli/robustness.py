@@ -84,19 +84,54 @@ def _polar(r, deg):
 #: Narrow-band 2-D scenes like the paper's (20-24 GHz, 0.2-0.25 GHz, 21-31
 #: antennas at 4-5 mm, three or four point targets at 0.35-0.5 m).
 GEOMETRIES_2D = (
-    Geometry("2d-a", 20e9, 0.2e9, 64, (21, 5e-3), None,
-             (_polar(0.42, -28), _polar(0.46, 3), _polar(0.49, 25))),
-    Geometry("2d-b", 22e9, 0.25e9, 64, (31, 4e-3), None,
-             (_polar(0.36, -30), _polar(0.44, -12), _polar(0.40, 8), _polar(0.48, 27))),
-    Geometry("2d-c", 24e9, 0.2e9, 64, (25, 4.5e-3), None,
-             (_polar(0.50, -20), _polar(0.38, 0), _polar(0.45, 22))),
-    Geometry("2d-d", 21e9, 0.22e9, 64, (27, 5e-3), None,
-             (_polar(0.35, -33), _polar(0.47, -15), _polar(0.41, 14), _polar(0.37, 33))),
+    Geometry(
+        "2d-a",
+        20e9,
+        0.2e9,
+        64,
+        (21, 5e-3),
+        None,
+        (_polar(0.42, -28), _polar(0.46, 3), _polar(0.49, 25)),
+    ),
+    Geometry(
+        "2d-b",
+        22e9,
+        0.25e9,
+        64,
+        (31, 4e-3),
+        None,
+        (_polar(0.36, -30), _polar(0.44, -12), _polar(0.40, 8), _polar(0.48, 27)),
+    ),
+    Geometry(
+        "2d-c",
+        24e9,
+        0.2e9,
+        64,
+        (25, 4.5e-3),
+        None,
+        (_polar(0.50, -20), _polar(0.38, 0), _polar(0.45, 22)),
+    ),
+    Geometry(
+        "2d-d",
+        21e9,
+        0.22e9,
+        64,
+        (27, 5e-3),
+        None,
+        (_polar(0.35, -33), _polar(0.47, -15), _polar(0.41, 14), _polar(0.37, 33)),
+    ),
 )
 #: A 3-D scene: three spheres before a planar array, 20 GHz / 3 GHz.
-GEOMETRY_3D = Geometry("3d-spheres", 20e9, 3e9, 96, (15, 7.5e-3), (15, 7.5e-3),
-                       ((-0.10, 0.60, 0.02, 0.06), (0.08, 0.70, -0.05, 0.08),
-                        (0.02, 0.55, 0.10, 0.04)), tol=0.02)
+GEOMETRY_3D = Geometry(
+    "3d-spheres",
+    20e9,
+    3e9,
+    96,
+    (15, 7.5e-3),
+    (15, 7.5e-3),
+    ((-0.10, 0.60, 0.02, 0.06), (0.08, 0.70, -0.05, 0.08), (0.02, 0.55, 0.10, 0.04)),
+    tol=0.02,
+)
 
 
 def _axis(spec) -> np.ndarray:
@@ -144,9 +179,14 @@ def truth_boundary(g: Geometry, spacing: float = 1e-3) -> np.ndarray:
     for cx, cy, cz, rho in g.targets:
         n = max(16, int(np.ceil(np.pi * rho / spacing)))
         th, ph = np.meshgrid(np.linspace(0, np.pi, n), np.linspace(0, 2 * np.pi, 2 * n))
-        p = np.column_stack([np.sin(th).ravel() * np.cos(ph).ravel(), np.cos(th).ravel(),
-                             np.sin(th).ravel() * np.sin(ph).ravel()])
-        p = p[p[:, 1] <= 0.2]          # the half facing the array (y < centre)
+        p = np.column_stack(
+            [
+                np.sin(th).ravel() * np.cos(ph).ravel(),
+                np.cos(th).ravel(),
+                np.sin(th).ravel() * np.sin(ph).ravel(),
+            ]
+        )
+        p = p[p[:, 1] <= 0.2]  # the half facing the array (y < centre)
         out.append(np.array([cx, cy, cz]) + rho * p)
     return np.concatenate(out)
 
@@ -166,15 +206,16 @@ def synthesize(g: Geometry, snr_db: float | None, seed: int = 0):
     r, a = _echoes(g, pos)
     y = np.zeros((len(pos), g.nf), complex)
     for t in range(r.shape[1]):
-        y += a[:, t:t + 1] * np.exp(-4j * np.pi * f[None, :] * r[:, t:t + 1] / C0)
+        y += a[:, t : t + 1] * np.exp(-4j * np.pi * f[None, :] * r[:, t : t + 1] / C0)
     sigma2 = 0.0
     if snr_db is not None:
         n = 16 * g.nf
         peak = float(np.max(np.abs(np.fft.ifft(y, n, axis=1) * n / g.nf)) ** 2)
         sigma2 = peak / 10 ** (snr_db / 10) * g.nf
         rng = np.random.default_rng(seed)
-        y = y + np.sqrt(sigma2 / 2) * (rng.standard_normal(y.shape)
-                                       + 1j * rng.standard_normal(y.shape))
+        y = y + np.sqrt(sigma2 / 2) * (
+            rng.standard_normal(y.shape) + 1j * rng.standard_normal(y.shape)
+        )
     shape = (g.x[0],) if g.z is None else (g.x[0], g.z[0])
     return y.reshape(shape + (g.nf,)), f, sigma2
 
@@ -211,26 +252,28 @@ def crb(g: Geometry, sigma2: float) -> tuple[float, float]:
 
         def model(p, sub=sub):
             tt = list(sub.targets[0])
-            tt[:len(p)] = p
-            r, a = _echoes(Geometry(sub.name, sub.fc, sub.band, sub.nf, sub.x, sub.z,
-                                    (tuple(tt),), sub.tol), pos)
+            tt[: len(p)] = p
+            r, a = _echoes(
+                Geometry(sub.name, sub.fc, sub.band, sub.nf, sub.x, sub.z, (tuple(tt),), sub.tol),
+                pos,
+            )
             return (a * np.exp(-k[None, :] * r)).ravel()
 
-        p0 = np.asarray(g.targets[t][:g.dim], float)
+        p0 = np.asarray(g.targets[t][: g.dim], float)
         s0 = model(p0)
         cols = []
         for i in range(len(p0)):
             h = np.zeros_like(p0)
             h[i] = 1e-6
             cols.append((model(p0 + h) - model(p0 - h)) / 2e-6)
-        cols += [s0, 1j * s0]                        # d/d(Re a), d/d(Im a) of a * s0
+        cols += [s0, 1j * s0]  # d/d(Re a), d/d(Im a) of a * s0
         jac = np.stack(cols, 1)
         fim = 2 * np.real(jac.conj().T @ jac) / sigma2
         cov = np.linalg.inv(fim)
-        out_p.append(float(np.sqrt(np.trace(cov[:len(p0), :len(p0)]) / len(p0))))
+        out_p.append(float(np.sqrt(np.trace(cov[: len(p0), : len(p0)]) / len(p0))))
         # range at the centre antenna: one antenna's samples, unknown range and amplitude
         centre = int(np.argmin(np.linalg.norm(pos - pos.mean(axis=0), axis=1)))
-        r0, a0 = _echoes(sub, pos[centre:centre + 1])
+        r0, a0 = _echoes(sub, pos[centre : centre + 1])
         e = np.exp(-k * r0[0, 0])
         j1 = np.stack([-k * a0[0, 0] * e, e, 1j * e], 1)
         f1 = 2 * np.real(j1.conj().T @ j1) / sigma2
@@ -246,8 +289,9 @@ def _score(points: np.ndarray, g: Geometry, boundary: np.ndarray):
     d = np.min(np.linalg.norm(p[:, None, :] - boundary[None], axis=2), axis=1)
     if g.dim == 2:
         centres = np.asarray(g.targets, float)
-        hit = int(np.sum(np.min(np.linalg.norm(p[:, None] - centres[None], axis=2), axis=0)
-                         < g.tol))
+        hit = int(
+            np.sum(np.min(np.linalg.norm(p[:, None] - centres[None], axis=2), axis=0) < g.tol)
+        )
     else:
         hit = 0
         for cx, cy, cz, rho in g.targets:
@@ -265,13 +309,13 @@ def _das_points(das, data: RadarData, g: Geometry) -> np.ndarray:
         return image_peak_points(das.backproject(data, grid), grid.axes)
     from .reproduce import das_points
 
-    grid = Grid(np.arange(-0.25, 0.25, 4e-3), np.arange(0.4, 0.8, 2e-3),
-                np.arange(-0.2, 0.25, 4e-3))
+    grid = Grid(
+        np.arange(-0.25, 0.25, 4e-3), np.arange(0.4, 0.8, 2e-3), np.arange(-0.2, 0.25, 4e-3)
+    )
     return das_points(das, data, grid, "volume")[0]
 
 
-def run(engine, das=None, geometries=None, snrs=SNRS, seeds=(0,), methods=None,
-        progress=False):
+def run(engine, das=None, geometries=None, snrs=SNRS, seeds=(0,), methods=None, progress=False):
     """Every method on every scene, S/N and noise seed.
 
     Returns
@@ -314,27 +358,41 @@ def run(engine, das=None, geometries=None, snrs=SNRS, seeds=(0,), methods=None,
                 v = np.array(vals, float)
                 n_pts = v[:, 3]
                 frac = float(np.sum(v[:, 0] * n_pts) / max(1.0, np.sum(n_pts)))
-                rows.append({"scene": g.name, "snr": snr, "method": m, "fraction": frac,
-                             "median": float(np.nanmedian(v[:, 1])) if np.any(n_pts) else None,
-                             "hit": int(np.sum(v[:, 2])),
-                             "targets": len(g.targets) * len(seeds),
-                             "points": int(np.sum(n_pts)), "seconds": float(np.median(v[:, 4])),
-                             "crb_range": crbs[0], "crb_position": crbs[1], "tol": g.tol})
+                rows.append(
+                    {
+                        "scene": g.name,
+                        "snr": snr,
+                        "method": m,
+                        "fraction": frac,
+                        "median": float(np.nanmedian(v[:, 1])) if np.any(n_pts) else None,
+                        "hit": int(np.sum(v[:, 2])),
+                        "targets": len(g.targets) * len(seeds),
+                        "points": int(np.sum(n_pts)),
+                        "seconds": float(np.median(v[:, 4])),
+                        "crb_range": crbs[0],
+                        "crb_position": crbs[1],
+                        "tol": g.tol,
+                    }
+                )
     return rows
 
 
 def table(rows) -> str:
     """Rows as a Markdown table."""
-    head = ("| scene | S/N dB | method | within tol | median Err_RPM mm | targets hit | points | "
-            "ms | CRB range mm | CRB position mm |\n|---|---|---|---|---|---|---|---|---|---|\n")
+    head = (
+        "| scene | S/N dB | method | within tol | median Err_RPM mm | targets hit | points | "
+        "ms | CRB range mm | CRB position mm |\n|---|---|---|---|---|---|---|---|---|---|\n"
+    )
     lines = []
     for r in rows:
         snr = "inf" if r["snr"] is None else f"{r['snr']:g}"
         med = "-" if r["median"] is None else f"{1e3 * r['median']:.1f}"
-        lines.append(f"| {r['scene']} | {snr} | {r['method']} | "
-                     f"{100 * r['fraction']:.1f} % (<= {1e3 * r['tol']:.0f} mm) | {med} | "
-                     f"{r['hit']}/{r['targets']} | {r['points']} | {1e3 * r['seconds']:.1f} | "
-                     f"{1e3 * r['crb_range']:.2f} | {1e3 * r['crb_position']:.2f} |")
+        lines.append(
+            f"| {r['scene']} | {snr} | {r['method']} | "
+            f"{100 * r['fraction']:.1f} % (<= {1e3 * r['tol']:.0f} mm) | {med} | "
+            f"{r['hit']}/{r['targets']} | {r['points']} | {1e3 * r['seconds']:.1f} | "
+            f"{1e3 * r['crb_range']:.2f} | {1e3 * r['crb_position']:.2f} |"
+        )
     return head + "\n".join(lines) + "\n"
 
 
@@ -347,8 +405,10 @@ def plot(rows, path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    kinds = {"2-D (4 scenes)": [r for r in rows if r["scene"].startswith("2d")],
-             "3-D spheres": [r for r in rows if r["scene"].startswith("3d")]}
+    kinds = {
+        "2-D (4 scenes)": [r for r in rows if r["scene"].startswith("2d")],
+        "3-D spheres": [r for r in rows if r["scene"].startswith("3d")],
+    }
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5))
     for col, (label, rs) in enumerate(kinds.items()):
         if not rs:
@@ -365,18 +425,27 @@ def plot(rows, path) -> None:
                 md.append(1e3 * float(np.median(meds)) if meds else np.nan)
             axes[0, col].plot(xs, fr, "o-", label=m)
             axes[1, col].semilogy(xs, md, "o-", label=m)
-        for key, style, text in (("crb_position", "k--", "CRB position (one target)"),
-                                 ("crb_range", "k:", "CRB range (one antenna)")):
+        for key, style, text in (
+            ("crb_position", "k--", "CRB position (one target)"),
+            ("crb_range", "k:", "CRB range (one antenna)"),
+        ):
             bound = []
             for s in snrs:
                 sel = [r[key] for r in rs if r["snr"] == s]
                 bound.append(1e3 * float(np.median(sel)) if sel else np.nan)
             axes[1, col].semilogy(xs, bound, style, label=text)
         tol = 1e3 * rs[0]["tol"]
-        axes[0, col].set(title=f"{label}: points within {tol:.0f} mm", ylabel="%",
-                         xlabel="in-band S/N, dB (60 = noise-free)", ylim=(0, 102))
-        axes[1, col].set(title=f"{label}: median Err_RPM", ylabel="mm",
-                         xlabel="in-band S/N, dB (60 = noise-free)")
+        axes[0, col].set(
+            title=f"{label}: points within {tol:.0f} mm",
+            ylabel="%",
+            xlabel="in-band S/N, dB (60 = noise-free)",
+            ylim=(0, 102),
+        )
+        axes[1, col].set(
+            title=f"{label}: median Err_RPM",
+            ylabel="mm",
+            xlabel="in-band S/N, dB (60 = noise-free)",
+        )
         axes[0, col].legend(fontsize=8)
         axes[1, col].legend(fontsize=8)
     fig.tight_layout()

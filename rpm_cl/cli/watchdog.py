@@ -30,8 +30,14 @@ import sys
 import threading
 import time
 
-__all__ = ["DEFAULT_FRAME_MEMORY_FRACTION", "DEFAULT_FRAME_TIMEOUT", "POLL_S", "Watchdog",
-           "limit_reason", "main"]
+__all__ = [
+    "DEFAULT_FRAME_MEMORY_FRACTION",
+    "DEFAULT_FRAME_TIMEOUT",
+    "POLL_S",
+    "Watchdog",
+    "limit_reason",
+    "main",
+]
 
 #: Default wall-time limit of one frame, s: far above any sound frame's
 #: (tens of ms to seconds), low enough that a stuck one costs an hour at most.
@@ -87,8 +93,11 @@ class Watchdog:
 
         self.pid = os.getpid() if pid is None else int(pid)
         with as_file(files("rpm_cl.cli").joinpath("watchdog.py")) as script:
-            self._proc = subprocess.Popen([sys.executable, "-I", str(script), str(self.pid)],
-                                          stdin=subprocess.PIPE, close_fds=True)
+            self._proc = subprocess.Popen(
+                [sys.executable, "-I", str(script), str(self.pid)],
+                stdin=subprocess.PIPE,
+                close_fds=True,
+            )
 
     def _send(self, line: str) -> None:
         self._proc.stdin.write(line.encode() + b"\n")

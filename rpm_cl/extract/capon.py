@@ -125,13 +125,13 @@ def _householder_qr(a: np.ndarray):
     vs = []
     for j in range(n):
         x = r[j:, j]
-        norm = np.sqrt(np.sum(x.real ** 2 + x.imag ** 2))
+        norm = np.sqrt(np.sum(x.real**2 + x.imag**2))
         if norm == 0:
             vs.append(None)
             continue
         v = x.copy()
         v[0] += (x[0] / abs(x[0]) if x[0] != 0 else 1.0) * norm  # no cancellation
-        v /= np.sqrt(np.sum(v.real ** 2 + v.imag ** 2))
+        v /= np.sqrt(np.sum(v.real**2 + v.imag**2))
         r[j:, j:] -= 2.0 * v[:, None] * np.sum(v.conj()[:, None] * r[j:, j:], axis=0)
         vs.append(v)
     return vs, np.triu(r[:n])
@@ -205,9 +205,14 @@ def matched_filter_weight(f, bandwidth: float) -> np.ndarray:
     return np.where(np.abs(f) < bandwidth, np.cos(np.pi * f / (2 * bandwidth)) ** 4, 0.0)
 
 
-def frequency_samples(data: RadarData, *, min_weight: float = MIN_WEIGHT_DEFAULT,
-                      min_period_cells: float = MIN_PERIOD_CELLS_DEFAULT,
-                      deconvolve: bool = True, zero_pad: int = 1):
+def frequency_samples(
+    data: RadarData,
+    *,
+    min_weight: float = MIN_WEIGHT_DEFAULT,
+    min_period_cells: float = MIN_PERIOD_CELLS_DEFAULT,
+    deconvolve: bool = True,
+    zero_pad: int = 1,
+):
     """Baseband frequency samples ``Y(f)`` of every antenna, from ``s(X, R)``.
 
     ``s(R_n) = sum_k c_k exp(+j 4 pi f_k (R_n - R_0) / c)``, ``R_0 =
@@ -326,8 +331,10 @@ def frequency_samples(data: RadarData, *, min_weight: float = MIN_WEIGHT_DEFAULT
     if use_fft:
         n_fft = zero_pad * nr
         if 2 * n_all + 1 > n_fft:  # only with a range axis coarser than c/4B
-            raise InputError(f"range spacing {dr:g} m aliases the band: it must be below "
-                             f"c/(4B) = {C0 / (4 * bw):g} m")
+            raise InputError(
+                f"range spacing {dr:g} m aliases the band: it must be below "
+                f"c/(4B) = {C0 / (4 * bw):g} m"
+            )
         # zero-padding interpolates the unpadded grid's coefficients, whose
         # normalisation sum_k W(f_k) is 1/zero_pad of the fine grid's
         coef = np.fft.fft(s, n=n_fft, axis=1)[:, k_all % n_fft] / (nr * zero_pad)
@@ -335,12 +342,14 @@ def frequency_samples(data: RadarData, *, min_weight: float = MIN_WEIGHT_DEFAULT
         op = _band_limited_fit(nr, dr / period, k_all, _fit_rcond(s.dtype))
         coef = np.empty((s.shape[0], k_all.size), np.complex128)
         for lo in range(0, s.shape[0], _FIT_CHUNK):  # bounded temporaries
-            coef[lo:lo + _FIT_CHUNK] = np.einsum("ar,kr->ak", s[lo:lo + _FIT_CHUNK], op)
+            coef[lo : lo + _FIT_CHUNK] = np.einsum("ar,kr->ak", s[lo : lo + _FIT_CHUNK], op)
     w_all = matched_filter_weight(f_all, bw)
     keep = w_all >= min_weight
     if keep.sum() < 2:
-        raise InputError(f"fewer than 2 frequency samples (spacing {df:g} Hz) where the "
-                         f"matched-filter weight is >= {min_weight}; lower min_weight")
+        raise InputError(
+            f"fewer than 2 frequency samples (spacing {df:g} Hz) where the "
+            f"matched-filter weight is >= {min_weight}; lower min_weight"
+        )
     f = f_all[keep]
     y = coef[:, keep] * np.exp(-4j * np.pi * f * data.range[0] / C0) * w_all.sum()
     if deconvolve:
@@ -391,8 +400,9 @@ class CaponParams:
     min_period_cells: float = MIN_PERIOD_CELLS_DEFAULT
 
     def __post_init__(self):
-        if self.n_sub is not None and (isinstance(self.n_sub, bool) or int(self.n_sub) != self.n_sub
-                                       or self.n_sub < 2):
+        if self.n_sub is not None and (
+            isinstance(self.n_sub, bool) or int(self.n_sub) != self.n_sub or self.n_sub < 2
+        ):
             raise InputError(f"n_sub must be an integer >= 2 or None, got {self.n_sub!r}")
         if not (np.isfinite(self.loading) and self.loading >= 0):
             raise InputError(f"loading must be finite and >= 0, got {self.loading}")
@@ -430,8 +440,9 @@ def _whitening_filters(data: RadarData, params: CaponParams):
         common phase of the steering vector cancels in ``a^H Rxx^-1 a``).
     v : ndarray, complex, shape (n_antennas, M, M)
     """
-    f, y = frequency_samples(data, min_weight=params.min_weight,
-                             min_period_cells=params.min_period_cells)
+    f, y = frequency_samples(
+        data, min_weight=params.min_weight, min_period_cells=params.min_period_cells
+    )
     m = params.sub_band(f.size)
     k = f.size - m + 1
     sub = np.lib.stride_tricks.sliding_window_view(y, m, axis=1)  # (n, K, M)
@@ -472,7 +483,7 @@ def _power(f_sub: np.ndarray, v: np.ndarray, r: np.ndarray) -> np.ndarray:
     else:
         a = np.exp(phase * f_sub[None, :, None] * r[:, None, :])  # (n, M, q)
         proj = np.einsum("nmi,nmq->niq", v.conj(), a)
-    q = np.sum(proj.real ** 2 + proj.imag ** 2, axis=1)
+    q = np.sum(proj.real**2 + proj.imag**2, axis=1)
     with np.errstate(divide="ignore"):
         return np.where(q > 0, 1.0 / np.where(q > 0, q, 1.0), 0.0)
 
@@ -535,8 +546,9 @@ def _refine_peaks(f_sub, v, row, r_lo, r_hi):
     return r, _power(f_sub, vr, r[:, None])[:, 0]
 
 
-def rps_from_capon(data: RadarData, params: CaponParams | None = None,
-                   rp_threshold_db: float = -10.0) -> RangePoints:
+def rps_from_capon(
+    data: RadarData, params: CaponParams | None = None, rp_threshold_db: float = -10.0
+) -> RangePoints:
     """RPs at the local maxima of the Capon profiles: one cluster.
 
     Every local maximum of ``P`` on ``data.range`` (per antenna) is refined by

@@ -38,8 +38,16 @@ import numpy as np
 from ..io.data import DataWarning
 from ..io.medium import EPS_R_MAX, Medium, one_way
 
-__all__ = ["MAX_REL_ERROR", "MIN_RPS", "MISMATCH", "TRACK_THRESHOLD_DB", "check_medium",
-           "fit_eps_r", "track_eps_r", "tracks"]
+__all__ = [
+    "MAX_REL_ERROR",
+    "MIN_RPS",
+    "MISMATCH",
+    "TRACK_THRESHOLD_DB",
+    "check_medium",
+    "fit_eps_r",
+    "track_eps_r",
+    "tracks",
+]
 
 #: Fewest RPs of a cluster whose track is fitted.
 MIN_RPS = 6
@@ -103,8 +111,7 @@ def tracks(data, threshold_db: float = TRACK_THRESHOLD_DB):
                 label[i], n_tracks = n_tracks, n_tracks + 1
                 last[int(label[i])] = (r, r, int(a))
     o = np.argsort(label, kind="stable")
-    return RangePoints(peaks.antenna[o], peaks.x[o], None, peaks.range[o], peaks.amp[o],
-                       label[o])
+    return RangePoints(peaks.antenna[o], peaks.x[o], None, peaks.range[o], peaks.amp[o], label[o])
 
 
 def track_eps_r(x, z, r) -> tuple[float, float]:
@@ -129,7 +136,7 @@ def track_eps_r(x, z, r) -> tuple[float, float]:
     # centred and scaled columns: the normal equations stay well conditioned
     # at any scale and offset of the array
     sx = float(np.ptp(x))
-    if not sx > 0:   # one antenna position: no curvature to fit
+    if not sx > 0:  # one antenna position: no curvature to fit
         return float("nan"), float("inf")
     x0 = x.mean()
     u = (x - x0) / sx
@@ -173,7 +180,7 @@ def _halfspace_track(pos, r, h: float, eps0: float) -> tuple[float, float]:
     p0 = [pos[j, 0], d0] + ([pos[j, 2]] if planar else [0.0]) + [max(eps0, 1.0)]
     lo = [-np.inf, 1e-6, -np.inf, 1.0]
     hi = [np.inf, np.inf, np.inf, EPS_R_MAX]
-    if not planar:   # z0 fixed at 0
+    if not planar:  # z0 fixed at 0
         lo[2], hi[2] = -1e-12, 1e-12
     fit = least_squares(model, p0, bounds=(lo, hi), x_scale="jac")
     dof = len(r) - (4 if planar else 3)
@@ -215,7 +222,7 @@ def fit_eps_r(positions, rps, medium: Medium | None = None) -> tuple[float, int]
     order = np.argsort(count)[::-1]
     order = order[count[order] >= MIN_RPS][:MAX_TRACKS]
     pos_all = np.asarray(positions, np.float64)[np.asarray(rps.antenna)]
-    if pos_all.shape[1] == 2:   # a linear array's (x, y): z = 0
+    if pos_all.shape[1] == 2:  # a linear array's (x, y): z = 0
         pos_all = np.column_stack([pos_all, np.zeros(len(pos_all))])
     half = medium is not None and medium.half_space
     est, err = [], []
@@ -268,12 +275,19 @@ def check_medium(data, medium: Medium) -> float | None:
         return None
     ratio = eps / medium.eps_r
     if ratio > MISMATCH:
-        warnings.warn(f"the echoes' range walks fit eps_r = {eps:.2f} ({n} hyperbolas), but the "
-                      f"medium is set to eps_r = {medium.eps_r:g}: image with --eps-r {eps:.2f} "
-                      f"(or check the antenna height)", DataWarning, stacklevel=3)
+        warnings.warn(
+            f"the echoes' range walks fit eps_r = {eps:.2f} ({n} hyperbolas), but the "
+            f"medium is set to eps_r = {medium.eps_r:g}: image with --eps-r {eps:.2f} "
+            f"(or check the antenna height)",
+            DataWarning,
+            stacklevel=3,
+        )
     elif ratio < 1.0 / MISMATCH and not medium.air:
-        warnings.warn(f"the echoes' range walks fit eps_r = {eps:.2f} ({n} hyperbolas), but the "
-                      f"medium is set to eps_r = {medium.eps_r:g}: try --eps-r {max(eps, 1.0):.2f} "
-                      f"(extended targets flatten their tracks and fit low)", DataWarning,
-                      stacklevel=3)
+        warnings.warn(
+            f"the echoes' range walks fit eps_r = {eps:.2f} ({n} hyperbolas), but the "
+            f"medium is set to eps_r = {medium.eps_r:g}: try --eps-r {max(eps, 1.0):.2f} "
+            f"(extended targets flatten their tracks and fit low)",
+            DataWarning,
+            stacklevel=3,
+        )
     return eps

@@ -204,7 +204,7 @@ class KSpaceParams:
                 raise InputError(f"{name} must be > 0, got {v}")
         try:
             pad_ok = 1 <= float(self.pad) <= PAD_MAX and int(self.pad) == self.pad
-        except (TypeError, ValueError, OverflowError):   # NaN passes the first test
+        except (TypeError, ValueError, OverflowError):  # NaN passes the first test
             pad_ok = False
         if not pad_ok:
             raise InputError(f"pad must be an integer from 1 to {PAD_MAX}, got {self.pad}")
@@ -212,8 +212,9 @@ class KSpaceParams:
             raise InputError(f"peak_threshold_db must be < 0, got {self.peak_threshold_db}")
         if self.noise_pfa is not None and not (0 < self.noise_pfa < 1):
             raise InputError(f"noise_pfa must be in (0, 1) or None, got {self.noise_pfa}")
-        if self.noise_power is not None and not (np.isfinite(self.noise_power)
-                                                 and self.noise_power >= 0):
+        if self.noise_power is not None and not (
+            np.isfinite(self.noise_power) and self.noise_power >= 0
+        ):
             raise InputError(f"noise_power must be >= 0 or None, got {self.noise_power}")
         if self.near_field not in (None, True, False):
             raise InputError(f"near_field must be True, False or None, got {self.near_field!r}")
@@ -229,8 +230,7 @@ def _taper(shape: tuple) -> np.ndarray:
     return w
 
 
-def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=None,
-                    dechirp=None):
+def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=None, dechirp=None):
     """Zero-padded FFT of the data along the array axes (eq. 2/7).
 
     Parameters
@@ -278,7 +278,7 @@ def _fresnel(data: RadarData, on: np.ndarray, ranges: np.ndarray) -> np.ndarray:
     shape (nx[, nz], n_gates): the curvature phase of :func:`_curvature` at
     u = 0, removed as :func:`_align` removes it."""
     axes_x = _array_axes(data.array)
-    half_d2 = _curvature(np.zeros(len(axes_x)), axes_x, 1.0)   # |X - X_c|^2 / 2
+    half_d2 = _curvature(np.zeros(len(axes_x)), axes_x, 1.0)  # |X - X_c|^2 / 2
     phase = 2 * data.waveform.kc * half_d2[..., None] / np.maximum(ranges, 1e-9)[None, :]
     return np.exp(1j * phase * on[None, :])
 
@@ -341,8 +341,9 @@ def _array_axes(arr) -> list:
 NOISE_ESTIMATE_CELLS = 8
 
 
-def noise_floor(data: RadarData, weights: np.ndarray, pfa: float,
-                noise_power: float | None = None) -> float:
+def noise_floor(
+    data: RadarData, weights: np.ndarray, pfa: float, noise_power: float | None = None
+) -> float:
     """Level of |S(k, R)| that pure noise exceeds with probability ``pfa``
     anywhere in the map (module notes, step 2).
 
@@ -371,7 +372,7 @@ def noise_floor(data: RadarData, weights: np.ndarray, pfa: float,
         The floor, in the units of |S|; 0 where the noise power is unknown,
         or for noise-free data whose echoes leave most gates empty.
     """
-    scale = 1.0   # |S| units = scale * sqrt(...): squares of the data's own scale overflow
+    scale = 1.0  # |S| units = scale * sqrt(...): squares of the data's own scale overflow
     if noise_power is not None:
         sigma2 = float(noise_power)
     elif data.range[-1] - data.range[0] >= NOISE_ESTIMATE_CELLS * data.waveform.range_resolution:
@@ -422,8 +423,16 @@ def _runs(mask: np.ndarray):
     return list(zip(np.nonzero(d == 1)[0], np.nonzero(d == -1)[0]))
 
 
-def _search_gates(data: RadarData, weights, taper: bool, pad: int, rel: float, floor: float,
-                  margin: int, dechirp=None):
+def _search_gates(
+    data: RadarData,
+    weights,
+    taper: bool,
+    pad: int,
+    rel: float,
+    floor: float,
+    margin: int,
+    dechirp=None,
+):
     """Range gates that can hold a cluster centre, dilated by ``margin``.
 
     ``A(R) = sum_X w(X) |s(X, R)|`` bounds ``max_k |S(k, R)|`` from above
@@ -440,8 +449,9 @@ def _search_gates(data: RadarData, weights, taper: bool, pad: int, rel: float, f
         if not bound[m].max() > 0:
             continue
         top = int(np.flatnonzero(m)[np.argmax(bound[m])])
-        lower = float(np.abs(kspace_spectrum(data, pad, taper, slice(top, top + 1),
-                                             dechirp)[0]).max())
+        lower = float(
+            np.abs(kspace_spectrum(data, pad, taper, slice(top, top + 1), dechirp)[0]).max()
+        )
         active[m] = bound[m] >= max(rel * lower, floor)
     return ndimage.binary_dilation(active, iterations=margin) if margin > 0 else active
 
@@ -470,8 +480,7 @@ def _centres(det: np.ndarray, size: list, n_k: int, threshold, g0: int, nr: int)
     # a window wider than its axis sees the whole axis, as the axis's own
     # length (wrapped) or twice it (edges repeated) does: the same maxima,
     # at a cost bounded by the data, not by the resolution
-    size = [min(int(s), n if m == "wrap" else 2 * n + 1)
-            for s, n, m in zip(size, det.shape, mode)]
+    size = [min(int(s), n if m == "wrap" else 2 * n + 1) for s, n, m in zip(size, det.shape, mode)]
     local = det == ndimage.maximum_filter(det, size=size, mode=mode)
     # a strict maximum along R (a flat run of equal values, e.g. a constant
     # signal, is not a peak: every gate of it would pass the test above)
@@ -504,7 +513,7 @@ def decompose(data: RadarData, params: KSpaceParams = KSpaceParams(), env=None) 
         (gates that cannot hold a centre are skipped, step 2 of the module
         notes).
     """
-    with one_blas_thread():   # small DFT matrices: see rpm_cl.extract.blas
+    with one_blas_thread():  # small DFT matrices: see rpm_cl.extract.blas
         return _decompose(data, params, env)
 
 
@@ -522,32 +531,42 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
     gate = params.range_gate or data.waveform.range_resolution
     dr = data.dr
     nr = data.range.size
-    periods = (params.window_x,) if n_k == 1 else (params.window_x, params.window_z or params.window_x)
+    periods = (
+        (params.window_x,) if n_k == 1 else (params.window_x, params.window_z or params.window_x)
+    )
     k_axes = kspace_spectrum(data, params.pad, gates=slice(0, 0))[1]
     # non-maximum suppression neighbourhood: a quarter window period in k,
     # half a range resolution in R; k axes periodic, R not.
-    size = [2 * int(np.ceil(0.25 * periods[a] / abs(k_axes[a][1] - k_axes[a][0]))) + 1
-            for a in range(n_k)]
+    size = [
+        2 * int(np.ceil(0.25 * periods[a] / abs(k_axes[a][1] - k_axes[a][0]))) + 1
+        for a in range(n_k)
+    ]
     size = [min(s_, len(k)) for s_, k in zip(size, k_axes)]
     half_r = int(np.ceil(0.5 * data.waveform.range_resolution / dr))
     size.append(2 * half_r + 1)
     weights = _taper(arr.shape) if params.detect_taper else np.ones(arr.shape + (1,))
     rel = 10.0 ** (params.peak_threshold_db / 20.0)
-    floor = (noise_floor(data, weights, params.noise_pfa, params.noise_power)
-             if params.noise_pfa is not None else 0.0)
+    floor = (
+        noise_floor(data, weights, params.noise_pfa, params.noise_power)
+        if params.noise_pfa is not None
+        else 0.0
+    )
     # gates searched: those that can hold a centre, with room for the
     # neighbourhood and the strict test (half_r + 1) and for each cluster's
     # range interval (gate / dr + 1)
     margin = max(half_r + 1, int(np.ceil(gate / dr)) + 1)
     dechirp = _dechirp_gates(data, params)
-    need = (_search_gates(data, weights, params.detect_taper, params.pad, rel, floor, margin,
-                          dechirp)
-            if params.skip_gates else np.ones(nr, bool))
+    need = (
+        _search_gates(data, weights, params.detect_taper, params.pad, rel, floor, margin, dechirp)
+        if params.skip_gates
+        else np.ones(nr, bool)
+    )
     shape = tuple(len(k) for k in k_axes) + (nr,)
     det = np.zeros(shape)
     for g0, g1 in _runs(need):
-        det[..., g0:g1] = np.abs(kspace_spectrum(data, params.pad, params.detect_taper,
-                                                 slice(g0, g1), dechirp)[0])
+        det[..., g0:g1] = np.abs(
+            kspace_spectrum(data, params.pad, params.detect_taper, slice(g0, g1), dechirp)[0]
+        )
     # the threshold per gate: relative to the strongest peak of its regime
     gate_max = det.reshape(-1, nr).max(axis=0) if nr else np.zeros(0)
     threshold = np.zeros(nr)
@@ -568,12 +587,13 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
         found.append((det[..., g0:g1] if params.detect_taper else mag[..., g0:g1], g0))
     if not found:
         return Decomposition(k_axes, mag, ())
-    peaks = [_centres(d, size, n_k, threshold[g0:g0 + d.shape[-1]], g0, nr) for d, g0 in found]
+    peaks = [_centres(d, size, n_k, threshold[g0 : g0 + d.shape[-1]], g0, nr) for d, g0 in found]
     idx = np.concatenate([p[0] for p in peaks])
     vals = np.concatenate([p[1] for p in peaks])
     idx = idx[np.argsort(-vals, kind="stable")]
-    return Decomposition(k_axes, mag, tuple(_clusters(data, params, spec, mag, k_axes, periods,
-                                                      idx, gate)))
+    return Decomposition(
+        k_axes, mag, tuple(_clusters(data, params, spec, mag, k_axes, periods, idx, gate))
+    )
 
 
 def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods, idx, gate):
@@ -589,12 +609,16 @@ def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods,
     focused = _focused_gates(data, params)
     if align:
         flat = data.signal.reshape(-1, data.range.size)
-        coeffs = (ndimage.spline_filter1d(flat.real, 3, axis=-1, mode="nearest")
-                  + 1j * ndimage.spline_filter1d(flat.imag, 3, axis=-1, mode="nearest"))
+        coeffs = ndimage.spline_filter1d(
+            flat.real, 3, axis=-1, mode="nearest"
+        ) + 1j * ndimage.spline_filter1d(flat.imag, 3, axis=-1, mode="nearest")
     # the zero-padded DFT of each array axis, shared by every cluster (none:
     # FFTs for a large array)
-    dfts = ([_dft(k_axes[a].size, arr.shape[a]) for a in range(n_k)]
-            if max(arr.shape) <= MATRIX_DFT_MAX else [])
+    dfts = (
+        [_dft(k_axes[a].size, arr.shape[a]) for a in range(n_k)]
+        if max(arr.shape) <= MATRIX_DFT_MAX
+        else []
+    )
     clusters = []
     for ind in idx:
         kc = np.array([k_axes[a][ind[a]] for a in range(n_k)])
@@ -609,22 +633,34 @@ def _clusters(data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods,
         focus = None
         if align:
             r_c = float(data.range[ir]) if focused[ir] else None
-            u, offset, sig, focus = _align(data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c,
-                                    params.autofocus)
+            u, offset, sig, focus = _align(
+                data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c, params.autofocus
+            )
         else:
             sig = spec[..., lo:hi]
         if dfts:
-            sub = _apply_axes([_window_operator(wins[a], dfts[a], padded=not align)
-                               for a in range(n_k)], sig)
-        else:   # large arrays: FFTs (n log n beats the n^2 of the matrices)
+            sub = _apply_axes(
+                [_window_operator(wins[a], dfts[a], padded=not align) for a in range(n_k)], sig
+            )
+        else:  # large arrays: FFTs (n log n beats the n^2 of the matrices)
             w = np.ones([1] * (n_k + 1))
             for a in range(n_k):
                 w = w * wins[a].reshape([-1 if b == a else 1 for b in range(n_k + 1)])
             part = sfft.fftn(sig, s=spec.shape[:n_k], axes=tuple(range(n_k))) if align else sig
             sub = sfft.ifftn(w * part, axes=tuple(range(n_k)))
             sub = sub[tuple(slice(0, n) for n in arr.shape)]
-        clusters.append(Cluster(kc, float(data.range[ir]), slice(lo, hi), sub,
-                                float(mag[tuple(ind)]), offset, u, focus))
+        clusters.append(
+            Cluster(
+                kc,
+                float(data.range[ir]),
+                slice(lo, hi),
+                sub,
+                float(mag[tuple(ind)]),
+                offset,
+                u,
+                focus,
+            )
+        )
     return clusters
 
 
@@ -648,7 +684,7 @@ def _window_operator(win, dft, padded=False):
     (len(win), n).  Equal to the FFT route up to rounding; for the 11 x 17
     array at pad 4 it replaces two 44 x 68 2-D FFTs per range gate and
     cluster by two products with 11 x 11 and 17 x 17 matrices."""
-    inv = dft.conj().T / win.size         # inverse DFT, the first n rows kept
+    inv = dft.conj().T / win.size  # inverse DFT, the first n rows kept
     if padded:
         return inv * win[None, :]
     return inv @ (win[:, None] * dft)
@@ -721,7 +757,7 @@ def shift_rows(coeffs: np.ndarray, shift: np.ndarray, lo: int, hi: int) -> np.nd
     w1 = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0
     w2 = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0
     w3 = t3 / 6.0
-    return w0 * g[:, 0:n] + w1 * g[:, 1:n + 1] + w2 * g[:, 2:n + 2] + w3 * g[:, 3:n + 3]
+    return w0 * g[:, 0:n] + w1 * g[:, 1 : n + 1] + w2 * g[:, 2 : n + 2] + w3 * g[:, 3 : n + 3]
 
 
 def _block_peak(c: np.ndarray, block: int) -> float:
@@ -777,8 +813,7 @@ def _max_curvature(axes_x, kc_w: float, r_c):
     return 2 * kc_w * _half_diagonal2(axes_x) / (2.0 * np.maximum(r_c, 1e-9))
 
 
-def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=None,
-           autofocus=False):
+def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=None, autofocus=False):
     """Range-walk alignment of one cluster (module notes, step 4).
 
     ``coeffs`` are the cubic-spline coefficients of the profiles
@@ -809,11 +844,13 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
     options = options[np.sum(options**2, axis=1) < 1.0]
     if len(options) > ALIAS_MAX or max(len(c) for c in per_axis) > ALIAS_MAX_AXIS:
         pitch = [float(np.diff(ax[:2])[0]) if ax.size > 1 else 0.0 for ax in axes_x]
-        raise InputError(f"the range-walk alignment would try {len(options)} alias directions "
-                         f"(array pitch {max(pitch):g} m, {max(pitch) / data.waveform.wavelength:.3g}"
-                         f" wavelengths; at most {ALIAS_MAX_AXIS} per axis and {ALIAS_MAX} in "
-                         f"all): check the units of x / z (m), or "
-                         f"switch the alignment off (--align false)")
+        raise InputError(
+            f"the range-walk alignment would try {len(options)} alias directions "
+            f"(array pitch {max(pitch):g} m, {max(pitch) / data.waveform.wavelength:.3g}"
+            f" wavelengths; at most {ALIAS_MAX_AXIS} per axis and {ALIAS_MAX} in "
+            f"all): check the units of x / z (m), or "
+            f"switch the alignment off (--align false)"
+        )
     if len(options) == 0:
         options = np.zeros((1, n_k))
     # the principal alias (smallest |u|) first; another must beat it clearly
@@ -826,8 +863,11 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
         steer = steer * np.exp(-1j * kc[a] * axes_x[a]).reshape(shp)
     # the coherent peak's sub-aperture, antennas a side (module notes, step
     # 4): the whole array unless focused
-    block = (int(np.ceil(data.waveform.range_resolution * kc_w / np.pi)) if r_c is not None
-             else max(data.array.shape))
+    block = (
+        int(np.ceil(data.waveform.range_resolution * kc_w / np.pi))
+        if r_c is not None
+        else max(data.array.shape)
+    )
 
     def aligned(delta, q, gates=(lo, hi), block=block):
         """The profiles shifted by ``delta`` (and the focus phase of ``q``
@@ -863,8 +903,13 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
     if r_c is None:
         return u, delta, sig, None
     # the whole aperture as one block: the coherent peak itself
-    f = (_autofocus(aligned, delta - q, sig * steer[..., None], u, axes_x, r_c, lo,
-                    max(data.array.shape)) if autofocus else None)
+    f = (
+        _autofocus(
+            aligned, delta - q, sig * steer[..., None], u, axes_x, r_c, lo, max(data.array.shape)
+        )
+        if autofocus
+        else None
+    )
     if f is None:
         return u, delta, sig, np.ones(n_k)
     delta = delta - q
@@ -933,9 +978,12 @@ def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole):
         start = f.copy()
         for a in range(len(axes_x)):
             for values in (AUTOFOCUS_FACTORS, None):
-                if values is None:   # refine around the best so far
-                    values = [v for v in (f[a] - AUTOFOCUS_REFINE, f[a] + AUTOFOCUS_REFINE)
-                              if lo_f <= v <= hi_f]
+                if values is None:  # refine around the best so far
+                    values = [
+                        v
+                        for v in (f[a] - AUTOFOCUS_REFINE, f[a] + AUTOFOCUS_REFINE)
+                        if lo_f <= v <= hi_f
+                    ]
                 for v in values:
                     trial = f.copy()
                     trial[a] = v

@@ -295,7 +295,7 @@ def _steer(x, u, r, k0):
 def _basis(x, terms):
     """Orthonormal polynomials in X (real), shape (N, terms)."""
     t = (x - x.mean()) / max(0.5 * float(np.ptp(x)), 1e-12)
-    q, _ = np.linalg.qr(np.stack([t ** l for l in range(terms)], axis=1))
+    q, _ = np.linalg.qr(np.stack([t**l for l in range(terms)], axis=1))
     return q
 
 
@@ -354,7 +354,7 @@ class _Model:
             a.flags.writeable = False
             while len(self._atom_cache) >= ATOM_CACHE:
                 self._atom_cache.pop(next(iter(self._atom_cache)))
-        self._atom_cache[key] = a    # most recently used last
+        self._atom_cache[key] = a  # most recently used last
         return proj(a).reshape(n, -1, t)
 
     def _prepared(self, others):
@@ -371,13 +371,13 @@ class _Model:
         """Residual energy with the centres ``others`` and one more at each (u[i], r[i])."""
         self.fits += np.size(u)
         proj, sp, esp = self._prepared(others)
-        a = self._atoms(u, r, proj)                      # (N, n, t)
+        a = self._atoms(u, r, proj)  # (N, n, t)
         if a.shape[2] == 2:
             q = _orthonormal(a).reshape(a.shape[0], -1)
-            g = q.conj().T @ sp                                  # (2 n, G)
+            g = q.conj().T @ sp  # (2 n, G)
             return esp - np.sum(_abs2(g).reshape(-1, 2 * g.shape[1]), axis=1)
         n, t = a.shape[1], a.shape[2]
-        g = (a.reshape(a.shape[0], -1).conj().T @ sp).reshape(n, t, -1)   # A^H S per candidate
+        g = (a.reshape(a.shape[0], -1).conj().T @ sp).reshape(n, t, -1)  # A^H S per candidate
         h = _gram(a)
         gg = g @ np.conj(np.swapaxes(g, 1, 2))
         return esp - _trace(_inv(h) @ gg)
@@ -396,15 +396,15 @@ class _Model:
         fm, fn = am.reshape(nx, -1), an.reshape(nx, -1)
         gm = (fm.conj().T @ sp).reshape(ni, t, -1)
         gn = (fn.conj().T @ sp).reshape(nj, t, -1)
-        ainv = _inv(_gram(am))                                          # (ni, t, t)
-        d = _gram(an)                                                   # (nj, t, t)
+        ainv = _inv(_gram(am))  # (ni, t, t)
+        d = _gram(an)  # (nj, t, t)
         bm = (fm.conj().T @ fn).reshape(ni, t, nj, t).transpose(0, 2, 1, 3)  # B = Am^H An
-        p = gm @ np.conj(np.swapaxes(gm, 1, 2))                         # g_m g_m^H
+        p = gm @ np.conj(np.swapaxes(gm, 1, 2))  # g_m g_m^H
         q = gm.reshape(ni * t, -1) @ gn.reshape(nj * t, -1).conj().T  # g_m g_n^H
         q = q.reshape(ni, t, nj, t).transpose(0, 2, 1, 3)
-        rr = gn @ np.conj(np.swapaxes(gn, 1, 2))                        # g_n g_n^H
+        rr = gn @ np.conj(np.swapaxes(gn, 1, 2))  # g_n g_n^H
         # block elimination of [[A, B], [B^H, D]]: first A, then the Schur complement
-        kk = np.conj(np.swapaxes(bm, 2, 3)) @ ainv[:, None]            # K = B^H A^-1
+        kk = np.conj(np.swapaxes(bm, 2, 3)) @ ainv[:, None]  # K = B^H A^-1
         schur = d[None] - kk @ bm
         kq = kk @ q
         kpk = kk @ p[:, None] @ np.conj(np.swapaxes(kk, 2, 3))
@@ -445,12 +445,12 @@ def _explained_pairs(qm, qn, sp, algebra=None):
     nx, ni, _ = qm.shape
     nj = qn.shape[1]
     fm, fn = qm.reshape(nx, -1), qn.reshape(nx, -1)
-    gm, gn = fm.conj().T @ sp, fn.conj().T @ sp                     # (2 n, G)
-    c = fm.conj().T @ fn                                            # (2 ni, 2 nj)
-    x = gm @ gn.conj().T                                            # g_m g_n^H
+    gm, gn = fm.conj().T @ sp, fn.conj().T @ sp  # (2 n, G)
+    c = fm.conj().T @ fn  # (2 ni, 2 nj)
+    x = gm @ gn.conj().T  # g_m g_n^H
     gm3, gn3 = gm.reshape(ni, 2, -1), gn.reshape(nj, 2, -1)
-    pm = gm3 @ gm3.conj().transpose(0, 2, 1)                        # (ni, 2, 2)
-    pn = gn3 @ gn3.conj().transpose(0, 2, 1)                        # (nj, 2, 2)
+    pm = gm3 @ gm3.conj().transpose(0, 2, 1)  # (ni, 2, 2)
+    pn = gn3 @ gn3.conj().transpose(0, 2, 1)  # (nj, 2, 2)
     em = np.sum(np.abs(gm3) ** 2, axis=(1, 2))
     return (algebra or _pair_algebra)(c, x, pm, pn, em)
 
@@ -501,10 +501,10 @@ def _pair_algebra(c, x, pm, pn, em):
         (the stacked 2 x 2 matrix products it replaces cost 3-5 times more).
     """
     ni, nj = pm.shape[0], pn.shape[0]
-    c = c.reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)              # c[a][b]: (ni, nj)
+    c = c.reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)  # c[a][b]: (ni, nj)
     x = x.reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)
-    pm = pm.transpose(1, 2, 0)[:, :, :, None]                       # (2, 2, ni, 1)
-    pn = pn.transpose(1, 2, 0)[:, :, None, :]                       # (2, 2, 1, nj)
+    pm = pm.transpose(1, 2, 0)[:, :, :, None]  # (2, 2, ni, 1)
+    pn = pn.transpose(1, 2, 0)[:, :, None, :]  # (2, 2, 1, nj)
     # D = I - C^H C and Y = Pn - C^H X - X^H C + C^H Pm C, Hermitian 2 x 2,
     # element by element; tr(D^-1 Y) = tr(adj(D) Y) / det(D) with
     # tr(adj(D) Y) = d11 y00 + d00 y11 - 2 Re(conj(d01) y01)
@@ -516,12 +516,19 @@ def _pair_algebra(c, x, pm, pn, em):
     # Pm C, column by column
     e00, e10 = pm[0][0].real * c00 + pm01 * c10, pm01.conj() * c00 + pm[1][1].real * c10
     e01, e11 = pm[0][0].real * c01 + pm01 * c11, pm01.conj() * c01 + pm[1][1].real * c11
-    y00 = (pn[0][0].real - 2 * (k00 * x[0][0] + k10 * x[1][0]).real
-           + (k00 * e00 + k10 * e10).real)
-    y11 = (pn[1][1].real - 2 * (c01.conj() * x[0][1] + c11.conj() * x[1][1]).real
-           + (c01.conj() * e01 + c11.conj() * e11).real)
-    y01 = (pn[0][1] - (k00 * x[0][1] + k10 * x[1][1]) - (x[0][0].conj() * c01 + x[1][0].conj() * c11)
-           + k00 * e01 + k10 * e11)
+    y00 = pn[0][0].real - 2 * (k00 * x[0][0] + k10 * x[1][0]).real + (k00 * e00 + k10 * e10).real
+    y11 = (
+        pn[1][1].real
+        - 2 * (c01.conj() * x[0][1] + c11.conj() * x[1][1]).real
+        + (c01.conj() * e01 + c11.conj() * e11).real
+    )
+    y01 = (
+        pn[0][1]
+        - (k00 * x[0][1] + k10 * x[1][1])
+        - (x[0][0].conj() * c01 + x[1][0].conj() * c11)
+        + k00 * e01
+        + k10 * e11
+    )
     d00, d11 = 1.0 - a00, 1.0 - a11
     eps = 1e-12 * (d00 + d11)  # the regularisation of _inv
     d00, d11 = d00 + eps, d11 + eps
@@ -544,7 +551,7 @@ def _peaks(fmap, size, floor, count):
     their whole window, strongest first, until ``count`` are found: the same
     peaks (the paper's sparse case: 140-300 of the map's 45864 points pass
     the first test; 0.25 ms against 0.45 ms for the filter alone)."""
-    near = fmap.copy()   # the maximum over each point's 3 x 3 neighbours, by rows then columns
+    near = fmap.copy()  # the maximum over each point's 3 x 3 neighbours, by rows then columns
     if size[0] > 1:
         np.maximum(near[1:], fmap[:-1], out=near[1:])
         np.maximum(near[:-1], fmap[1:], out=near[:-1])
@@ -559,7 +566,7 @@ def _peaks(fmap, size, floor, count):
     for i, j in idx:
         if len(out) == count:
             break
-        win = fmap[max(i - hu, 0):i + size[0] - hu, max(j - hr, 0):j + size[1] - hr]
+        win = fmap[max(i - hu, 0) : i + size[0] - hu, max(j - hr, 0) : j + size[1] - hr]
         if fmap[i, j] >= win.max():
             out.append((int(i), int(j)))
     return out
@@ -567,7 +574,7 @@ def _peaks(fmap, size, floor, count):
 
 def _abs2(z):
     """|z|^2 of a complex array, real."""
-    return z.real ** 2 + z.imag ** 2
+    return z.real**2 + z.imag**2
 
 
 def _gram(a):
@@ -647,11 +654,16 @@ class _Polish:
         dist = np.sqrt(np.maximum(x * x - 2 * x * r * u + r * r, 1e-30))
         n, m = d.shape[0], c.shape[0]
         # d/du, d/dr, d/dpsi of each centre's column factor exp(-j2k0(d-r)+j psi), (N, M, 3)
-        fac = np.stack([2j * self.k0 * x * r / dist,
-                        -2j * self.k0 * ((r - x * u) / dist - 1.0),
-                        np.broadcast_to(1j, dist.shape)], axis=-1)
+        fac = np.stack(
+            [
+                2j * self.k0 * x * r / dist,
+                -2j * self.k0 * ((r - x * u) / dist - 1.0),
+                np.broadcast_to(1j, dist.shape),
+            ],
+            axis=-1,
+        )
         fitted = np.einsum("nmt,mtg->nmg", d.reshape(n, m, self.t), coef.reshape(m, self.t, -1))
-        e = fac[..., None] * fitted[:, :, None, :]                          # (N, M, 3, G)
+        e = fac[..., None] * fitted[:, :, None, :]  # (N, M, 3, G)
         er = np.concatenate([e.real, e.imag]).reshape(2 * n, 3 * m, -1)
         er = er - np.einsum("ik,kjg->ijg", q, np.einsum("ik,ijg->kjg", q, er))
         return -er.transpose(0, 2, 1).reshape(-1, 3 * m)
@@ -676,7 +688,7 @@ class _Search:
         # noise energy per dimension across the array: the smaller half of the
         # data's squared singular values (the echoes take the larger ones)
         sv2 = np.sort(np.sum(np.abs(self.model.sc) ** 2, axis=0))
-        self.noise = float(np.mean(sv2[:max(1, self.n // 2)]))
+        self.noise = float(np.mean(sv2[: max(1, self.n // 2)]))
         # the focused map on every few gates (it varies slowly along R)
         step = max(1, round(self.res_r / 64 / self.dr))
         gdet = self.gates[::step]
@@ -690,8 +702,10 @@ class _Search:
         self._tables = {}
         self._memo = {}
         self._units = {}
-        self.nms = [2 * int(np.ceil(self.du * 2 * self.k0 / dk)) + 1,
-                    2 * int(np.ceil(0.5 * self.res_r / (step * self.dr))) + 1]
+        self.nms = [
+            2 * int(np.ceil(self.du * 2 * self.k0 / dk)) + 1,
+            2 * int(np.ceil(0.5 * self.res_r / (step * self.dr))) + 1,
+        ]
         self.gmax = float(self.focus_map(self.s_det).max())
 
     def _check_size(self, data, n_dirs: int) -> None:
@@ -706,7 +720,8 @@ class _Search:
                 f"{self.aperture:g} m aperture spans {self.aperture / data.waveform.wavelength:.0f}"
                 f" wavelengths and {self.gates.size} range gates hold echoes; crop the range "
                 f"axis to the scene, or use the plane-wave decomposition (near_field = false, "
-                f"--near-field false)")
+                f"--near-field false)"
+            )
 
     @property
     def spent(self) -> bool:
@@ -735,7 +750,7 @@ class _Search:
 
     def dof(self, r):
         """Depth of focus at range r: the range change that bends the edge phase by pi."""
-        return min(4 * np.pi * r * r / (self.k0 * self.aperture ** 2), 0.5 * self.res_r)
+        return min(4 * np.pi * r * r / (self.k0 * self.aperture**2), 0.5 * self.res_r)
 
     def focus_map(self, s):
         """|sum_X w(X) s(X, R) conj(a_p(X))| over (u_det, r_det), in chunks of gates.
@@ -746,12 +761,12 @@ class _Search:
         is one matrix-vector product."""
         out = np.empty((self.u_det.size, self.r_det.size))
         table = self._table()
-        if table is not None:   # the whole axis's table, kept: runs of gates a step apart
+        if table is not None:  # the whole axis's table, kept: runs of gates a step apart
             rows, step = self._rows, self._step
             cuts = np.flatnonzero(np.diff(rows) != step) + 1
             for a, b in zip(np.r_[0, cuts], np.r_[cuts, rows.size]):
                 sg = np.ascontiguousarray(s[:, a:b].T, dtype=np.complex64)[:, :, None]
-                tab = table[rows[a]:rows[b - 1] + 1:step]
+                tab = table[rows[a] : rows[b - 1] + 1 : step]
                 out[:, a:b] = np.abs(np.matmul(tab, sg)[..., 0]).T
             return out
         chunk = max(1, int(MAP_TABLE_BYTES // (8 * self.u_det.size * self.n)))
@@ -759,11 +774,11 @@ class _Search:
         for g0 in range(0, self.r_det.size, chunk):
             tab = self._tables.get(g0)
             if tab is None:
-                tab = self._phases(self.r_det[g0:g0 + chunk])
+                tab = self._phases(self.r_det[g0 : g0 + chunk])
                 if cache:
                     self._tables[g0] = tab
-            sg = np.ascontiguousarray(s[:, g0:g0 + chunk].T, dtype=np.complex64)[:, :, None]
-            out[:, g0:g0 + chunk] = np.abs(np.matmul(tab, sg)[..., 0]).T
+            sg = np.ascontiguousarray(s[:, g0 : g0 + chunk].T, dtype=np.complex64)[:, :, None]
+            out[:, g0 : g0 + chunk] = np.abs(np.matmul(tab, sg)[..., 0]).T
         return out
 
     def _phases(self, r):
@@ -789,8 +804,15 @@ class _Search:
         size = nrows * self.u_det.size * self.n * 8
         if size > TABLE_CACHE_BYTES // 2:
             return None
-        key = (self.x.tobytes(), self.k0, self.u_det.size, float(self.u_det[-1]),
-               float(self._axis[0]), float(self._axis[-1]), nrows)
+        key = (
+            self.x.tobytes(),
+            self.k0,
+            self.u_det.size,
+            float(self.u_det[-1]),
+            float(self._axis[0]),
+            float(self._axis[-1]),
+            nrows,
+        )
         with _TABLES_LOCK:
             return self._kept_table(key, nrows, size)
 
@@ -799,9 +821,11 @@ class _Search:
         if entry is None:
             while _TABLES and sum(t.nbytes for t, _ in _TABLES.values()) + size > TABLE_CACHE_BYTES:
                 _TABLES.pop(next(iter(_TABLES)))
-            entry = (np.empty((nrows, self.u_det.size, self.n), np.complex64),
-                     np.zeros(nrows, bool))
-        _TABLES[key] = entry    # most recently used last
+            entry = (
+                np.empty((nrows, self.u_det.size, self.n), np.complex64),
+                np.zeros(nrows, bool),
+            )
+        _TABLES[key] = entry  # most recently used last
         table, built = entry
         need = self._rows[~built[self._rows]]
         if need.size:
@@ -816,14 +840,19 @@ class _Search:
         hu, hr = (self.du, 1.5 * self.dof(r0)) if half is None else half
         unit = self._units.get(shape)
         if unit is None:
-            unit = self._units[shape] = [g.ravel() for g in np.meshgrid(
-                np.linspace(-1, 1, shape[0]), np.linspace(-1, 1, shape[1]), indexing="ij")]
+            unit = self._units[shape] = [
+                g.ravel()
+                for g in np.meshgrid(
+                    np.linspace(-1, 1, shape[0]), np.linspace(-1, 1, shape[1]), indexing="ij"
+                )
+            ]
         return np.clip(u0 + hu * unit[0], -U_MAX, U_MAX), np.maximum(r0 + hr * unit[1], self.dr)
 
     def moved(self, a, b) -> bool:
         """True when centre ``a`` lies more than MOVE_TOLERANCE of a cell from ``b``."""
-        return (abs(a[0] - b[0]) > MOVE_TOLERANCE * self.du
-                or abs(a[1] - b[1]) > MOVE_TOLERANCE * self.dof(b[1]))
+        return abs(a[0] - b[0]) > MOVE_TOLERANCE * self.du or abs(
+            a[1] - b[1]
+        ) > MOVE_TOLERANCE * self.dof(b[1])
 
     def same(self, a, b) -> bool:
         """True when the centre sets ``a`` and ``b`` match one to one within
@@ -865,13 +894,14 @@ class _Search:
             moved = False
             for m in range(len(centres)):
                 step += 1
-                if placed[m] >= 0 and all(last_move[k] < placed[m]
-                                          for k in range(len(centres)) if k != m):
+                if placed[m] >= 0 and all(
+                    last_move[k] < placed[m] for k in range(len(centres)) if k != m
+                ):
                     continue
                 u0, r0 = centres[m]
                 if self.spent:
                     return centres
-                best = self.place_one(centres[:m] + centres[m + 1:], (u0, r0))
+                best = self.place_one(centres[:m] + centres[m + 1 :], (u0, r0))
                 placed[m] = step
                 if self.moved(best, (u0, r0)):
                     moved, last_move[m] = True, step
@@ -920,8 +950,10 @@ class _Search:
             q, _ = np.linalg.qr(self.model.columns(fixed))
             s = s - q @ (q.conj().T @ s)
         fmap = self.focus_map(s)
-        return [(float(self.u_det[i]), float(self.r_det[j]), float(fmap[i, j]))
-                for i, j in _peaks(fmap, self.nms, self.thr * self.gmax, CANDIDATES)]
+        return [
+            (float(self.u_det[i]), float(self.r_det[j]), float(fmap[i, j]))
+            for i, j in _peaks(fmap, self.nms, self.thr * self.gmax, CANDIDATES)
+        ]
 
     def best_with(self, fixed, exclude=None):
         """Best candidate added to ``fixed``, all centres re-placed:
@@ -940,8 +972,9 @@ class _Search:
         for u0, r0, value in self.candidates(fixed):
             if self.spent:
                 break
-            if exclude is not None and (abs(u0 - exclude[0]) <= self.du
-                                        and abs(r0 - exclude[1]) <= self.dof(exclude[1])):
+            if exclude is not None and (
+                abs(u0 - exclude[0]) <= self.du and abs(r0 - exclude[1]) <= self.dof(exclude[1])
+            ):
                 continue
             trial = self.place_each(fixed + [[u0, r0]])
             if len(trial) > 1:
@@ -975,13 +1008,13 @@ class _Search:
                 for m in range(len(centres)):
                     if self.spent:
                         break
-                    alt = self.best_with(centres[:m] + centres[m + 1:], exclude=centres[m])
+                    alt = self.best_with(centres[:m] + centres[m + 1 :], exclude=centres[m])
                     if alt is not None and alt[1] < cost * (1 - 1e-3):
                         # a better placement of the same centres is kept; only
                         # a different solution asks for another cycle
                         changed |= not self.same(alt[0], centres)
                         centres, cost = alt[0], alt[1]
-                        peaks = peaks[:m] + peaks[m + 1:] + [alt[2]]
+                        peaks = peaks[:m] + peaks[m + 1 :] + [alt[2]]
                 if not changed:
                     break
         return centres, peaks
@@ -1043,9 +1076,14 @@ def _decompose_near_field(data, params, spectrum, env):
     lb = np.column_stack([th0[:, 0] - 0.2 * du, th0[:, 1] - f / 6, -inf]).ravel()
     ub = np.column_stack([th0[:, 0] + 0.2 * du, th0[:, 1] + f / 6, inf]).ravel()
     fit = _Polish(x, k0, t, s_c)
-    sol = least_squares(fit.fun, th0.ravel(), jac=fit.jac, bounds=(lb, ub),
-                        x_scale=np.tile([0.1 * du, 1e-3, 0.1], len(th0)),
-                        max_nfev=POLISH_MAX_NFEV)
+    sol = least_squares(
+        fit.fun,
+        th0.ravel(),
+        jac=fit.jac,
+        bounds=(lb, ub),
+        x_scale=np.tile([0.1 * du, 1e-3, 0.1], len(th0)),
+        max_nfev=POLISH_MAX_NFEV,
+    )
     th = sol.x.reshape(-1, 3)
 
     # the decomposition: the joint fit over every gate, one term per cluster
@@ -1055,12 +1093,21 @@ def _decompose_near_field(data, params, spectrum, env):
     gate = params.range_gate or search.res_r
     clusters = []
     for m, (u, r, _) in enumerate(th):
-        s_m = d[:, m * t:(m + 1) * t] @ coef[m * t:(m + 1) * t]
+        s_m = d[:, m * t : (m + 1) * t] @ coef[m * t : (m + 1) * t]
         ir = int(np.clip(np.round((r - rng[0]) / dr), 0, rng.size - 1))
         lo = max(0, int(np.floor(ir - gate / dr)))
         hi = min(rng.size, int(np.ceil(ir + gate / dr)) + 1)
         # not aligned (offset 0): the envelope terms follow the range walk
-        clusters.append(Cluster(np.array([2 * k0 * u]), float(r), slice(lo, hi), s_m[:, lo:hi],
-                                peaks[m], np.zeros(n), np.zeros(1)))
+        clusters.append(
+            Cluster(
+                np.array([2 * k0 * u]),
+                float(r),
+                slice(lo, hi),
+                s_m[:, lo:hi],
+                peaks[m],
+                np.zeros(n),
+                np.zeros(1),
+            )
+        )
     order = np.argsort([-c.peak for c in clusters], kind="stable")
     return Decomposition(k_axes, mag, tuple(clusters[i] for i in order), near_field=True)

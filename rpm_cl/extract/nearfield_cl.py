@@ -38,8 +38,9 @@ class NearFieldDevice:
         from .nearfield import DEGENERATE_DET  # nearfield imports this module
 
         self.env = env
-        self._k = get_kernels(env, "nearfield.cl", ["pair_energy"],
-                              {"DEGENERATE_DET": DEGENERATE_DET})
+        self._k = get_kernels(
+            env, "nearfield.cl", ["pair_energy"], {"DEGENERATE_DET": DEGENERATE_DET}
+        )
 
     def pair_algebra(self, c, x, pm, pn, em):
         """Joint explained energy of every pair, shape (ni, nj): the
@@ -58,16 +59,24 @@ class NearFieldDevice:
         if out.size == 0:
             return out
         mf, ctx, queue = cl.mem_flags, self.env.context, self.env.queue
-        arrays = [np.ascontiguousarray(a, t) for a, t in
-                  ((c, np.complex128), (x, np.complex128), (pm, np.complex128),
-                   (pn, np.complex128), (em, np.float64))]
+        arrays = [
+            np.ascontiguousarray(a, t)
+            for a, t in (
+                (c, np.complex128),
+                (x, np.complex128),
+                (pm, np.complex128),
+                (pn, np.complex128),
+                (em, np.float64),
+            )
+        ]
         bufs = [cl.Buffer(ctx, mf.READ_ONLY | mf.USE_HOST_PTR, hostbuf=a) for a in arrays]
         dst = cl.Buffer(ctx, mf.WRITE_ONLY | mf.USE_HOST_PTR, hostbuf=out)
         self._k["pair_energy"](queue, (nj, ni), None, *bufs, dst, np.int32(ni), np.int32(nj))
         # mapping a USE_HOST_PTR buffer makes ``out`` hold the result (and
         # waits for the kernel: the inputs stay alive until then)
-        mapped, _ = cl.enqueue_map_buffer(queue, dst, cl.map_flags.READ, 0, out.shape, out.dtype,
-                                          is_blocking=True)
+        mapped, _ = cl.enqueue_map_buffer(
+            queue, dst, cl.map_flags.READ, 0, out.shape, out.dtype, is_blocking=True
+        )
         result = np.array(mapped)
         mapped.base.release()
         return result

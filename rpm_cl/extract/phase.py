@@ -202,8 +202,9 @@ def _unwrap(grid, phase, amp, links, kvec, steps) -> np.ndarray:
     return out
 
 
-def phase_ranges(data: RadarData, rps: RangePoints, cluster_k: np.ndarray,
-                 params: PhaseParams = PhaseParams()) -> tuple[RangePoints, np.ndarray]:
+def phase_ranges(
+    data: RadarData, rps: RangePoints, cluster_k: np.ndarray, params: PhaseParams = PhaseParams()
+) -> tuple[RangePoints, np.ndarray]:
     """Refine the ranges of a decomposition's RPs by their carrier phase.
 
     Parameters
@@ -244,7 +245,7 @@ def phase_ranges(data: RadarData, rps: RangePoints, cluster_k: np.ndarray,
         if sel.size < params.min_track:
             continue
         kvec = np.zeros(2)
-        kvec[:cluster_k.shape[1]] = cluster_k[m]
+        kvec[: cluster_k.shape[1]] = cluster_k[m]
         # principal alias (FFT order wavenumbers lie in it already)
         kvec = (kvec + periods / 2) % periods - periods / 2
         slope = -kvec / (2 * kc)
@@ -285,13 +286,14 @@ def _grid(start: float, stop: float, step: float, lo: float, hi: float) -> np.nd
     n = max(0, int(np.ceil((stop - start) / step)))
     k0 = min(n, max(0, int(np.floor((lo - start) / step))))
     k1 = min(n, max(k0, int(np.ceil((hi - start) / step)) + 1))
-    delta = (start + step) - start   # as np.arange fills: start + i * delta
+    delta = (start + step) - start  # as np.arange fills: start + i * delta
     g = start + np.arange(k0, k1) * delta
     return g[(g >= lo) & (g <= hi)]
 
 
-def _coherent_level(data: RadarData, antenna: np.ndarray, grid: np.ndarray,
-                    r_fit: np.ndarray) -> float:
+def _coherent_level(
+    data: RadarData, antenna: np.ndarray, grid: np.ndarray, r_fit: np.ndarray
+) -> float:
     """The shift of a track's ranges that maximises the coherent sum of the
     data's range profiles along them (module notes, step 4), m.
 
@@ -314,13 +316,13 @@ def _coherent_level(data: RadarData, antenna: np.ndarray, grid: np.ndarray,
     weights = w * np.exp(2j * kc * r_fit)
 
     def profile(c):
-        pos = (r_fit[:, None] + c[None, :] - data.range[0]) / data.dr   # fractional gates
+        pos = (r_fit[:, None] + c[None, :] - data.range[0]) / data.dr  # fractional gates
         g0 = np.clip(np.floor(pos).astype(np.int64), 0, data.range.size - 2)
         f = np.clip(pos - g0, 0.0, 1.0)
         inside = (pos >= 0) & (pos <= data.range.size - 1)
         rows = antenna[:, None]
         v = ((1 - f) * sig[rows, g0] + f * sig[rows, g0 + 1]) * inside
-        return np.abs(np.sum(weights[:, None] * v, axis=0))   # no BLAS: its threads spin
+        return np.abs(np.sum(weights[:, None] * v, axis=0))  # no BLAS: its threads spin
 
     # coarse over the span, then fine (a quarter gate) around the coarse peak;
     # only shifts that keep some of the track on the range axis (elsewhere
@@ -357,7 +359,7 @@ def _absolute(grid, psi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
     range walk, the alias of ``kvec`` that fits the envelope ranges best, and
     the constant from the envelope ranges, m."""
     pos = grid * np.asarray(steps)[None, :]
-    w = (amp / amp.max()) ** 2   # relative: the data's own scale may square beyond float64
+    w = (amp / amp.max()) ** 2  # relative: the data's own scale may square beyond float64
     w = w / w.sum()
     best = None
     span = [np.arange(-1, 2) if np.ptp(grid[:, a]) > 0 else np.zeros(1, int) for a in range(2)]
@@ -371,6 +373,6 @@ def _absolute(grid, psi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
             cost = float(np.sum(w * (r_env - rel - c) ** 2))
             if best is None or cost < best[0]:
                 best = (cost, rel + c)
-    if best is None:   # no alias is a physical direction: keep the envelope
+    if best is None:  # no alias is a physical direction: keep the envelope
         return r_env
     return best[1]

@@ -37,12 +37,10 @@ __all__ = ["BACKGROUNDS", "preprocess", "shift_truth"]
 BACKGROUNDS = ("none", "mean", "median")
 
 
-def check(background: str, time_zero: float, gain_db_per_m: float,
-          max_range: float | None) -> None:
+def check(background: str, time_zero: float, gain_db_per_m: float, max_range: float | None) -> None:
     """Refuse settings that no data could take (one line each)."""
     if background not in BACKGROUNDS:
-        raise InputError(f"background must be one of {', '.join(BACKGROUNDS)}, got "
-                         f"{background!r}")
+        raise InputError(f"background must be one of {', '.join(BACKGROUNDS)}, got {background!r}")
     if not (np.isfinite(time_zero) and time_zero >= 0):
         raise InputError(f"time_zero must be a range >= 0 m, got {time_zero}")
     if not (np.isfinite(gain_db_per_m) and abs(gain_db_per_m) <= 1000):
@@ -51,8 +49,13 @@ def check(background: str, time_zero: float, gain_db_per_m: float,
         raise InputError(f"max_range must be a range > 0 m (after time_zero), got {max_range}")
 
 
-def preprocess(data: RadarData, background: str = "none", time_zero: float = 0.0,
-               gain_db_per_m: float = 0.0, max_range: float | None = None) -> RadarData:
+def preprocess(
+    data: RadarData,
+    background: str = "none",
+    time_zero: float = 0.0,
+    gain_db_per_m: float = 0.0,
+    max_range: float | None = None,
+) -> RadarData:
     """``data`` after the module's steps; ``data`` itself when all are off.
 
     Parameters
@@ -85,8 +88,10 @@ def preprocess(data: RadarData, background: str = "none", time_zero: float = 0.0
     if max_range is not None:
         keep &= rng <= max_range
     if keep.sum() < 2:
-        raise InputError(f"time_zero {time_zero:g} m and max_range {max_range} m leave fewer "
-                         f"than 2 range gates of {data.range[0]:g} .. {data.range[-1]:g} m")
+        raise InputError(
+            f"time_zero {time_zero:g} m and max_range {max_range} m leave fewer "
+            f"than 2 range gates of {data.range[0]:g} .. {data.range[-1]:g} m"
+        )
     s = np.array(data.signal[..., keep], copy=True)
     rng = rng[keep]
     flat = s.reshape(-1, rng.size)

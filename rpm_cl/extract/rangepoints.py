@@ -58,8 +58,9 @@ class RangePoints:
         n = np.size(self.range)
         for name in ("antenna", "x", "amp", "cluster"):
             if np.size(getattr(self, name)) != n:
-                raise InputError(f"RangePoints.{name} has {np.size(getattr(self, name))} values, "
-                                 f"range has {n}")
+                raise InputError(
+                    f"RangePoints.{name} has {np.size(getattr(self, name))} values, range has {n}"
+                )
         if self.z is not None and np.size(self.z) != n:
             raise InputError("RangePoints.z length differs from range")
         if self.sample is not None and np.size(self.sample) != n:
@@ -154,8 +155,9 @@ def _carrier(data: RadarData, c, row, pos) -> np.ndarray:
     return z
 
 
-def rps_from_decomposition(data: RadarData, dec: Decomposition,
-                           rp_threshold_db: float) -> RangePoints:
+def rps_from_decomposition(
+    data: RadarData, dec: Decomposition, rp_threshold_db: float
+) -> RangePoints:
     """RPs of every decomposed signal (eq. 5), each carrying its cluster.
 
     Parameters
@@ -178,8 +180,14 @@ def rps_from_decomposition(data: RadarData, dec: Decomposition,
     if not ants:
         z = np.zeros(0)
         return _make(data, z.astype(int), z, z, z.astype(int), z.astype(complex))
-    return _make(data, np.concatenate(ants), np.concatenate(rs), np.concatenate(amps),
-                 np.concatenate(cl), np.concatenate(zs))
+    return _make(
+        data,
+        np.concatenate(ants),
+        np.concatenate(rs),
+        np.concatenate(amps),
+        np.concatenate(cl),
+        np.concatenate(zs),
+    )
 
 
 def rps_from_profiles(data: RadarData, rp_threshold_db: float) -> RangePoints:

@@ -97,8 +97,11 @@ def unit_hint(value_hz: float) -> str:
 
 
 #: The factors a frequency given in kHz, MHz or GHz numbers lacks.
-_UNIT_FACTORS = ((1e3, "kHz numbers (x 1e3)"), (1e6, "MHz numbers (x 1e6)"),
-                 (1e9, "GHz numbers (x 1e9)"))
+_UNIT_FACTORS = (
+    (1e3, "kHz numbers (x 1e3)"),
+    (1e6, "MHz numbers (x 1e6)"),
+    (1e9, "GHz numbers (x 1e9)"),
+)
 
 
 def scale_hint(value_hz: float, at_least_hz: float) -> str:
@@ -119,8 +122,10 @@ def _real_kind(a) -> bool:
 
 
 def _finite_scalar(name: str, value, positive: bool = True) -> float:
-    if isinstance(value, (numbers.Real, decimal.Decimal)) and not isinstance(value, (bool, np.bool_)):
-        arr = np.asarray(float(value))   # int, float, numpy scalars, Fraction, Decimal
+    if isinstance(value, (numbers.Real, decimal.Decimal)) and not isinstance(
+        value, (bool, np.bool_)
+    ):
+        arr = np.asarray(float(value))  # int, float, numpy scalars, Fraction, Decimal
     else:
         arr = np.asarray(value)
         if not _real_kind(arr):
@@ -156,8 +161,10 @@ def _uniform_axis(name: str, values, min_len: int = 1, unit: str = "m") -> np.nd
             raise InputError(f"{name} must be strictly increasing")
         tol = 1e-6 * abs(step.mean()) + 8 * eps * float(np.max(np.abs(a))) + 1e-12
         if np.max(np.abs(step - step.mean())) > tol:
-            raise InputError(f"{name} must be uniformly spaced (steps vary from "
-                             f"{step.min():.6g} to {step.max():.6g} {unit})")
+            raise InputError(
+                f"{name} must be uniformly spaced (steps vary from "
+                f"{step.min():.6g} to {step.max():.6g} {unit})"
+            )
     a.setflags(write=False)
     return a
 
@@ -167,11 +174,14 @@ def carrier(fc) -> float:
     :data:`FC_MAX`; else :class:`InputError` naming the unit it looks like."""
     fc = _finite_scalar("fc", fc)
     if fc < FC_MIN:
-        raise InputError(f"fc = {fc:g} Hz is below {FC_MIN:g} Hz: it looks like "
-                         f"{unit_hint(fc)}; give fc and bandwidth in Hz")
+        raise InputError(
+            f"fc = {fc:g} Hz is below {FC_MIN:g} Hz: it looks like "
+            f"{unit_hint(fc)}; give fc and bandwidth in Hz"
+        )
     if fc > FC_MAX:
-        raise InputError(f"fc = {fc:g} Hz is above {FC_MAX:g} Hz (10 THz): not a radar "
-                         f"carrier; give fc in Hz")
+        raise InputError(
+            f"fc = {fc:g} Hz is above {FC_MAX:g} Hz (10 THz): not a radar carrier; give fc in Hz"
+        )
     return fc
 
 
@@ -194,8 +204,10 @@ class Waveform:
         fc = carrier(self.fc)
         bw = _finite_scalar("bandwidth", self.bandwidth)
         if bw >= 2 * fc:
-            raise InputError(f"bandwidth ({bw:g} Hz) must be below 2*fc ({2 * fc:g} Hz): are "
-                             f"both in the same unit? give fc and bandwidth in Hz")
+            raise InputError(
+                f"bandwidth ({bw:g} Hz) must be below 2*fc ({2 * fc:g} Hz): are "
+                f"both in the same unit? give fc and bandwidth in Hz"
+            )
         object.__setattr__(self, "fc", fc)
         object.__setattr__(self, "bandwidth", bw)
 
@@ -299,15 +311,18 @@ class Truth:
 
     def __post_init__(self):
         if (self.rp_antenna is None) != (self.rp_range is None):
-            raise InputError("truth_rp_antenna and truth_rp_range go together: give both or "
-                             "neither")
+            raise InputError(
+                "truth_rp_antenna and truth_rp_range go together: give both or neither"
+            )
         if self.rp_antenna is not None:
             ant = np.asarray(self.rp_antenna)
             # indices are integers by type, as frame= and a result's cluster are:
             # a float (even 3.0) is refused rather than cast (3.5 became 3)
             if ant.size and not np.issubdtype(ant.dtype, np.integer):
-                raise InputError(f"truth_rp_antenna must be an integer array (antenna indices), "
-                                 f"got dtype {ant.dtype}")
+                raise InputError(
+                    f"truth_rp_antenna must be an integer array (antenna indices), "
+                    f"got dtype {ant.dtype}"
+                )
             object.__setattr__(self, "rp_antenna", ant.astype(np.int64).ravel())
         for name, v in (("truth_rp_range", self.rp_range), ("truth_boundary", self.boundary)):
             if v is not None and np.size(v) and not _real_kind(v):
@@ -317,8 +332,9 @@ class Truth:
         b = np.asarray(self.boundary, np.float64)
         if b.ndim != 2 or b.shape[1] not in (2, 3):
             raise InputError(f"truth_boundary must have shape (P, 2|3), got {b.shape}")
-        if not (np.all(np.isfinite(b))
-                and (self.rp_range is None or np.all(np.isfinite(self.rp_range)))):
+        if not (
+            np.all(np.isfinite(b)) and (self.rp_range is None or np.all(np.isfinite(self.rp_range)))
+        ):
             raise InputError("truth_boundary or truth_rp_range contains NaN or Inf")
         object.__setattr__(self, "boundary", b)
         if self.has_rps and self.rp_antenna.shape != self.rp_range.shape:
@@ -349,9 +365,11 @@ BANDWIDTH_SPAN_MAX = 1e4
 
 def _bandwidth_line(bw: float, span: float, ratio: float) -> str:
     res = C0 / (2 * bw)
-    return (f"bandwidth = {bw:g} Hz gives a range resolution c/2B = {res:g} m, over {ratio:g} "
-            f"times the whole range axis ({span:g} m): it looks like "
-            f"{scale_hint(bw, C0 / (2 * span))}; give fc and bandwidth in Hz")
+    return (
+        f"bandwidth = {bw:g} Hz gives a range resolution c/2B = {res:g} m, over {ratio:g} "
+        f"times the whole range axis ({span:g} m): it looks like "
+        f"{scale_hint(bw, C0 / (2 * span))}; give fc and bandwidth in Hz"
+    )
 
 
 @dataclass(frozen=True)
@@ -386,13 +404,16 @@ class RadarData:
     def __post_init__(self):
         s = np.asarray(self.signal)
         if not np.iscomplexobj(s):
-            raise InputError(f"signal must be complex baseband (complex64/complex128), "
-                             f"got dtype {s.dtype}")
+            raise InputError(
+                f"signal must be complex baseband (complex64/complex128), got dtype {s.dtype}"
+            )
         rng = _uniform_axis("range", self.range, 2)
         want = self.array.shape + (rng.size,)
         if s.shape != want:
-            raise InputError(f"signal must have shape {want} (array {self.array.shape} x "
-                             f"range {rng.size}), got {s.shape}")
+            raise InputError(
+                f"signal must have shape {want} (array {self.array.shape} x "
+                f"range {rng.size}), got {s.shape}"
+            )
         if not np.all(np.isfinite(s)):
             raise InputError("signal contains NaN or Inf")
         if rng[0] < 0:
@@ -400,29 +421,39 @@ class RadarData:
         res = self.waveform.range_resolution
         dr = float(rng[1] - rng[0])
         if dr > res:
-            raise InputError(f"range spacing {dr:g} m is coarser than the range resolution "
-                             f"c/2B = {res:g} m: range peaks cannot be located (range is "
-                             f"in m: millimetre numbers are 1000 times too large)")
+            raise InputError(
+                f"range spacing {dr:g} m is coarser than the range resolution "
+                f"c/2B = {res:g} m: range peaks cannot be located (range is "
+                f"in m: millimetre numbers are 1000 times too large)"
+            )
         span = float(rng[-1] - rng[0])
         if res > BANDWIDTH_SPAN_MAX * span:
             raise InputError(_bandwidth_line(self.waveform.bandwidth, span, BANDWIDTH_SPAN_MAX))
         if dr < 1e-9 * res:
-            raise InputError(f"range spacing {dr:g} m is below 1e-9 of the range resolution "
-                             f"{res:g} m")
+            raise InputError(
+                f"range spacing {dr:g} m is below 1e-9 of the range resolution {res:g} m"
+            )
         t = self.truth
         if t is not None:
             if t.boundary.shape[1] != self.array.dim or len(t.boundary) == 0:
-                raise InputError(f"truth_boundary must have shape (P>0, {self.array.dim}) for "
-                                 f"this array, got {t.boundary.shape}")
-            if t.has_rps and t.rp_antenna.size and (t.rp_antenna.min() < 0
-                                                     or t.rp_antenna.max() >= self.array.n):
+                raise InputError(
+                    f"truth_boundary must have shape (P>0, {self.array.dim}) for "
+                    f"this array, got {t.boundary.shape}"
+                )
+            if (
+                t.has_rps
+                and t.rp_antenna.size
+                and (t.rp_antenna.min() < 0 or t.rp_antenna.max() >= self.array.n)
+            ):
                 raise InputError(f"truth_rp_antenna must index the {self.array.n} antennas")
         peak = float(np.max(np.abs(s))) if s.size else 0.0
         top = SUM_MAX / max(s.size, 1)
         if peak > 0 and not AMPLITUDE_MIN <= peak <= top:
-            raise InputError(f"signal amplitudes up to {peak:.3g} are outside {AMPLITUDE_MIN:g} .. "
-                             f"{top:.3g} (for {s.size} samples: a sum of them all stays within "
-                             f"float64's range); scale the data")
+            raise InputError(
+                f"signal amplitudes up to {peak:.3g} are outside {AMPLITUDE_MIN:g} .. "
+                f"{top:.3g} (for {s.size} samples: a sum of them all stays within "
+                f"float64's range); scale the data"
+            )
         # complex64 stays complex64 unless |s|^2 would leave float32's range
         # (1.2e-38 .. 3.4e38) on the way: then complex128, exactly
         keep64 = s.dtype == np.complex64 and (peak == 0 or 1e-15 <= peak <= 1e15)
@@ -479,22 +510,37 @@ def check_plausible(data: RadarData) -> None:
     lam = data.waveform.wavelength
     where = "x / z" if arr.planar else "x"
     if pitch > PITCH_MAX_WAVELENGTHS * lam:
-        warnings.warn(f"the antenna pitch {pitch:g} m is {pitch / lam:.0f} wavelengths "
-                      f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): is {where} in mm or cm? "
-                      f"give {where} in m", DataWarning, stacklevel=3)
+        warnings.warn(
+            f"the antenna pitch {pitch:g} m is {pitch / lam:.0f} wavelengths "
+            f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): is {where} in mm or cm? "
+            f"give {where} in m",
+            DataWarning,
+            stacklevel=3,
+        )
     elif pitch < lam / PITCH_MIN_PER_WAVELENGTH:
-        warnings.warn(f"the antenna pitch {pitch:g} m is 1/{lam / pitch:.0f} of the wavelength "
-                      f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): are the frequencies in "
-                      f"kHz numbers? give them in Hz (x 1e3)", DataWarning, stacklevel=3)
+        warnings.warn(
+            f"the antenna pitch {pitch:g} m is 1/{lam / pitch:.0f} of the wavelength "
+            f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): are the frequencies in "
+            f"kHz numbers? give them in Hz (x 1e3)",
+            DataWarning,
+            stacklevel=3,
+        )
     elif data.waveform.range_resolution > BANDWIDTH_SPAN_WARN * span:
-        warnings.warn(_bandwidth_line(data.waveform.bandwidth, span, BANDWIDTH_SPAN_WARN),
-                      DataWarning, stacklevel=3)
+        warnings.warn(
+            _bandwidth_line(data.waveform.bandwidth, span, BANDWIDTH_SPAN_WARN),
+            DataWarning,
+            stacklevel=3,
+        )
     width = echo_width(data)
     if width > ECHO_WIDTH_MAX * data.waveform.range_resolution:
-        warnings.warn(f"the echoes are {width:.3g} m wide in range, "
-                      f"{width / data.waveform.range_resolution:.0f} times the range "
-                      f"resolution c/2B = {data.waveform.range_resolution:.3g} m: is range in cm "
-                      f"numbers? give it in m", DataWarning, stacklevel=3)
+        warnings.warn(
+            f"the echoes are {width:.3g} m wide in range, "
+            f"{width / data.waveform.range_resolution:.0f} times the range "
+            f"resolution c/2B = {data.waveform.range_resolution:.3g} m: is range in cm "
+            f"numbers? give it in m",
+            DataWarning,
+            stacklevel=3,
+        )
 
 
 def echo_width(data: RadarData) -> float:
@@ -506,7 +552,7 @@ def echo_width(data: RadarData) -> float:
     if not top > 0:
         return 0.0
     n = data.range.size
-    spec = np.fft.fft(s / top, 2 * n, axis=-1)   # relative: squares stay in range
+    spec = np.fft.fft(s / top, 2 * n, axis=-1)  # relative: squares stay in range
     acf = np.abs(np.fft.ifft(np.sum(np.abs(spec) ** 2, axis=0))[:n])
     if not acf[0] > 0:
         return 0.0
@@ -534,7 +580,9 @@ def load_npz(path) -> RadarData:
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except Exception as exc:  # noqa: BLE001 - zipfile.BadZipFile, ValueError, OSError, EOFError ...
-        raise InputError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
+        raise InputError(
+            f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})"
+        ) from None
     with npz:
         try:
             z = npz["z"] if "z" in npz.files else None
@@ -543,11 +591,15 @@ def load_npz(path) -> RadarData:
             truth = None
             if "truth_boundary" in npz.files:
                 scene = str(npz["truth_scene"]) if "truth_scene" in npz.files else "{}"
-                truth = Truth(npz["truth_rp_antenna"] if "truth_rp_antenna" in npz.files else None,
-                              npz["truth_rp_range"] if "truth_rp_range" in npz.files else None,
-                              npz["truth_boundary"], scene)
-            data = RadarData(_read(npz, "signal", path), array, _read(npz, "range", path),
-                             waveform, truth)
+                truth = Truth(
+                    npz["truth_rp_antenna"] if "truth_rp_antenna" in npz.files else None,
+                    npz["truth_rp_range"] if "truth_rp_range" in npz.files else None,
+                    npz["truth_boundary"],
+                    scene,
+                )
+            data = RadarData(
+                _read(npz, "signal", path), array, _read(npz, "range", path), waveform, truth
+            )
             check_plausible(data)
             return data
         except InputError as exc:
@@ -607,8 +659,9 @@ def _atomic_file(path, write, ext: str | None = None) -> None:
     """
     path, folder = output_path(path)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=temp_prefix(path),
-                                   suffix=ext or os.path.splitext(path)[1], dir=folder)
+        fd, tmp = tempfile.mkstemp(
+            prefix=temp_prefix(path), suffix=ext or os.path.splitext(path)[1], dir=folder
+        )
     except OSError as exc:
         raise InputError(f"{path}: cannot write ({exc.strerror})") from None
     os.close(fd)
@@ -661,8 +714,7 @@ def data_arrays(data: RadarData) -> dict:
         out["z"] = data.array.z
     if data.truth is not None:
         if data.truth.has_rps:
-            out.update(truth_rp_antenna=data.truth.rp_antenna,
-                       truth_rp_range=data.truth.rp_range)
+            out.update(truth_rp_antenna=data.truth.rp_antenna, truth_rp_range=data.truth.rp_range)
         out.update(truth_boundary=data.truth.boundary, truth_scene=np.array(data.truth.scene))
     return out
 
@@ -716,7 +768,7 @@ def drop_spikes(values: np.ndarray, name: str) -> np.ndarray:
     """
     import warnings
 
-    mag = np.abs(values).astype(np.float64).ravel()   # the threshold may exceed float32
+    mag = np.abs(values).astype(np.float64).ravel()  # the threshold may exceed float32
     if not np.all(np.isfinite(mag)):
         return values
     m = max(SPIKE_COUNT, mag.size // 10_000)
@@ -739,7 +791,11 @@ def drop_spikes(values: np.ndarray, name: str) -> np.ndarray:
         total[ok] += flat[rows[ok], nb[ok]]
         sound += ok
     flat[rows, cols] = np.where(sound > 0, total / np.maximum(sound, 1), 0)
-    warnings.warn(f"{name}: {len(rows)} sample(s) more than {SPIKE_FACTOR:g} times the "
-                  f"data's robust peak ({robust:.3g}) look corrupt and were replaced by their "
-                  f"neighbours' mean", DataWarning, stacklevel=2)
+    warnings.warn(
+        f"{name}: {len(rows)} sample(s) more than {SPIKE_FACTOR:g} times the "
+        f"data's robust peak ({robust:.3g}) look corrupt and were replaced by their "
+        f"neighbours' mean",
+        DataWarning,
+        stacklevel=2,
+    )
     return out

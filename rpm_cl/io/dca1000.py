@@ -76,9 +76,11 @@ __all__ = [
 ]
 
 #: Layouts (module docstring) and the device families that write them.
-LAYOUTS = {"complex-2lane": "xWR16xx/18xx/68xx, complex",
-           "complex-4lane": "xWR12xx/14xx, complex",
-           "real": "xWR16xx/18xx/68xx real-only, or one lane"}
+LAYOUTS = {
+    "complex-2lane": "xWR16xx/18xx/68xx, complex",
+    "complex-4lane": "xWR12xx/14xx, complex",
+    "real": "xWR16xx/18xx/68xx real-only, or one lane",
+}
 #: Most int16 values read from a capture (256 MB).
 MAX_VALUES = 1 << 27
 
@@ -125,8 +127,7 @@ class Chirp:
     def __post_init__(self):
         object.__setattr__(self, "slope", _finite_scalar("slope", self.slope))
         object.__setattr__(self, "adc_rate", _finite_scalar("ADC rate", self.adc_rate))
-        object.__setattr__(self, "start_freq", _finite_scalar("start frequency",
-                                                               self.start_freq))
+        object.__setattr__(self, "start_freq", _finite_scalar("start frequency", self.start_freq))
         t0 = _finite_scalar("ADC start time", self.adc_start_time, positive=False)
         if t0 < 0:
             raise InputError(f"ADC start time must be >= 0 s, got {t0:g}")
@@ -141,11 +142,14 @@ class Chirp:
             raise InputError(f"layout {self.layout!r} is not one of {', '.join(LAYOUTS)}")
         if self.layout == "complex-2lane":
             if rx == 3:
-                raise InputError("complex-2lane captures (xWR16xx/18xx/68xx) hold 1, 2 or 4 "
-                                 "receivers, not 3")
+                raise InputError(
+                    "complex-2lane captures (xWR16xx/18xx/68xx) hold 1, 2 or 4 receivers, not 3"
+                )
             if self.samples * rx % 2:
-                raise InputError(f"complex-2lane: {self.samples} samples x {rx} receivers must "
-                                 f"be even (two samples per lane word)")
+                raise InputError(
+                    f"complex-2lane: {self.samples} samples x {rx} receivers must "
+                    f"be even (two samples per lane word)"
+                )
 
     @property
     def values_per_chirp(self) -> int:
@@ -179,12 +183,12 @@ def decode(values: np.ndarray, chirp: Chirp) -> np.ndarray:
     if chirp.layout == "real":
         return v.reshape(-1, rx, ns)
     if chirp.layout == "complex-2lane":
-        g = v.reshape(-1, 4)                                 # I(n) I(n+1) Q(n) Q(n+1)
+        g = v.reshape(-1, 4)  # I(n) I(n+1) Q(n) Q(n+1)
         z = np.empty((g.shape[0], 2), np.complex128)
         z[:, 0] = g[:, 0] + 1j * g[:, 2]
         z[:, 1] = g[:, 1] + 1j * g[:, 3]
         return z.reshape(-1, rx, ns)
-    g = v.reshape(-1, ns, 8)                                 # per sample: I lanes 0..3, Q 0..3
+    g = v.reshape(-1, ns, 8)  # per sample: I lanes 0..3, Q 0..3
     z = g[:, :, :4] + 1j * g[:, :, 4:]
     return np.ascontiguousarray(z[:, :, :rx].transpose(0, 2, 1))
 
@@ -222,10 +226,12 @@ def read_capture(paths, chirp: Chirp) -> np.ndarray:
     per_frame = chirp.values_per_chirp * chirp.chirps * 2
     frames, rest = divmod(total, per_frame)
     if rest or frames == 0:
-        raise InputError(f"{name}: {total} bytes is not a whole number of frames of {per_frame} "
-                         f"bytes ({chirp.chirps} chirps x {chirp.values_per_chirp} int16, "
-                         f"{chirp.layout}, {chirp.receivers} receivers x {chirp.samples} "
-                         f"samples): check --samples, --rx, --chirps and --layout")
+        raise InputError(
+            f"{name}: {total} bytes is not a whole number of frames of {per_frame} "
+            f"bytes ({chirp.chirps} chirps x {chirp.values_per_chirp} int16, "
+            f"{chirp.layout}, {chirp.receivers} receivers x {chirp.samples} "
+            f"samples): check --samples, --rx, --chirps and --layout"
+        )
     buf = bytearray()
     for p, n in zip(paths, sizes):
         with open(p, "rb") as fh:
@@ -248,8 +254,9 @@ def _to_spectrum(z: np.ndarray, real: bool) -> np.ndarray:
     return np.conj(z)
 
 
-def convert(paths, chirp: Chirp, dx: float | None = None, rx_spacing: float | None = None,
-            receiver: int = 0) -> dict:
+def convert(
+    paths, chirp: Chirp, dx: float | None = None, rx_spacing: float | None = None, receiver: int = 0
+) -> dict:
     """A DCA1000 capture -> ``spectrum``, ``frequency``, ``x``.
 
     Parameters
@@ -283,25 +290,31 @@ def convert(paths, chirp: Chirp, dx: float | None = None, rx_spacing: float | No
         :func:`read_capture`'s errors.
     """
     if (dx is None) == (rx_spacing is None):
-        raise InputError("give the positions: --dx (the radar moved between frames) or "
-                         "--rx-spacing (the receivers as the array), one of them")
+        raise InputError(
+            "give the positions: --dx (the radar moved between frames) or "
+            "--rx-spacing (the receivers as the array), one of them"
+        )
     if dx is None and receiver != 0:
         raise InputError("--receiver picks the receiver of a --dx scan")
     freq = chirp.frequency
     if freq[0] <= 0:
-        raise InputError(f"the chirp's first sample lies at {freq[0]:g} Hz; frequencies must "
-                         f"be > 0")
-    z = read_capture(paths, chirp).mean(axis=1)             # (frames, receivers, samples)
+        raise InputError(
+            f"the chirp's first sample lies at {freq[0]:g} Hz; frequencies must be > 0"
+        )
+    z = read_capture(paths, chirp).mean(axis=1)  # (frames, receivers, samples)
     frames = z.shape[0]
     if dx is not None:
         dx = _finite_scalar("dx", dx)
         r = _count("receiver", receiver, 0)
         if r >= chirp.receivers:
-            raise InputError(f"receiver {r}: the capture holds {chirp.receivers} "
-                             f"(0 .. {chirp.receivers - 1})")
+            raise InputError(
+                f"receiver {r}: the capture holds {chirp.receivers} (0 .. {chirp.receivers - 1})"
+            )
         if frames < 2:
-            raise InputError("one frame: a --dx scan needs a frame per position (>= 2); "
-                             "use --rx-spacing for one frame")
+            raise InputError(
+                "one frame: a --dx scan needs a frame per position (>= 2); "
+                "use --rx-spacing for one frame"
+            )
         spec = _to_spectrum(z[:, r], chirp.layout == "real")
         return {"spectrum": spec, "frequency": freq, "x": np.arange(frames) * dx}
     d = _finite_scalar("rx spacing", rx_spacing)
@@ -311,4 +324,3 @@ def convert(paths, chirp: Chirp, dx: float | None = None, rx_spacing: float | No
     if frames == 1:
         spec = spec[0]
     return {"spectrum": spec, "frequency": freq, "x": np.arange(chirp.receivers) * (d / 2)}
-

@@ -96,11 +96,21 @@ MAX_SAMPLES = 1 << 27
 MAX_CHANNELS = 16
 #: Centre frequencies of GSSI antenna models, MHz, by the model number that
 #: starts ``rh_antname`` (GSSI's product names).
-ANTENNA_MHZ = {"3101": 900, "3207": 100, "5100": 1500, "5103": 400, "5106": 200,
-               "50270": 270, "50400": 400, "51600": 1600, "52600": 2600, "62000": 2000}
+ANTENNA_MHZ = {
+    "3101": 900,
+    "3207": 100,
+    "5100": 1500,
+    "5103": 400,
+    "5106": 200,
+    "50270": 270,
+    "50400": 400,
+    "51600": 1600,
+    "52600": 2600,
+    "62000": 2000,
+}
 
-_FIELDS = struct.Struct("<HHHHHfffff")       # offsets 0 .. 30
-_NCHAN = struct.Struct("<Hf")                # offsets 52, 54
+_FIELDS = struct.Struct("<HHHHHfffff")  # offsets 0 .. 30
+_NCHAN = struct.Struct("<Hf")  # offsets 52, 54
 
 
 @dataclass(frozen=True)
@@ -148,19 +158,25 @@ class DztHeader:
 
     def __post_init__(self):
         if self.tag & 0xFF != 0xFF:
-            raise InputError(f"not a DZT file (rh_tag 0x{self.tag:04x}; a DZT header's ends "
-                             f"in 0xff)")
+            raise InputError(
+                f"not a DZT file (rh_tag 0x{self.tag:04x}; a DZT header's ends in 0xff)"
+            )
         if not 1 <= self.channels <= MAX_CHANNELS:
-            raise InputError(f"rh_nchan {self.channels}: a DZT file holds 1 .. {MAX_CHANNELS} "
-                             f"channels")
+            raise InputError(
+                f"rh_nchan {self.channels}: a DZT file holds 1 .. {MAX_CHANNELS} channels"
+            )
         if self.bits not in (8, 16, 32):
             raise InputError(f"rh_bits {self.bits}: samples of 8, 16 or 32 bits are read")
         if self.samples < 3:
-            raise InputError(f"rh_nsamp {self.samples}: a trace needs at least 3 samples (the "
-                             f"first two are header words)")
+            raise InputError(
+                f"rh_nsamp {self.samples}: a trace needs at least 3 samples (the "
+                f"first two are header words)"
+            )
         if self.data_offset < HEADER_SIZE * self.channels:
-            raise InputError(f"data offset {self.data_offset} bytes lies inside the "
-                             f"{self.channels} channel header(s)")
+            raise InputError(
+                f"data offset {self.data_offset} bytes lies inside the "
+                f"{self.channels} channel header(s)"
+            )
         if not (math.isfinite(self.window) and self.window > 0):
             raise InputError(f"rhf_range {self.window * 1e9:g} ns: the time window must be > 0")
         if not (math.isfinite(self.scans_per_metre) and self.scans_per_metre >= 0):
@@ -199,8 +215,7 @@ def read_header(path) -> DztHeader:
         nchan, epsr = _NCHAN.unpack_from(head, 52)
         try:
             if not 1 <= nchan <= MAX_CHANNELS:
-                raise InputError(f"rh_nchan {nchan}: a DZT file holds 1 .. {MAX_CHANNELS} "
-                                 f"channels")
+                raise InputError(f"rh_nchan {nchan}: a DZT file holds 1 .. {MAX_CHANNELS} channels")
             if size < HEADER_SIZE * nchan:
                 raise InputError(f"{size} bytes, shorter than its {nchan} channel headers")
             names = [_antenna(head)]
@@ -208,14 +223,26 @@ def read_header(path) -> DztHeader:
                 fh.seek(HEADER_SIZE * k)
                 names.append(_antenna(fh.read(HEADER_SIZE)))
             offset = HEADER_SIZE * rh_data if rh_data < HEADER_SIZE else HEADER_SIZE * nchan
-            hdr = DztHeader(tag, offset, nsamp, bits, zero, float(sps), float(spm),
-                            float(pos) * 1e-9, float(rng) * 1e-9, nchan, float(epsr),
-                            tuple(names))
+            hdr = DztHeader(
+                tag,
+                offset,
+                nsamp,
+                bits,
+                zero,
+                float(sps),
+                float(spm),
+                float(pos) * 1e-9,
+                float(rng) * 1e-9,
+                nchan,
+                float(epsr),
+                tuple(names),
+            )
         except InputError as exc:
             raise InputError(f"{path}: {exc}") from None
     if hdr.data_offset > size:
-        raise InputError(f"{path}: the data start at byte {hdr.data_offset}, beyond the file's "
-                         f"{size} bytes")
+        raise InputError(
+            f"{path}: the data start at byte {hdr.data_offset}, beyond the file's {size} bytes"
+        )
     return hdr
 
 
@@ -261,22 +288,33 @@ def read_traces(path, channel: int = 0) -> tuple:
     """
     path = os.fspath(path)
     hdr = read_header(path)
-    if isinstance(channel, bool) or not isinstance(channel, (int, np.integer)) \
-            or not 0 <= channel < hdr.channels:
-        raise InputError(f"{path}: channel {channel!r}; the file holds {hdr.channels} "
-                         f"(0 .. {hdr.channels - 1})")
+    if (
+        isinstance(channel, bool)
+        or not isinstance(channel, (int, np.integer))
+        or not 0 <= channel < hdr.channels
+    ):
+        raise InputError(
+            f"{path}: channel {channel!r}; the file holds {hdr.channels} (0 .. {hdr.channels - 1})"
+        )
     size = os.path.getsize(path)
     n_scans, rest = divmod(size - hdr.data_offset, hdr.scan_bytes)
     if n_scans * hdr.channels * hdr.samples > MAX_SAMPLES:
-        raise InputError(f"{path}: {n_scans} scans of {hdr.channels} x {hdr.samples} samples, "
-                         f"more than {MAX_SAMPLES}")
+        raise InputError(
+            f"{path}: {n_scans} scans of {hdr.channels} x {hdr.samples} samples, "
+            f"more than {MAX_SAMPLES}"
+        )
     if n_scans < 2:
-        raise InputError(f"{path}: {n_scans} scans of {hdr.scan_bytes} bytes after the header; "
-                         f"a B-scan needs at least 2")
+        raise InputError(
+            f"{path}: {n_scans} scans of {hdr.scan_bytes} bytes after the header; "
+            f"a B-scan needs at least 2"
+        )
     if rest:
-        warnings.warn(f"{path}: the data end {rest} bytes into scan {n_scans} (of "
-                      f"{hdr.scan_bytes} bytes); that part scan is dropped", DataWarning,
-                      stacklevel=2)
+        warnings.warn(
+            f"{path}: the data end {rest} bytes into scan {n_scans} (of "
+            f"{hdr.scan_bytes} bytes); that part scan is dropped",
+            DataWarning,
+            stacklevel=2,
+        )
     dtype = {8: "<u1", 16: "<u2", 32: "<i4"}[hdr.bits]
     with open(path, "rb") as fh:
         fh.seek(hdr.data_offset)
@@ -291,8 +329,14 @@ def read_traces(path, channel: int = 0) -> tuple:
     return hdr, tr
 
 
-def convert(path, band=None, dx: float | None = None, time_zero: float = 0.0,
-            channel: int = 0, subtract_mean: bool = False) -> dict:
+def convert(
+    path,
+    band=None,
+    dx: float | None = None,
+    time_zero: float = 0.0,
+    channel: int = 0,
+    subtract_mean: bool = False,
+) -> dict:
     """A DZT B-scan -> ``spectrum``, ``frequency``, ``x`` (the module docstring).
 
     Parameters
@@ -335,33 +379,40 @@ def convert(path, band=None, dx: float | None = None, time_zero: float = 0.0,
     if band is None:
         band = nominal_band(antenna)
         if band is None:
-            raise InputError(f"{path}: no band given and none known for antenna "
-                             f"{antenna or '(unnamed)'!r}: give --band F0:F1 (Hz)")
+            raise InputError(
+                f"{path}: no band given and none known for antenna "
+                f"{antenna or '(unnamed)'!r}: give --band F0:F1 (Hz)"
+            )
     f0, f1 = (float(v) for v in band)
     nyq = 0.5 / hdr.dt
     if not (math.isfinite(f0) and math.isfinite(f1) and 0 < f0 < f1 <= nyq):
-        raise InputError(f"{path}: band must satisfy 0 < f0 < f1 <= {nyq:g} Hz (the Nyquist "
-                         f"frequency of {hdr.dt * 1e12:g} ps samples), got {f0:g} .. {f1:g} Hz")
+        raise InputError(
+            f"{path}: band must satisfy 0 < f0 < f1 <= {nyq:g} Hz (the Nyquist "
+            f"frequency of {hdr.dt * 1e12:g} ps samples), got {f0:g} .. {f1:g} Hz"
+        )
     if dx is None:
         if hdr.scans_per_metre == 0:
-            raise InputError(f"{path}: a time-triggered survey (0 scans per metre): give the "
-                             f"scan spacing (--dx M)")
+            raise InputError(
+                f"{path}: a time-triggered survey (0 scans per metre): give the "
+                f"scan spacing (--dx M)"
+            )
         dx = 1.0 / hdr.scans_per_metre
     dx = _finite_scalar("dx", dx)
     n0 = _finite_scalar("time zero", time_zero, positive=False)
     if not 0 <= n0 <= n - 2:
-        raise InputError(f"{path}: time zero at sample {n0:g}, outside the trace's 0 .. "
-                         f"{n - 2}")
+        raise InputError(f"{path}: time zero at sample {n0:g}, outside the trace's 0 .. {n - 2}")
     tr = tr - tr.mean(axis=1, keepdims=True)
     if subtract_mean:
         tr -= tr.mean(axis=0, keepdims=True)
-    tr[:, :math.ceil(n0)] = 0.0
+    tr[:, : math.ceil(n0)] = 0.0
     df = 1.0 / (2 * n * hdr.dt)
     k = np.arange(math.ceil(f0 / df - 1e-9), math.floor(f1 / df + 1e-9) + 1)
     if k.size < 2:
-        raise InputError(f"{path}: the band {f0:g} .. {f1:g} Hz holds {k.size} frequency "
-                         f"samples at {df:g} Hz; widen it")
+        raise InputError(
+            f"{path}: the band {f0:g} .. {f1:g} Hz holds {k.size} frequency "
+            f"samples at {df:g} Hz; widen it"
+        )
     freq = k * df
     spec = np.fft.rfft(tr, n=2 * n, axis=1)[:, k] * hdr.dt
-    spec *= np.exp(2j * np.pi * freq * n0 * hdr.dt)     # t_n = (n - n0) dt
+    spec *= np.exp(2j * np.pi * freq * n0 * hdr.dt)  # t_n = (n - n0) dt
     return {"spectrum": spec, "frequency": freq, "x": np.arange(n_scans) * dx}

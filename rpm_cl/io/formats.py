@@ -121,8 +121,13 @@ RESULT_EXTENSIONS = (".npz", ".h5", ".hdf5", ".ply", ".vtp")
 #: DAS image extensions of :func:`write_volume`.
 VOLUME_EXTENSIONS = (".npz", ".h5", ".hdf5", ".vti")
 #: Range windows of :func:`range_compress` -> scipy.signal.windows names.
-RANGE_WINDOWS = {"rect": "boxcar", "hann": "hann", "hamming": "hamming",
-                 "blackman": "blackman", "taylor": "taylor"}
+RANGE_WINDOWS = {
+    "rect": "boxcar",
+    "hann": "hann",
+    "hamming": "hamming",
+    "blackman": "blackman",
+    "taylor": "taylor",
+}
 #: Zero-padding of the range FFT: at least this many range gates per
 #: resolution cell ``c / (2 nf df)`` of the whole band.
 RANGE_OVERSAMPLE = 16
@@ -143,8 +148,9 @@ def _ext(path: str) -> str:
 def _need_ext(path: str, allowed: tuple, what: str) -> str:
     ext = _ext(path)
     if ext not in allowed:
-        raise InputError(f"{path}: unknown {what} extension {ext or '(none)'!r}; supported: "
-                         f"{', '.join(allowed)}")
+        raise InputError(
+            f"{path}: unknown {what} extension {ext or '(none)'!r}; supported: {', '.join(allowed)}"
+        )
     return ext
 
 
@@ -220,17 +226,19 @@ class _NpzSource:
         try:
             shape, fortran, dtype = self._header(fh)
         except Exception as exc:  # noqa: BLE001 - ValueError, TokenError, SyntaxError ...
-            raise InputError(f"{key}: corrupt .npy header ({' '.join(str(exc).split())})") \
-                from None
+            raise InputError(f"{key}: corrupt .npy header ({' '.join(str(exc).split())})") from None
         if dtype.hasobject:
-            raise InputError(f"{key} holds Python objects (dtype {dtype}); only numeric "
-                             f"arrays are read")
+            raise InputError(
+                f"{key} holds Python objects (dtype {dtype}); only numeric arrays are read"
+            )
         info = self.zf.getinfo(self.names[key])
         nbytes = int(np.prod(shape, dtype=object)) * dtype.itemsize
         if nbytes > info.file_size - fh.tell():
-            raise InputError(f"{key} is truncated or its header is corrupt: the header "
-                             f"declares {fmt_bytes(nbytes)}, the member holds "
-                             f"{fmt_bytes(max(info.file_size - fh.tell(), 0))}")
+            raise InputError(
+                f"{key} is truncated or its header is corrupt: the header "
+                f"declares {fmt_bytes(nbytes)}, the member holds "
+                f"{fmt_bytes(max(info.file_size - fh.tell(), 0))}"
+            )
         check_declared(key, info.file_size, info.compress_size)
         return tuple(shape), fortran, dtype
 
@@ -248,10 +256,12 @@ class _NpzSource:
     def read_frame(self, key, i):
         with self.zf.open(self.names[key]) as fh:
             shape, fortran, dtype = self._checked_header(key, fh)
-            if fortran:   # a frame is no contiguous run of bytes: the whole stack
-                raise InputError(f"{key} is a Fortran-ordered stack; its frames cannot be "
-                                 f"read one at a time: save it C-ordered "
-                                 f"(np.ascontiguousarray)")
+            if fortran:  # a frame is no contiguous run of bytes: the whole stack
+                raise InputError(
+                    f"{key} is a Fortran-ordered stack; its frames cannot be "
+                    f"read one at a time: save it C-ordered "
+                    f"(np.ascontiguousarray)"
+                )
             n = int(np.prod(shape[1:])) * dtype.itemsize
             fh.seek(fh.tell() + i * n)
             buf = fh.read(n)
@@ -291,9 +301,8 @@ class _H5Source:
         ds = self._ds(key)
         shape, dtype = tuple(ds.shape), ds.dtype
         if dtype.kind in "biufc":
-            check_declared(key, int(np.prod(shape, dtype=object)) * dtype.itemsize,
-                           h5_stored(ds))
-            if key not in self._bounded:   # each dataset's chunks inflated once
+            check_declared(key, int(np.prod(shape, dtype=object)) * dtype.itemsize, h5_stored(ds))
+            if key not in self._bounded:  # each dataset's chunks inflated once
                 h5_chunks_bounded(ds, key)
                 self._bounded.add(key)
         return shape, dtype
@@ -309,8 +318,9 @@ class _H5Source:
     def text(self, key):
         ds = self._ds(key)
         if ds.size > TEXT_MAX_ITEMS or ds.dtype.itemsize * ds.size > TEXT_MAX_BYTES:
-            raise InputError(f"{key} must be a short string, got {ds.size} items of "
-                             f"{ds.dtype.itemsize} bytes")
+            raise InputError(
+                f"{key} must be a short string, got {ds.size} items of {ds.dtype.itemsize} bytes"
+            )
         v = ds[()]
         if isinstance(v, bytes):
             return v.decode("utf-8")
@@ -370,18 +380,23 @@ def check_members(path, keys=None, *, budget: bool = True, max_memory=None) -> d
     try:
         src = _H5Source(path) if h5 else _NpzSource(path)
     except Exception as exc:  # noqa: BLE001 - not HDF5 / not a zip: the reader says so
-        raise InputError(f"{path}: not a readable {'HDF5' if h5 else '.npz'} file "
-                         f"({_oneline(exc)})") from None
+        raise InputError(
+            f"{path}: not a readable {'HDF5' if h5 else '.npz'} file ({_oneline(exc)})"
+        ) from None
     try:
-        found = _guarded(path, lambda: {k: src.shape_dtype(k)
-                                        for k in (src.keys() if keys is None else keys)
-                                        if k in src})
+        found = _guarded(
+            path,
+            lambda: {
+                k: src.shape_dtype(k) for k in (src.keys() if keys is None else keys) if k in src
+            },
+        )
     finally:
         src.close()
     if budget:
         total = sum(_nbytes(*sd) for sd in found.values())
-        _guarded(path, lambda: check_budget(run_bytes(0, total), memory_limit(max_memory),
-                                            "reading it"))
+        _guarded(
+            path, lambda: check_budget(run_bytes(0, total), memory_limit(max_memory), "reading it")
+        )
     return found
 
 
@@ -397,7 +412,7 @@ def _guarded(path: str, fn):
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith(path) else f"{path}: {msg}") from None
-    except (MemoryError, Warning):   # a warning turned into an error stays itself
+    except (MemoryError, Warning):  # a warning turned into an error stays itself
         raise
     except Exception as exc:  # noqa: BLE001 - truncated member or dataset, bad header ...
         raise InputError(f"{path}: cannot read ({_oneline(exc)})") from None
@@ -414,8 +429,9 @@ def _frames(src, key: str, n_axes: int) -> int | None:
         if shape[0] == 0:
             raise InputError(f"{key} holds no frames (a stack of length 0, shape {shape})")
         return int(shape[0])
-    raise InputError(f"{key} must have {n_axes} axes (or {n_axes + 1} for a stack of frames), "
-                     f"got shape {shape}")
+    raise InputError(
+        f"{key} must have {n_axes} axes (or {n_axes + 1} for a stack of frames), got shape {shape}"
+    )
 
 
 def _data_key(src) -> str:
@@ -469,8 +485,9 @@ def _select(src, key: str, n_axes: int, frame):
             raise InputError(f"frame {frame} out of range: the file holds a single frame")
         return src.read(key)
     if frame is None:
-        raise InputError(f"{key} is a stack of {n} frames; choose one with frame= (--frame N, "
-                         f"0..{n - 1})")
+        raise InputError(
+            f"{key} is a stack of {n} frames; choose one with frame= (--frame N, 0..{n - 1})"
+        )
     if not 0 <= frame < n:
         raise InputError(f"frame {frame} out of range: the stack holds {n} frames (0..{n - 1})")
     return src.read_frame(key, int(frame))
@@ -515,8 +532,11 @@ def _preflight(src, key: str, n_axes: int, with_truth: bool, max_memory) -> None
             what = "a real number" if need == () else "real numbers"
             raise InputError(f"{name} must be {what}, got dtype {dtype}")
         size, nbytes = int(np.prod(got, dtype=object)), _nbytes(got, dtype)
-        if need is not None and size > int(np.prod(need, dtype=object)) \
-                and nbytes > BESIDE_READ_BYTES:
+        if (
+            need is not None
+            and size > int(np.prod(need, dtype=object))
+            and nbytes > BESIDE_READ_BYTES
+        ):
             what = "one number" if need == () else f"{need[0]} values ({key} has shape {shape})"
             raise InputError(f"{name} must hold {what}, its header declares shape {got}")
         other += nbytes
@@ -526,12 +546,11 @@ def _preflight(src, key: str, n_axes: int, with_truth: bool, max_memory) -> None
                 got, dtype = src.shape_dtype(name)
                 other += _nbytes(got, dtype)
     samples = int(np.prod(core[:-1], dtype=object))
-    if key == "spectrum":   # range-compressed onto next_fast_len(16 nf) gates, ~16 nf
+    if key == "spectrum":  # range-compressed onto next_fast_len(16 nf) gates, ~16 nf
         samples *= RANGE_OVERSAMPLE * max(int(core[-1]), 1)
     else:
         samples *= int(core[-1])
-    check_budget(run_bytes(samples, other, n_axes - 1), memory_limit(max_memory),
-                 f"{key} {shape}")
+    check_budget(run_bytes(samples, other, n_axes - 1), memory_limit(max_memory), f"{key} {shape}")
 
 
 def _truth(src):
@@ -543,8 +562,9 @@ def _truth(src):
     return Truth(rp[0], rp[1], src.read("truth_boundary"), scene)
 
 
-def _build(src, frame, range_window: str, conjugate: bool, with_truth: bool = True,
-           max_memory=None) -> RadarData:
+def _build(
+    src, frame, range_window: str, conjugate: bool, with_truth: bool = True, max_memory=None
+) -> RadarData:
     key = _data_key(src)
     n_axes = _n_axes(src)
     _frames(src, key, n_axes)
@@ -557,15 +577,17 @@ def _build(src, frame, range_window: str, conjugate: bool, with_truth: bool = Tr
         if "frequency" in src:
             raise InputError("'frequency' goes with 'spectrum', not with 'signal'")
         if conjugate:
-            raise InputError("conjugate applies to a spectrum (frequency-domain input), not to "
-                             "'signal'")
+            raise InputError(
+                "conjugate applies to a spectrum (frequency-domain input), not to 'signal'"
+            )
         waveform = Waveform(_need(src, "fc"), _need(src, "bandwidth"))
         data = RadarData(values, array, _need(src, "range"), waveform, truth)
         check_plausible(data)
         return data
     if "range" in src:
-        raise InputError("'range' goes with 'signal'; a spectrum's range axis comes from "
-                         "'frequency'")
+        raise InputError(
+            "'range' goes with 'signal'; a spectrum's range axis comes from 'frequency'"
+        )
     freq = _frequency_axis(_need(src, "frequency"))
     fc = src.read("fc") if "fc" in src else None
     bw = src.read("bandwidth") if "bandwidth" in src else None
@@ -574,15 +596,27 @@ def _build(src, frame, range_window: str, conjugate: bool, with_truth: bool = Tr
     signal, rng, waveform = _compress_checked(values, freq, fc, bw, range_window, array)
     if not conjugate:
         _check_conjugated(signal, rng)
-    data = RadarData(signal, array, rng, waveform, truth,
-                     range_sidelobe_db(freq, range_window, waveform.bandwidth))
+    data = RadarData(
+        signal,
+        array,
+        rng,
+        waveform,
+        truth,
+        range_sidelobe_db(freq, range_window, waveform.bandwidth),
+    )
     check_plausible(data)
     return data
 
 
-def load_data(path, *, frame: int | None = None, range_window: str = "hann",
-              conjugate: bool = False, with_truth: bool = True,
-              max_memory=None) -> RadarData:
+def load_data(
+    path,
+    *,
+    frame: int | None = None,
+    range_window: str = "hann",
+    conjugate: bool = False,
+    with_truth: bool = True,
+    max_memory=None,
+) -> RadarData:
     """Read and validate radar data from an ``.npz`` or HDF5 file.
 
     Parameters
@@ -635,8 +669,10 @@ def load_data(path, *, frame: int | None = None, range_window: str = "hann",
     _window_name(range_window)
     path, src = _open(path)
     try:
-        return _guarded(path, lambda: _build(src, frame, range_window, bool(conjugate),
-                                             bool(with_truth), max_memory))
+        return _guarded(
+            path,
+            lambda: _build(src, frame, range_window, bool(conjugate), bool(with_truth), max_memory),
+        )
     finally:
         src.close()
 
@@ -653,9 +689,11 @@ def _window(name: str, n: int) -> np.ndarray:
     from scipy.signal import windows
 
     w = np.asarray(windows.get_window(_window_name(name), n, fftbins=False), np.float64)
-    if not np.any(w > 0):   # hann, blackman ... over 1 or 2 samples: zero at both ends
-        raise InputError(f"the {name} range window over {n} frequency samples is all zero; "
-                         f"use range_window='rect' (--range-window rect) or more samples")
+    if not np.any(w > 0):  # hann, blackman ... over 1 or 2 samples: zero at both ends
+        raise InputError(
+            f"the {name} range window over {n} frequency samples is all zero; "
+            f"use range_window='rect' (--range-window rect) or more samples"
+        )
     return w
 
 
@@ -663,12 +701,16 @@ def _frequency_axis(values) -> np.ndarray:
     f = _uniform_axis("frequency", values, min_len=2, unit="Hz")
     if f[0] <= 0:
         raise InputError(f"frequency must be > 0 Hz, starts at {f[0]:g} Hz")
-    if f[-1] < FC_MIN:   # as Waveform refuses such an fc: the same words either way
-        raise InputError(f"frequency reaches only {f[-1]:g} Hz, below {FC_MIN:g} Hz: it looks "
-                         f"like {unit_hint(f[-1])}; give it in Hz")
-    if f[0] > FC_MAX:   # as Waveform refuses such an fc
-        raise InputError(f"frequency starts at {f[0]:g} Hz, above {FC_MAX:g} Hz (10 THz): not "
-                         f"a radar band; give it in Hz")
+    if f[-1] < FC_MIN:  # as Waveform refuses such an fc: the same words either way
+        raise InputError(
+            f"frequency reaches only {f[-1]:g} Hz, below {FC_MIN:g} Hz: it looks "
+            f"like {unit_hint(f[-1])}; give it in Hz"
+        )
+    if f[0] > FC_MAX:  # as Waveform refuses such an fc
+        raise InputError(
+            f"frequency starts at {f[0]:g} Hz, above {FC_MAX:g} Hz (10 THz): not "
+            f"a radar band; give it in Hz"
+        )
     return f
 
 
@@ -702,25 +744,35 @@ def _check_conjugated(signal, rng) -> None:
     r_u = float(rng[-1] + (rng[1] - rng[0]))
     share = float(power[rng >= 0.75 * r_u].sum() / power.sum())
     if share >= CONJUGATE_FAR_SHARE:
-        warnings.warn(f"the spectrum looks conjugated: {share:.0%} of the compressed power "
-                      f"lies beyond {0.75 * r_u:.3g} m, in the last quarter of the unambiguous "
-                      f"range {r_u:.3g} m (an echo recorded as exp(+j 4 pi f R / c) lands at "
-                      f"{r_u:.3g} m - R); if so, load it with conjugate=True (--conjugate)",
-                      DataWarning, stacklevel=2)
+        warnings.warn(
+            f"the spectrum looks conjugated: {share:.0%} of the compressed power "
+            f"lies beyond {0.75 * r_u:.3g} m, in the last quarter of the unambiguous "
+            f"range {r_u:.3g} m (an echo recorded as exp(+j 4 pi f R / c) lands at "
+            f"{r_u:.3g} m - R); if so, load it with conjugate=True (--conjugate)",
+            DataWarning,
+            stacklevel=2,
+        )
         return
     # an echo near the end of the axis may be one from beyond it, wrapped
     edge = rng >= (1.0 - WRAP_EDGE) * r_u
     inner = power[1:-1]
     peak = np.zeros(rng.size, bool)
     peak[1:-1] = (inner >= power[:-2]) & (inner >= power[2:])
-    strong = (peak & edge & (power >= WRAP_LEVEL * power.max())
-              & (power >= WRAP_ABOVE_MEDIAN * np.median(power)))
+    strong = (
+        peak
+        & edge
+        & (power >= WRAP_LEVEL * power.max())
+        & (power >= WRAP_ABOVE_MEDIAN * np.median(power))
+    )
     if strong.any():
         r = float(rng[np.flatnonzero(strong)[0]])
-        warnings.warn(f"an echo at {r:.3g} m lies within {WRAP_EDGE:.0%} of the unambiguous "
-                      f"range c/(2 df) = {r_u:.3g} m: it may be a target beyond it, wrapped "
-                      f"(at {r:.3g} + {r_u:.3g} m); a finer frequency step widens the range",
-                      DataWarning, stacklevel=2)
+        warnings.warn(
+            f"an echo at {r:.3g} m lies within {WRAP_EDGE:.0%} of the unambiguous "
+            f"range c/(2 df) = {r_u:.3g} m: it may be a target beyond it, wrapped "
+            f"(at {r:.3g} + {r_u:.3g} m); a finer frequency step widens the range",
+            DataWarning,
+            stacklevel=2,
+        )
 
 
 def window_bandwidth(frequency, window: str = "hann") -> float:
@@ -780,7 +832,7 @@ def range_sidelobe_db(frequency, window: str, bandwidth: float) -> float | None:
     resp = np.abs(fft.ifft(w, n=n)) * n / w.sum()
     dr = C0 / (2.0 * df * n)
     half = int(np.ceil(0.5 * C0 / (2.0 * bandwidth) / dr))
-    lag = np.minimum(np.arange(n), n - np.arange(n))   # circular distance to the peak, gates
+    lag = np.minimum(np.arange(n), n - np.arange(n))  # circular distance to the peak, gates
     peak = (resp >= np.roll(resp, 1)) & (resp >= np.roll(resp, -1)) & (lag > half)
     if not np.any(peak):
         return None
@@ -838,28 +890,37 @@ def _compress_checked(values, freq, fc, bw, window, array):
     y = np.asarray(values)
     want = array.shape + (freq.size,)
     if y.shape != want:
-        raise InputError(f"spectrum must have shape {want} (array {array.shape} x frequency "
-                         f"{freq.size}), got {y.shape}")
+        raise InputError(
+            f"spectrum must have shape {want} (array {array.shape} x frequency "
+            f"{freq.size}), got {y.shape}"
+        )
     if not np.all(np.isfinite(y)):
         raise InputError("spectrum contains NaN or Inf")
     fc = float((freq[0] + freq[-1]) / 2) if fc is None else carrier(fc)
-    if not freq[0] <= fc <= freq[-1]:   # before Waveform: its messages would miss the unit
+    if not freq[0] <= fc <= freq[-1]:  # before Waveform: its messages would miss the unit
         ratio = fc / freq[-1] if fc > freq[-1] else freq[0] / fc
-        hint = (f": one of them looks like {scale_hint(1.0, ratio)}; give both in Hz"
-                if ratio >= 100 else "")
-        raise InputError(f"fc ({fc:g} Hz) must lie within the frequency band "
-                         f"({freq[0]:g} .. {freq[-1]:g} Hz){hint}")
+        hint = (
+            f": one of them looks like {scale_hint(1.0, ratio)}; give both in Hz"
+            if ratio >= 100
+            else ""
+        )
+        raise InputError(
+            f"fc ({fc:g} Hz) must lie within the frequency band "
+            f"({freq[0]:g} .. {freq[-1]:g} Hz){hint}"
+        )
     bw = window_bandwidth(freq, window) if bw is None else bw
     waveform = Waveform(fc, bw)
     import warnings
 
     band = float(freq[-1] - freq[0])
-    for ratio in (BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN):   # as RadarData's span test
+    for ratio in (BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN):  # as RadarData's span test
         if waveform.bandwidth * ratio < band:
-            line = (f"bandwidth = {waveform.bandwidth:g} Hz is below 1/{ratio:g} of the "
-                    f"frequency band ({band:g} Hz): it looks like "
-                    f"{scale_hint(waveform.bandwidth, band / BANDWIDTH_SPAN_WARN)}; give fc "
-                    f"and bandwidth in Hz")
+            line = (
+                f"bandwidth = {waveform.bandwidth:g} Hz is below 1/{ratio:g} of the "
+                f"frequency band ({band:g} Hz): it looks like "
+                f"{scale_hint(waveform.bandwidth, band / BANDWIDTH_SPAN_WARN)}; give fc "
+                f"and bandwidth in Hz"
+            )
             if ratio == BANDWIDTH_SPAN_MAX:
                 raise InputError(line)
             warnings.warn(line, DataWarning, stacklevel=2)
@@ -918,9 +979,12 @@ def _vtk_write(dataset, tmp: str, in_memory: bool = False) -> None:
     code = writer.GetErrorCode()
     if not ok or code:
         full = code == vtkErrorCode.OutOfDiskSpaceError
-        raise OSError(errno.ENOSPC if full else errno.EIO,
-                      "No space left on device" if full
-                      else f"VTK: {vtkErrorCode.GetStringFromErrorCode(code) or 'write failed'}")
+        raise OSError(
+            errno.ENOSPC if full else errno.EIO,
+            "No space left on device"
+            if full
+            else f"VTK: {vtkErrorCode.GetStringFromErrorCode(code) or 'write failed'}",
+        )
     if in_memory:
         with open(tmp, "wb") as fh:
             fh.write(writer.GetOutputString().encode("latin-1"))
@@ -955,9 +1019,17 @@ def result_arrays(result, meta: dict | None = None) -> dict:
     and ``meta``: version, device, parameters ...).
     """
     rps, img = result.rps, result.image
-    out = {"points": img.points, "cluster": img.cluster, "score": img.score,
-           "rp_index": img.rp_index, "rp_x": rps.x, "rp_range": rps.range, "rp_amp": rps.amp,
-           "rp_cluster": rps.cluster, "rp_antenna": rps.antenna}
+    out = {
+        "points": img.points,
+        "cluster": img.cluster,
+        "score": img.score,
+        "rp_index": img.rp_index,
+        "rp_x": rps.x,
+        "rp_range": rps.range,
+        "rp_amp": rps.amp,
+        "rp_cluster": rps.cluster,
+        "rp_antenna": rps.antenna,
+    }
     if rps.z is not None:
         out["rp_z"] = rps.z
     if img.multipath is not None:
@@ -978,17 +1050,20 @@ def _write_ply(tmp: str, arrays: dict) -> None:
     """Binary little-endian PLY: vertices x, y, z (double), cluster (int),
     score (double); the meta JSON as a comment line."""
     pts = _points3(arrays["points"])
-    rec = np.zeros(len(pts), [("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("cluster", "<i4"),
-                              ("score", "<f8")])
+    rec = np.zeros(
+        len(pts), [("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("cluster", "<i4"), ("score", "<f8")]
+    )
     rec["x"], rec["y"], rec["z"] = pts.T
     rec["cluster"] = arrays["cluster"]
     rec["score"] = arrays["score"]
     meta = " ".join(str(arrays["meta"]).split())
-    header = ("ply\nformat binary_little_endian 1.0\n"
-              f"comment rpm-cl {meta}\n"
-              f"element vertex {len(pts)}\n"
-              "property double x\nproperty double y\nproperty double z\n"
-              "property int cluster\nproperty double score\nend_header\n")
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        f"comment rpm-cl {meta}\n"
+        f"element vertex {len(pts)}\n"
+        "property double x\nproperty double y\nproperty double z\n"
+        "property int cluster\nproperty double score\nend_header\n"
+    )
     with open(tmp, "wb") as fh:
         fh.write(header.encode("utf-8"))
         fh.write(rec.tobytes())
@@ -998,8 +1073,9 @@ def _pyvista():
     try:
         import pyvista as pv
     except ImportError:
-        raise InputError("VTK outputs (.vtp, .vti) need pyvista: pip install 'rpm-cl[view]'") \
-            from None
+        raise InputError(
+            "VTK outputs (.vtp, .vti) need pyvista: pip install 'rpm-cl[view]'"
+        ) from None
     return pv
 
 
@@ -1117,11 +1193,12 @@ def _write_volume_h5(path, folder, grid, fill, dtype, meta):
         with h5py.File(tmp, "w") as f:
             ds = f.create_dataset("image", shape=grid.shape, dtype=dtype, chunks=chunks)
             for r0 in range(0, grid.shape[0], rows):  # slab by slab: one slab in memory
-                ds[r0:r0 + rows] = img[r0:r0 + rows]
+                ds[r0 : r0 + rows] = img[r0 : r0 + rows]
             for name, a in zip("xyz", grid.axes):
                 f.create_dataset(name, data=a)
-            f.create_dataset("meta", data=json.dumps(meta or {}, default=str),
-                             dtype=h5py.string_dtype("utf-8"))
+            f.create_dataset(
+                "meta", data=json.dumps(meta or {}, default=str), dtype=h5py.string_dtype("utf-8")
+            )
         del img
 
     _atomic_volume(path, folder, grid, fill, dtype, write)

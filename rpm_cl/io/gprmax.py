@@ -86,9 +86,17 @@ __all__ = [
 MU0 = 1.25663706212e-6
 #: gprMax waveforms whose spectrum is wide enough to deconvolve (``sine``,
 #: ``contsine``, ``impulse`` and ``user`` are not taken).
-WAVEFORMS = ("gaussian", "gaussiandot", "gaussiandotnorm", "gaussiandotdot",
-             "gaussiandotdotnorm", "gaussianprime", "gaussiandoubleprime", "ricker",
-             "gauspulse")
+WAVEFORMS = (
+    "gaussian",
+    "gaussiandot",
+    "gaussiandotnorm",
+    "gaussiandotdot",
+    "gaussiandotdotnorm",
+    "gaussianprime",
+    "gaussiandoubleprime",
+    "ricker",
+    "gauspulse",
+)
 #: Most time samples read from one file (traces x iterations): 1 GB as float64.
 MAX_SAMPLES = 1 << 27
 #: Most per-trace files of one scan, and most frequency samples.
@@ -142,8 +150,9 @@ class SourceWaveform:
         try:
             nums = [float(p) for p in parts[1:]]
         except ValueError:
-            raise InputError(f"waveform must be KIND:FREQ[:AMP] with numbers in Hz, "
-                             f"got {text!r}") from None
+            raise InputError(
+                f"waveform must be KIND:FREQ[:AMP] with numbers in Hz, got {text!r}"
+            ) from None
         return cls(parts[0].strip().lower(), *nums)
 
     def values(self, t) -> np.ndarray:
@@ -152,12 +161,12 @@ class SourceWaveform:
         t = np.asarray(t, np.float64)
         f = self.frequency
         if self.kind in ("gaussiandotdot", "gaussiandotdotnorm", "ricker"):
-            chi, zeta = math.sqrt(2) / f, math.pi ** 2 * f ** 2
+            chi, zeta = math.sqrt(2) / f, math.pi**2 * f**2
         elif self.kind == "gauspulse":
-            zeta = -(math.pi * f * 0.5) ** 2 / (4 * math.log(10 ** (-6 / 20)))
+            zeta = -((math.pi * f * 0.5) ** 2) / (4 * math.log(10 ** (-6 / 20)))
             chi = math.sqrt(-math.log(10 ** (-60 / 20)) / zeta)
         else:
-            chi, zeta = 1 / f, 2 * math.pi ** 2 * f ** 2
+            chi, zeta = 1 / f, 2 * math.pi**2 * f**2
         d = t - chi
         g = np.exp(-zeta * d * d)
         k = self.kind
@@ -204,8 +213,11 @@ class SourceWaveform:
 def _same_waveform(a: SourceWaveform | None, b: SourceWaveform | None) -> bool:
     if a is None or b is None:
         return a is b
-    return (a.kind == b.kind and math.isclose(a.frequency, b.frequency, rel_tol=1e-9)
-            and math.isclose(a.amplitude, b.amplitude, rel_tol=1e-9))
+    return (
+        a.kind == b.kind
+        and math.isclose(a.frequency, b.frequency, rel_tol=1e-9)
+        and math.isclose(a.amplitude, b.amplitude, rel_tol=1e-9)
+    )
 
 
 def line_source_factor(frequency) -> np.ndarray:
@@ -225,8 +237,8 @@ def _dtft(traces, t, frequency) -> np.ndarray:
     out = np.empty((nx, frequency.size), np.complex128)
     step = max(1, (1 << 19) // max(nt, 1))
     for i in range(0, frequency.size, step):
-        ph = np.exp(-2j * np.pi * np.outer(frequency[i:i + step], t))   # (chunk, nt)
-        out[:, i:i + step] = (ph @ traces).T
+        ph = np.exp(-2j * np.pi * np.outer(frequency[i : i + step], t))  # (chunk, nt)
+        out[:, i : i + step] = (ph @ traces).T
     return out
 
 
@@ -267,11 +279,14 @@ def _get(f, path: str, what: str):
             raise InputError(f"{f.filename}: no {what} ({path!r} is missing)")
         link = obj.get(name, getlink=True)
         if isinstance(link, h5py.ExternalLink):
-            raise InputError(f"{f.filename}: {path!r} is an external link (to "
-                             f"{link.filename}); only data stored in the file are read")
+            raise InputError(
+                f"{f.filename}: {path!r} is an external link (to "
+                f"{link.filename}); only data stored in the file are read"
+            )
         if not isinstance(link, h5py.HardLink):
-            raise InputError(f"{f.filename}: {path!r} is a soft link; only data stored in the "
-                             f"file are read")
+            raise InputError(
+                f"{f.filename}: {path!r} is a soft link; only data stored in the file are read"
+            )
         obj = obj[name]
     return obj
 
@@ -294,12 +309,13 @@ def _attr(obj, name: str, shape: tuple, what: str) -> np.ndarray:
         raise InputError(f"{obj.file.filename}: {obj.name} has no {name!r} attribute ({what})")
     got = obj.attrs.get_id(name).shape
     if tuple(got) != shape:
-        raise InputError(f"{obj.file.filename}: attribute {obj.name}:{name} must have shape "
-                         f"{shape}, got {tuple(got)}")
+        raise InputError(
+            f"{obj.file.filename}: attribute {obj.name}:{name} must have shape "
+            f"{shape}, got {tuple(got)}"
+        )
     v = np.asarray(obj.attrs[name])
     if v.dtype.kind not in "fiu" or not np.all(np.isfinite(v)):
-        raise InputError(f"{obj.file.filename}: attribute {obj.name}:{name} must be finite "
-                         f"numbers")
+        raise InputError(f"{obj.file.filename}: attribute {obj.name}:{name} must be finite numbers")
     return v.astype(np.float64)
 
 
@@ -346,8 +362,10 @@ class BScan:
     def __post_init__(self):
         tr = np.asarray(self.traces, np.float64)
         if tr.ndim != 2 or tr.shape[0] < 2 or tr.shape[1] < 2:
-            raise InputError(f"{self.source}: a B-scan needs >= 2 time samples and >= 2 traces, "
-                             f"got shape {tr.shape}")
+            raise InputError(
+                f"{self.source}: a B-scan needs >= 2 time samples and >= 2 traces, "
+                f"got shape {tr.shape}"
+            )
         if not np.all(np.isfinite(tr)):
             raise InputError(f"{self.source}: Ez contains NaN or Inf")
         object.__setattr__(self, "traces", tr)
@@ -356,8 +374,9 @@ class BScan:
         if self.x is not None:
             x = np.asarray(self.x, np.float64)
             if x.shape != (tr.shape[1],) or not np.all(np.isfinite(x)):
-                raise InputError(f"{self.source}: {tr.shape[1]} traces but positions of shape "
-                                 f"{x.shape}")
+                raise InputError(
+                    f"{self.source}: {tr.shape[1]} traces but positions of shape {x.shape}"
+                )
             object.__setattr__(self, "x", x)
 
     @property
@@ -375,20 +394,27 @@ def _grid_checks(f, rx: int):
     if not dt > 0:
         raise InputError(f"{f.filename}: dt must be > 0, got {dt:g}")
     if "nsrc" in f.attrs and _attr(f, "nsrc", (), "the number of sources") != 1:
-        raise InputError(f"{f.filename}: {int(_attr(f, 'nsrc', (), ''))} sources; the converter "
-                         f"takes one Hertzian dipole")
+        raise InputError(
+            f"{f.filename}: {int(_attr(f, 'nsrc', (), ''))} sources; the converter "
+            f"takes one Hertzian dipole"
+        )
     if "nx_ny_nz" in f.attrs:
         n = _attr(f, "nx_ny_nz", (3,), "the grid size")
         if n[2] != 1:
-            raise InputError(f"{f.filename}: a 3-D model (nx_ny_nz {n.astype(int).tolist()}); "
-                             f"the converter takes 2-D TM models (one cell in z, Ez)")
+            raise InputError(
+                f"{f.filename}: a 3-D model (nx_ny_nz {n.astype(int).tolist()}); "
+                f"the converter takes 2-D TM models (one cell in z, Ez)"
+            )
     ds = _dataset(f, f"rxs/rx{rx}/Ez", f"Ez of receiver {rx} (a 2-D TM model records Ez)")
     if ds.shape[:1] != (int(its),) or ds.ndim not in (1, 2):
-        raise InputError(f"{f.filename}: rxs/rx{rx}/Ez has shape {ds.shape}; Iterations is "
-                         f"{int(its)}: expected ({int(its)},) or ({int(its)}, traces)")
+        raise InputError(
+            f"{f.filename}: rxs/rx{rx}/Ez has shape {ds.shape}; Iterations is "
+            f"{int(its)}: expected ({int(its)},) or ({int(its)}, traces)"
+        )
     if ds.size > MAX_SAMPLES:
-        raise InputError(f"{f.filename}: rxs/rx{rx}/Ez holds {ds.size} samples, more than "
-                         f"{MAX_SAMPLES}")
+        raise InputError(
+            f"{f.filename}: rxs/rx{rx}/Ez holds {ds.size} samples, more than {MAX_SAMPLES}"
+        )
     if "SampleInterval" in ds.attrs:
         si = float(_attr(ds, "SampleInterval", (), "the sample interval"))
         if not math.isclose(si, dt, rel_tol=1e-9):
@@ -411,21 +437,27 @@ def _file_waveform(f) -> SourceWaveform | None:
     src = _get(f, "srcs/src1", "source 1")
     kind = _text_attr(src, "Type")
     if kind is not None and kind != "HertzianDipole":
-        raise InputError(f"{f.filename}: source 1 is a {kind}; the converter takes a Hertzian "
-                         f"dipole (line current)")
+        raise InputError(
+            f"{f.filename}: source 1 is a {kind}; the converter takes a Hertzian "
+            f"dipole (line current)"
+        )
     if "excitation" not in src:
         return None
     ex = _get(f, "srcs/src1/excitation", "the source excitation")
     start = float(_attr(ex, "SourceStartTime", (), "")) if "SourceStartTime" in ex.attrs else 0.0
     if start != 0:
-        raise InputError(f"{f.filename}: the source starts at {start:g} s; the converter takes "
-                         f"sources that start at 0")
+        raise InputError(
+            f"{f.filename}: the source starts at {start:g} s; the converter takes "
+            f"sources that start at 0"
+        )
     wtype = _text_attr(ex, "WaveformType")
     if wtype is None or "WaveformFrequency" not in ex.attrs:
         return None
     if wtype not in WAVEFORMS:
-        raise InputError(f"{f.filename}: waveform {wtype!r} cannot be deconvolved; use one of "
-                         f"{', '.join(WAVEFORMS)}")
+        raise InputError(
+            f"{f.filename}: waveform {wtype!r} cannot be deconvolved; use one of "
+            f"{', '.join(WAVEFORMS)}"
+        )
     amp = float(_attr(ex, "WaveformAmplitude", (), "")) if "WaveformAmplitude" in ex.attrs else 1.0
     return SourceWaveform(wtype, float(_attr(ex, "WaveformFrequency", (), "")), amp)
 
@@ -434,16 +466,18 @@ def _read_merged(path: str, rx: int) -> BScan:
     with _open_h5(path) as f:
         _, dt, t0, ds = _grid_checks(f, rx)
         if ds.ndim != 2:
-            raise InputError(f"{path}: one trace; give every trace file of the scan, or a "
-                             f"merged B-scan")
+            raise InputError(
+                f"{path}: one trace; give every trace file of the scan, or a merged B-scan"
+            )
         n = ds.shape[1]
         pos_rx = pos_tx = None
         if "trace_metadata" in f:
             if f"trace_metadata/rxs/rx{rx}/Position" in f:
                 p = _dataset(f, f"trace_metadata/rxs/rx{rx}/Position", "receiver positions")
                 if p.shape != (n, 3):
-                    raise InputError(f"{path}: receiver positions of shape {p.shape} for {n} "
-                                     f"traces")
+                    raise InputError(
+                        f"{path}: receiver positions of shape {p.shape} for {n} traces"
+                    )
                 pos_rx = np.asarray(p[()], np.float64)
             if "trace_metadata/srcs/src1/Position" in f:
                 p = _dataset(f, "trace_metadata/srcs/src1/Position", "source positions")
@@ -479,8 +513,9 @@ def _read_traces(paths: list, rx: int) -> BScan:
         if i == 0:
             ref, wave = grid, w
         elif grid != ref:
-            raise InputError(f"{path}: Iterations/dt/time offset {grid} differ from "
-                             f"{paths[0]}'s {ref}")
+            raise InputError(
+                f"{path}: Iterations/dt/time offset {grid} differ from {paths[0]}'s {ref}"
+            )
         elif not _same_waveform(w, wave):
             raise InputError(f"{path}: its waveform differs from {paths[0]}'s")
         rxs.append(rx_pos)
@@ -500,8 +535,10 @@ def _midpoints(path, pos_rx, pos_tx):
         return None, None
     mid = pos_rx if pos_tx is None else (pos_rx + pos_tx) / 2
     if np.ptp(mid[:, 1]) > POSITION_TOL or np.ptp(mid[:, 2]) > POSITION_TOL:
-        raise InputError(f"{path}: the scan must run along x (y and z fixed); y spans "
-                         f"{mid[:, 1].min():g} .. {mid[:, 1].max():g} m")
+        raise InputError(
+            f"{path}: the scan must run along x (y and z fixed); y spans "
+            f"{mid[:, 1].min():g} .. {mid[:, 1].max():g} m"
+        )
     return mid[:, 0], float(mid[0, 1])
 
 
@@ -598,8 +635,9 @@ def _numbers(value, shape_ok, what: str, path: str) -> np.ndarray:
     except (TypeError, ValueError):
         raise InputError(f"{path}: {what} must be numbers") from None
     if not shape_ok(a.shape) or not np.all(np.isfinite(a)):
-        raise InputError(f"{path}: {what} must be finite numbers of the right shape, got "
-                         f"shape {a.shape}")
+        raise InputError(
+            f"{path}: {what} must be finite numbers of the right shape, got shape {a.shape}"
+        )
     return a
 
 
@@ -630,7 +668,7 @@ def read_sidecar(path) -> Sidecar:
     if "waveform" in doc:
         w = doc["waveform"]
         if not isinstance(w, dict) or "type" not in w or "frequency" not in w:
-            raise InputError(f"{path}: waveform must be {{\"type\": ..., \"frequency\": Hz}}")
+            raise InputError(f'{path}: waveform must be {{"type": ..., "frequency": Hz}}')
         try:
             wave = SourceWaveform(str(w["type"]), w["frequency"], w.get("amplitude", 1.0))
         except InputError as exc:
@@ -638,13 +676,16 @@ def read_sidecar(path) -> Sidecar:
     scan = doc.get("scan", {})
     if not isinstance(scan, dict):
         raise InputError(f"{path}: scan must be an object")
-    sx = _numbers(scan["x"], lambda s: len(s) == 1 and s[0] >= 2, "scan.x", path) \
-        if "x" in scan else None
+    sx = (
+        _numbers(scan["x"], lambda s: len(s) == 1 and s[0] >= 2, "scan.x", path)
+        if "x" in scan
+        else None
+    )
     sy = float(_numbers(scan["y"], lambda s: s == (), "scan.y", path)) if "y" in scan else None
     cyl = []
     for c in _list(doc, "cylinders", path):
         if not isinstance(c, dict) or "centre" not in c or "radius" not in c:
-            raise InputError(f"{path}: a cylinder must be {{\"centre\": [x, y], \"radius\": r}}")
+            raise InputError(f'{path}: a cylinder must be {{"centre": [x, y], "radius": r}}')
         cx, cy = _numbers(c["centre"], lambda s: s == (2,), "a cylinder centre", path)
         r = float(_numbers(c["radius"], lambda s: s == (), "a cylinder radius", path))
         if r <= 0:
@@ -653,14 +694,20 @@ def read_sidecar(path) -> Sidecar:
     polys = []
     for p in _list(doc, "plates", path):
         if not isinstance(p, dict) or "corners" not in p:
-            raise InputError(f"{path}: a plate must be {{\"corners\": [[x, y], ...]}}")
-        polys.append(_numbers(p["corners"], lambda s: len(s) == 2 and 3 <= s[0] <= 1000
-                              and s[1] == 2, "plate corners", path))
+            raise InputError(f'{path}: a plate must be {{"corners": [[x, y], ...]}}')
+        polys.append(
+            _numbers(
+                p["corners"],
+                lambda s: len(s) == 2 and 3 <= s[0] <= 1000 and s[1] == 2,
+                "plate corners",
+                path,
+            )
+        )
     eps_r = surface = None
     if "medium" in doc:
         med = doc["medium"]
         if not isinstance(med, dict) or "eps_r" not in med:
-            raise InputError(f"{path}: medium must be {{\"eps_r\": ..., \"surface_y\": m}}")
+            raise InputError(f'{path}: medium must be {{"eps_r": ..., "surface_y": m}}')
         eps_r = float(_numbers(med["eps_r"], lambda s: s == (), "medium.eps_r", path))
         if "surface_y" in med:
             surface = float(_numbers(med["surface_y"], lambda s: s == (), "medium.surface_y", path))
@@ -712,8 +759,10 @@ def _band(band, scan: BScan, df) -> np.ndarray:
         raise InputError(f"band must be two frequencies (f0, f1) in Hz, got {band!r}") from None
     nyq = 0.5 / scan.dt
     if not (math.isfinite(f0) and math.isfinite(f1) and 0 < f0 < f1 <= nyq):
-        raise InputError(f"band must satisfy 0 < f0 < f1 <= {nyq:g} Hz (the Nyquist "
-                         f"frequency of dt), got {f0:g} .. {f1:g} Hz")
+        raise InputError(
+            f"band must satisfy 0 < f0 < f1 <= {nyq:g} Hz (the Nyquist "
+            f"frequency of dt), got {f0:g} .. {f1:g} Hz"
+        )
     t = scan.duration
     if df is None:
         nf = max(65, math.ceil((f1 - f0) * 2 * t) + 1)
@@ -721,8 +770,10 @@ def _band(band, scan: BScan, df) -> np.ndarray:
     else:
         df = _finite_scalar("df", df)
         if df > 1 / t:
-            raise InputError(f"df {df:g} Hz is coarser than 1/T = {1 / t:g} Hz of the "
-                             f"{t * 1e9:g} ns record: later echoes would alias in range")
+            raise InputError(
+                f"df {df:g} Hz is coarser than 1/T = {1 / t:g} Hz of the "
+                f"{t * 1e9:g} ns record: later echoes would alias in range"
+            )
         nf = math.floor((f1 - f0) / df * (1 + 1e-12)) + 1
         if nf < 2:
             raise InputError(f"df {df:g} Hz leaves fewer than 2 samples in the band")
@@ -747,8 +798,15 @@ def _matching(scan: BScan, bg: BScan) -> None:
         raise InputError(f"background {bg.source} does not match the scan {scan.source}: {why}")
 
 
-def to_spectrum(scan: BScan, background: BScan | None, band, waveform: SourceWaveform,
-                df: float | None = None, scan_x=None, scan_y=None) -> GprSpectrum:
+def to_spectrum(
+    scan: BScan,
+    background: BScan | None,
+    band,
+    waveform: SourceWaveform,
+    df: float | None = None,
+    scan_x=None,
+    scan_y=None,
+) -> GprSpectrum:
     """Background-subtract, transform, select the band, deconvolve.
 
     Parameters
@@ -790,19 +848,23 @@ def to_spectrum(scan: BScan, background: BScan | None, band, waveform: SourceWav
     if scan_x is not None:
         sx = np.asarray(scan_x, np.float64)
         if sx.shape != (scan.traces.shape[1],):
-            raise InputError(f"the sidecar gives {sx.size} positions for "
-                             f"{scan.traces.shape[1]} traces")
+            raise InputError(
+                f"the sidecar gives {sx.size} positions for {scan.traces.shape[1]} traces"
+            )
         if x is not None and np.max(np.abs(sx - x)) > POSITION_TOL:
             raise InputError(f"the sidecar's scan positions differ from those of {scan.source}")
         x = sx
     if scan_y is not None:
         if y is not None and abs(scan_y - y) > POSITION_TOL:
-            raise InputError(f"the sidecar's scan line y {scan_y:g} m differs from "
-                             f"{scan.source}'s {y:g} m")
+            raise InputError(
+                f"the sidecar's scan line y {scan_y:g} m differs from {scan.source}'s {y:g} m"
+            )
         y = float(scan_y)
     if x is None:
-        raise InputError(f"{scan.source} holds no antenna positions (a gprMax 3 merged file "
-                         f"keeps none): give them in a sidecar ({{\"scan\": {{\"x\": [...]}}}})")
+        raise InputError(
+            f"{scan.source} holds no antenna positions (a gprMax 3 merged file "
+            f'keeps none): give them in a sidecar ({{"scan": {{"x": [...]}}}})'
+        )
     order = np.argsort(x, kind="stable")
     _uniform_axis("antenna x", x[order], 2)
     freq = _band(band, scan, df)
@@ -812,8 +874,10 @@ def to_spectrum(scan: BScan, background: BScan | None, band, waveform: SourceWav
     weak = np.abs(src) < MIN_WAVEFORM_LEVEL * level.max()
     if np.any(weak):
         fw = freq[np.argmax(weak)]
-        raise InputError(f"the {waveform.kind} waveform of {waveform.frequency:g} Hz is below "
-                         f"-60 dB of its peak at {fw:g} Hz: choose a band where it has energy")
+        raise InputError(
+            f"the {waveform.kind} waveform of {waveform.frequency:g} Hz is below "
+            f"-60 dB of its peak at {fw:g} Hz: choose a band where it has energy"
+        )
     traces = scan.traces if background is None else scan.traces - background.traces
     t = scan.t0 + scan.dt * np.arange(nt)
     e = _dtft(traces, t, freq) * scan.dt
@@ -873,16 +937,16 @@ def truth_arrays(sidecar: Sidecar, x, y_scan: float, step: float = 1e-3) -> dict
     if medium is not None and medium.half_space:
         # refracted: the nearest of boundary samples 0.1 mm apart in optical
         # path (the path is stationary there: off by about (0.1 mm)^2 / r)
-        dists = [_refracted_min(medium, x, y_scan, b)
-                 for b in _dense_boundaries(sidecar, REFRACTED_STEP)]
+        dists = [
+            _refracted_min(medium, x, y_scan, b) for b in _dense_boundaries(sidecar, REFRACTED_STEP)
+        ]
     elif medium is not None:
         dists = [medium.n * d for d in dists]
     b = np.concatenate(bounds)
     b[:, 1] = np.abs(b[:, 1] - y_scan)
-    dist = np.stack(dists, axis=1)                               # (nx, objects)
+    dist = np.stack(dists, axis=1)  # (nx, objects)
     ant_idx = np.repeat(np.arange(len(x), dtype=np.int64), dist.shape[1])
-    return {"truth_rp_antenna": ant_idx, "truth_rp_range": dist.ravel(),
-            "truth_boundary": b}
+    return {"truth_rp_antenna": ant_idx, "truth_rp_range": dist.ravel(), "truth_boundary": b}
 
 
 #: Spacing of the boundary samples of the refracted true ranges, m.
@@ -898,8 +962,11 @@ def _dense_boundaries(sidecar: Sidecar, step: float) -> list:
         a = 2 * math.pi * np.arange(n) / n
         out.append(np.stack([cx + r * np.cos(a), cy + r * np.sin(a)], axis=1))
     for poly in sidecar.polygons:
-        edges = [p + np.linspace(0, 1, max(2, math.ceil(np.hypot(*(q - p)) / step) + 1))[:, None]
-                 * (q - p) for p, q in zip(poly, np.roll(poly, -1, axis=0))]
+        edges = [
+            p
+            + np.linspace(0, 1, max(2, math.ceil(np.hypot(*(q - p)) / step) + 1))[:, None] * (q - p)
+            for p, q in zip(poly, np.roll(poly, -1, axis=0))
+        ]
         out.append(np.concatenate(edges))
     return out
 
@@ -909,16 +976,28 @@ def _refracted_min(medium, x, y_scan: float, boundary: np.ndarray) -> np.ndarray
     (gprMax's frame), in antenna chunks of a few MB, m."""
     from .medium import one_way
 
-    p3 = np.stack([boundary[:, 0], np.abs(boundary[:, 1] - y_scan),
-                   np.zeros(len(boundary))], axis=1)
+    p3 = np.stack(
+        [boundary[:, 0], np.abs(boundary[:, 1] - y_scan), np.zeros(len(boundary))], axis=1
+    )
     ant = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
     step = max(1, (1 << 17) // max(1, len(p3)))
-    return np.concatenate([one_way(medium, ant[i:i + step, None], p3[None]).min(axis=1)
-                           for i in range(0, len(ant), step)])
+    return np.concatenate(
+        [
+            one_way(medium, ant[i : i + step, None], p3[None]).min(axis=1)
+            for i in range(0, len(ant), step)
+        ]
+    )
 
 
-def convert(inputs, background=None, band=(2e9, 4e9), waveform: SourceWaveform | None = None,
-            sidecar=None, df: float | None = None, rx: int = 1) -> dict:
+def convert(
+    inputs,
+    background=None,
+    band=(2e9, 4e9),
+    waveform: SourceWaveform | None = None,
+    sidecar=None,
+    df: float | None = None,
+    rx: int = 1,
+) -> dict:
     """gprMax files -> the arrays of the frequency-domain input schema.
 
     Parameters
@@ -949,17 +1028,26 @@ def convert(inputs, background=None, band=(2e9, 4e9), waveform: SourceWaveform |
     side = read_sidecar(sidecar) if sidecar is not None else Sidecar()
     scan = read_bscan(inputs, rx)
     bg = read_bscan(background, rx) if background is not None else None
-    known = [(w, what) for w, what in ((waveform, "the given waveform"),
-                                       (side.waveform, f"the sidecar {sidecar}"),
-                                       (scan.waveform, scan.source)) if w is not None]
+    known = [
+        (w, what)
+        for w, what in (
+            (waveform, "the given waveform"),
+            (side.waveform, f"the sidecar {sidecar}"),
+            (scan.waveform, scan.source),
+        )
+        if w is not None
+    ]
     if not known:
-        raise InputError("no waveform: give one (--waveform KIND:FREQ) or a sidecar with "
-                         "\"waveform\"")
+        raise InputError(
+            'no waveform: give one (--waveform KIND:FREQ) or a sidecar with "waveform"'
+        )
     for w, what in known[1:]:
         if not _same_waveform(w, known[0][0]):
-            raise InputError(f"{what} records waveform {w.kind} {w.frequency:g} Hz "
-                             f"x{w.amplitude:g}; {known[0][1]} says {known[0][0].kind} "
-                             f"{known[0][0].frequency:g} Hz x{known[0][0].amplitude:g}")
+            raise InputError(
+                f"{what} records waveform {w.kind} {w.frequency:g} Hz "
+                f"x{w.amplitude:g}; {known[0][1]} says {known[0][0].kind} "
+                f"{known[0][0].frequency:g} Hz x{known[0][0].amplitude:g}"
+            )
     out = to_spectrum(scan, bg, band, known[0][0], df, side.scan_x, side.scan_y)
     arrays = {"spectrum": out.spectrum, "frequency": out.frequency, "x": out.x}
     if out.y_scan is not None and (side.cylinders or side.polygons):

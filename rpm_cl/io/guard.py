@@ -27,10 +27,22 @@ import numpy as np
 
 from .data import InputError
 
-__all__ = ["BOMB_MIN_BYTES", "BOMB_RATIO", "RUN_BASE_BYTES",
-           "check_declared", "fmt_bytes", "h5_chunks_bounded", "h5_dataset", "h5_has", "h5_inside",
-           "h5_resolve", "memory_limit", "parse_bytes",
-           "regular_file", "run_bytes"]
+__all__ = [
+    "BOMB_MIN_BYTES",
+    "BOMB_RATIO",
+    "RUN_BASE_BYTES",
+    "check_declared",
+    "fmt_bytes",
+    "h5_chunks_bounded",
+    "h5_dataset",
+    "h5_has",
+    "h5_inside",
+    "h5_resolve",
+    "memory_limit",
+    "parse_bytes",
+    "regular_file",
+    "run_bytes",
+]
 
 #: Share of the machine's memory a run may take when no limit is given: a
 #: run holds a few copies of its data at once and the machine is shared.
@@ -56,9 +68,13 @@ BOMB_RATIO = 100
 #: all-zero input compresses well and is harmless).
 BOMB_MIN_BYTES = 64 << 20
 
-_KINDS = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
-          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"),
-          (stat.S_ISDIR, "a folder"))
+_KINDS = (
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+    (stat.S_ISDIR, "a folder"),
+)
 
 
 def regular_file(path, what: str = "input") -> str:
@@ -93,9 +109,22 @@ def fmt_bytes(n: float) -> str:
 
 #: Units of :func:`parse_bytes`: decimal (k, M, G, T, optionally with B) and
 #: binary (KiB, MiB, GiB, TiB), case-insensitive; no unit means bytes.
-_BYTE_UNITS = {"": 1, "b": 1, "k": 1e3, "kb": 1e3, "m": 1e6, "mb": 1e6, "g": 1e9, "gb": 1e9,
-               "t": 1e12, "tb": 1e12, "kib": 2 ** 10, "mib": 2 ** 20, "gib": 2 ** 30,
-               "tib": 2 ** 40}
+_BYTE_UNITS = {
+    "": 1,
+    "b": 1,
+    "k": 1e3,
+    "kb": 1e3,
+    "m": 1e6,
+    "mb": 1e6,
+    "g": 1e9,
+    "gb": 1e9,
+    "t": 1e12,
+    "tb": 1e12,
+    "kib": 2**10,
+    "mib": 2**20,
+    "gib": 2**30,
+    "tib": 2**40,
+}
 
 
 def parse_bytes(text) -> int:
@@ -113,15 +142,17 @@ def parse_bytes(text) -> int:
     except (AttributeError, KeyError, ValueError):
         value = float("nan")
     if not (value >= 1 and value < 1e18):
-        raise InputError(f"a memory size must be a positive number of bytes (e.g. 8G, 512MB, "
-                         f"1.5GiB), got {text!r}")
+        raise InputError(
+            f"a memory size must be a positive number of bytes (e.g. 8G, 512MB, "
+            f"1.5GiB), got {text!r}"
+        )
     return int(value)
 
 
 def _physical_memory() -> int:
     try:
         return int(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-    except (ValueError, OSError, AttributeError):   # not POSIX: assume a small machine
+    except (ValueError, OSError, AttributeError):  # not POSIX: assume a small machine
         return 8 << 30
 
 
@@ -149,18 +180,22 @@ def run_bytes(samples: int, other_bytes: int = 0, array_axes: int = 1) -> int:
 def check_budget(need: int, limit: int, what: str) -> None:
     """Refuse a run needing ``need`` bytes above ``limit`` (one line naming both)."""
     if need > limit:
-        raise InputError(f"{what} would need about {fmt_bytes(need)} of memory, above the "
-                         f"limit of {fmt_bytes(limit)} (--max-memory / RPM_CL_MAX_MEMORY "
-                         f"raise it)")
+        raise InputError(
+            f"{what} would need about {fmt_bytes(need)} of memory, above the "
+            f"limit of {fmt_bytes(limit)} (--max-memory / RPM_CL_MAX_MEMORY "
+            f"raise it)"
+        )
 
 
 def check_declared(key: str, declared: int, stored: int) -> None:
     """Refuse a member declaring ``declared`` bytes of data in ``stored``
     bytes of file where that is a compression bomb or a corrupt header."""
     if declared >= BOMB_MIN_BYTES and declared > BOMB_RATIO * max(stored, 1):
-        raise InputError(f"{key} declares {fmt_bytes(declared)} of data in "
-                         f"{fmt_bytes(stored)} of file ({declared / max(stored, 1):.0f}:1): a "
-                         f"compression bomb or a corrupt header; refused unread")
+        raise InputError(
+            f"{key} declares {fmt_bytes(declared)} of data in "
+            f"{fmt_bytes(stored)} of file ({declared / max(stored, 1):.0f}:1): a "
+            f"compression bomb or a corrupt header; refused unread"
+        )
 
 
 def h5_has(f, key: str) -> bool:
@@ -203,8 +238,10 @@ def h5_resolve(f, path: str, name: str):
         if link is None:
             raise InputError(f"{name}: no such object ({path})")
         if isinstance(link, h5py.ExternalLink):
-            raise InputError(f"{name} leads through an external link (to {link.filename}:"
-                             f"{link.path}); only data inside the input is read")
+            raise InputError(
+                f"{name} leads through an external link (to {link.filename}:"
+                f"{link.path}); only data inside the input is read"
+            )
         if isinstance(link, h5py.SoftLink):
             hops += 1
             if hops > H5_LINK_HOPS:
@@ -267,16 +304,19 @@ def h5_chunks_bounded(ds, name: str) -> None:
             offset = ident.get_chunk_info(i).chunk_offset
             _, buf = ident.read_direct_chunk(offset)
         except Exception as exc:  # noqa: BLE001 - a corrupt chunk index
-            raise InputError(f"{name}: a chunk cannot be read ({' '.join(str(exc).split())})") \
-                from None
+            raise InputError(
+                f"{name}: a chunk cannot be read ({' '.join(str(exc).split())})"
+            ) from None
         d = zlib.decompressobj()
         try:
             d.decompress(buf, raw + 1)
         except zlib.error:
-            continue   # not a plain deflate stream first (other filters): HDF5 judges it
+            continue  # not a plain deflate stream first (other filters): HDF5 judges it
         if d.unconsumed_tail or not (d.eof or len(buf) == 0):
-            raise InputError(f"{name}: a compressed chunk inflates beyond the chunk's "
-                             f"{raw} bytes (a compression bomb or a corrupt file); refused")
+            raise InputError(
+                f"{name}: a compressed chunk inflates beyond the chunk's "
+                f"{raw} bytes (a compression bomb or a corrupt file); refused"
+            )
 
 
 def h5_inside(f, ds, name: str) -> None:
@@ -284,14 +324,18 @@ def h5_inside(f, ds, name: str) -> None:
     the message) unless its data live in ``f``: not reached through a link
     into another file, not virtual, no external raw storage."""
     if os.path.realpath(ds.file.filename) != os.path.realpath(f.filename):
-        raise InputError(f"{name} leads to another file ({ds.file.filename}); only data "
-                         f"inside the input is read")
+        raise InputError(
+            f"{name} leads to another file ({ds.file.filename}); only data inside the input is read"
+        )
     if ds.is_virtual:
-        raise InputError(f"{name} is a virtual dataset (its data lives in other files); only "
-                         f"data inside the input is read")
+        raise InputError(
+            f"{name} is a virtual dataset (its data lives in other files); only "
+            f"data inside the input is read"
+        )
     if ds.external:
-        raise InputError(f"{name} keeps its data in external files; only data inside the "
-                         f"input is read")
+        raise InputError(
+            f"{name} keeps its data in external files; only data inside the input is read"
+        )
 
 
 def h5_stored(ds) -> int:

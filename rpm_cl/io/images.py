@@ -23,11 +23,14 @@ GRID_COORD_MAX = 1e6
 
 def _axis(name: str, lo: float, hi: float, step: float) -> np.ndarray:
     if not all(map(math.isfinite, (lo, hi, step))) or step <= 0 or hi < lo:
-        raise InputError(f"grid axis {name}: need finite start <= stop and step > 0, "
-                         f"got {lo}:{hi}:{step}")
+        raise InputError(
+            f"grid axis {name}: need finite start <= stop and step > 0, got {lo}:{hi}:{step}"
+        )
     if max(abs(lo), abs(hi)) > GRID_COORD_MAX:
-        raise InputError(f"grid axis {name}: coordinates must lie within +-{GRID_COORD_MAX:g} m, "
-                         f"got {lo}:{hi}:{step}")
+        raise InputError(
+            f"grid axis {name}: coordinates must lie within +-{GRID_COORD_MAX:g} m, "
+            f"got {lo}:{hi}:{step}"
+        )
     q = (hi - lo) / step
     if not math.isfinite(q) or q >= 100_000:
         raise InputError(f"grid axis {name}: more than 100000 samples ({lo}:{hi}:{step})")
@@ -119,8 +122,10 @@ def check_disk(path: str, folder: str, grid, dtype, copies: float = 2.0) -> None
     need = copies * grid.size * np.dtype(dtype).itemsize
     free = _free_bytes(folder)
     if free is not None and 1.1 * need > free:
-        raise InputError(f"{path}: the image needs {fmt_bytes(need)} of disk while written, "
-                         f"{fmt_bytes(free)} free")
+        raise InputError(
+            f"{path}: the image needs {fmt_bytes(need)} of disk while written, "
+            f"{fmt_bytes(free)} free"
+        )
 
 
 def write_image(path, grid: Grid, fill, dtype=np.complex64, meta: dict | None = None) -> None:

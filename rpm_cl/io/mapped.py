@@ -75,8 +75,18 @@ MAPPED_EXTENSIONS = (".mat", ".npz", ".npy", ".h5", ".hdf5")
 MAX_ELEMENTS = 1 << 27
 #: MATLAB classes read (numbers; ``logical``, ``char``, ``cell``, ``struct``,
 #: ``function_handle`` ... are not).
-_MATLAB_NUMERIC = ("double", "single", "int8", "uint8", "int16", "uint16", "int32", "uint32",
-                   "int64", "uint64")
+_MATLAB_NUMERIC = (
+    "double",
+    "single",
+    "int8",
+    "uint8",
+    "int16",
+    "uint16",
+    "int32",
+    "uint32",
+    "int64",
+    "uint64",
+)
 
 
 @dataclass(frozen=True)
@@ -110,27 +120,32 @@ class KeyMap:
         names = [a for a, _ in pairs]
         for name, key in pairs:
             if name not in SCHEMA_NAMES:
-                raise InputError(f"unknown name {name!r} in the mapping; the schema's names are "
-                                 f"{', '.join(SCHEMA_NAMES)}")
+                raise InputError(
+                    f"unknown name {name!r} in the mapping; the schema's names are "
+                    f"{', '.join(SCHEMA_NAMES)}"
+                )
             if not key:
                 raise InputError(f"{name} is mapped to an empty key")
             if names.count(name) > 1:
                 raise InputError(f"{name} is mapped twice")
         data = [n for n in DATA_NAMES if n in names]
         if not data:
-            raise InputError("the mapping names neither spectrum (frequency domain) nor signal "
-                             "(time domain)")
+            raise InputError(
+                "the mapping names neither spectrum (frequency domain) nor signal (time domain)"
+            )
         if len(data) == 2:
             raise InputError("the mapping names both spectrum and signal; keep one")
         kind = data[0]
         extra = [n for n in _REFUSES[kind] if n in names]
         if extra:
-            raise InputError(f"{extra[0]} does not go with {kind} (spectrum takes frequency, "
-                             f"signal takes range)")
+            raise InputError(
+                f"{extra[0]} does not go with {kind} (spectrum takes frequency, signal takes range)"
+            )
         missing = [n for n in _NEEDS[kind] if n not in names]
         if missing:
-            raise InputError(f"the mapping lacks {', '.join(missing)} ({kind} needs "
-                             f"{', '.join(_NEEDS[kind])})")
+            raise InputError(
+                f"the mapping lacks {', '.join(missing)} ({kind} needs {', '.join(_NEEDS[kind])})"
+            )
         if self.conjugate and kind != "spectrum":
             raise InputError("conjugate applies to a spectrum, not to a time-domain signal")
         for what in ("scale_x", "scale_f"):
@@ -143,8 +158,10 @@ class KeyMap:
         for part in str(text).split(","):
             name, sep, key = part.partition("=")
             if not sep or "=" in key:
-                raise InputError(f"the mapping must be NAME=KEY pairs separated by commas "
-                                 f"(e.g. spectrum=F,frequency=f,x=da), got {part.strip()!r}")
+                raise InputError(
+                    f"the mapping must be NAME=KEY pairs separated by commas "
+                    f"(e.g. spectrum=F,frequency=f,x=da), got {part.strip()!r}"
+                )
             pairs.append((name.strip(), key.strip()))
         return cls(tuple(pairs), **options)
 
@@ -173,8 +190,11 @@ class _NpySource:
     def header(self, key):
         with open(self.path, "rb") as fh:
             version = np.lib.format.read_magic(fh)
-            read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                    else np.lib.format.read_array_header_2_0)
+            read = (
+                np.lib.format.read_array_header_1_0
+                if version == (1, 0)
+                else np.lib.format.read_array_header_2_0
+            )
             shape, _, dtype = read(fh)
         return tuple(shape), np.dtype(dtype)
 
@@ -220,8 +240,11 @@ class _MatSource:
     def header(self, key):
         shape, cls = self.vars[key]
         if cls not in _MATLAB_NUMERIC:
-            how = (" (a struct of a v4-v7.2 file: save its fields as variables, or save with "
-                   "-v7.3)") if cls == "struct" else ""
+            how = (
+                (" (a struct of a v4-v7.2 file: save its fields as variables, or save with -v7.3)")
+                if cls == "struct"
+                else ""
+            )
             raise InputError(f"{key} is a MATLAB {cls}, not a numeric array{how}")
         return shape, None
 
@@ -253,6 +276,7 @@ class _H5Source:
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset) and not name.startswith("#"):
                 out.append(name)
+
         self.f.visititems(visit)
         return sorted(out)[:50]
 
@@ -264,8 +288,10 @@ class _H5Source:
         h5py = _h5py()
         if isinstance(ds, h5py.Group):
             cls = _matlab_class(ds)
-            raise InputError(f"{key} is a group{f' (a MATLAB {cls})' if cls else ''}, not an "
-                             f"array; name one of its members as {key}/NAME")
+            raise InputError(
+                f"{key} is a group{f' (a MATLAB {cls})' if cls else ''}, not an "
+                f"array; name one of its members as {key}/NAME"
+            )
         h5_inside(self.f, ds, key)
         if self.matlab:
             cls = _matlab_class(ds)
@@ -280,8 +306,10 @@ class _H5Source:
         dt = ds.dtype
         if dt.names is not None:
             if set(dt.names) != {"real", "imag"}:
-                raise InputError(f"{key} is a compound of {', '.join(dt.names)}; a complex "
-                                 f"array is a compound of real and imag")
+                raise InputError(
+                    f"{key} is a compound of {', '.join(dt.names)}; a complex "
+                    f"array is a compound of real and imag"
+                )
             dt = np.result_type(dt["real"], dt["imag"], np.complex64)
         elif dt.kind not in "iufc":
             raise InputError(f"{key} is not a numeric array (dtype {dt})")
@@ -320,8 +348,10 @@ def _mat_version(path: str) -> int:
 def _open_source(path: str):
     ext = os.path.splitext(path)[1].lower()
     if ext not in MAPPED_EXTENSIONS:
-        raise InputError(f"unknown input extension {ext or '(none)'!r}; supported: "
-                         f"{', '.join(MAPPED_EXTENSIONS)}")
+        raise InputError(
+            f"unknown input extension {ext or '(none)'!r}; supported: "
+            f"{', '.join(MAPPED_EXTENSIONS)}"
+        )
     if not os.path.isfile(path):
         raise InputError("no such file")
     if ext == ".npy":
@@ -352,7 +382,7 @@ class _Sources:
                         raise InputError(f"{k!r} is in both {self.where[k].path} and {p}")
                     self.where[k] = src
         except BaseException:
-            self.close()     # the files opened so far
+            self.close()  # the files opened so far
             raise
 
     def read(self, key: str, name: str):
@@ -371,9 +401,10 @@ class _Sources:
             if n == 0:
                 raise InputError(f"{key} is empty (shape {shape})")
             v = np.asarray(src.read(key))
-            if tuple(v.shape) != tuple(shape):   # what the header promised
+            if tuple(v.shape) != tuple(shape):  # what the header promised
                 raise InputError(f"{key}: shape {v.shape} read, {shape} declared")
             return v
+
         return _guarded(src.path, get)
 
     def _find(self, key):
@@ -410,7 +441,7 @@ def list_keys(paths) -> list:
 # the schema's arrays
 def _vector(name: str, key: str, v: np.ndarray) -> np.ndarray:
     if v.ndim > 1 and sum(s != 1 for s in v.shape) <= 1:
-        v = v.reshape(-1)          # MATLAB 1 x n or n x 1
+        v = v.reshape(-1)  # MATLAB 1 x n or n x 1
     if v.ndim != 1:
         raise InputError(f"{name} ({key}) must be a vector, got shape {v.shape}")
     if v.dtype.kind == "c":
@@ -436,24 +467,30 @@ def _data(kind: str, key: str, v: np.ndarray, keymap: KeyMap) -> np.ndarray:
         v = v.transpose()
     if v.dtype.kind == "c":
         v = v.astype(np.complex64 if v.dtype == np.complex64 else np.complex128, copy=False)
-    else:   # MATLAB saves an all-real complex array as real
+    else:  # MATLAB saves an all-real complex array as real
         v = v.astype(np.complex64 if v.dtype == np.float32 else np.complex128)
     if not np.all(np.isfinite(v)):
         raise InputError(f"{kind} ({key}) contains NaN or Inf")
     return np.conj(v) if keymap.conjugate else v
 
 
-def _check_shape(kind: str, key: str, v: np.ndarray, core: tuple, what: str,
-                 transpose: bool) -> None:
+def _check_shape(
+    kind: str, key: str, v: np.ndarray, core: tuple, what: str, transpose: bool
+) -> None:
     if v.shape == core or (v.ndim == len(core) + 1 and v.shape[1:] == core and v.shape[0] > 0):
         return
     hint = ""
     rev = v.shape[::-1]
     if rev == core or (len(rev) == len(core) + 1 and rev[1:] == core):
-        hint = "; --transpose (transpose=True) reverses its axes to that" if not transpose \
+        hint = (
+            "; --transpose (transpose=True) reverses its axes to that"
+            if not transpose
             else "; it fits without --transpose"
-    raise InputError(f"{kind} ({key}) has shape {v.shape}; expected {core} ({what}) or a stack "
-                     f"(frames, {', '.join(map(str, core))}){hint}")
+        )
+    raise InputError(
+        f"{kind} ({key}) has shape {v.shape}; expected {core} ({what}) or a stack "
+        f"(frames, {', '.join(map(str, core))}){hint}"
+    )
 
 
 def convert(inputs, keymap: KeyMap) -> dict:
@@ -518,8 +555,10 @@ def convert(inputs, keymap: KeyMap) -> dict:
         freq = _frequency_axis(out["frequency"])
         n_axis, what = freq.size, "frequency"
         if "fc" in out and not freq[0] <= out["fc"] <= freq[-1]:
-            raise InputError(f"fc ({out['fc']:g} Hz) must lie within the frequency band "
-                             f"({freq[0]:g} .. {freq[-1]:g} Hz)")
+            raise InputError(
+                f"fc ({out['fc']:g} Hz) must lie within the frequency band "
+                f"({freq[0]:g} .. {freq[-1]:g} Hz)"
+            )
         if "bandwidth" in out or "fc" in out:
             Waveform(out.get("fc", (freq[0] + freq[-1]) / 2), out.get("bandwidth", 1.0))
     else:
@@ -527,7 +566,13 @@ def convert(inputs, keymap: KeyMap) -> dict:
         n_axis, what = rng.size, "range"
         Waveform(out["fc"], out["bandwidth"])
     axes = " x ".join(f"{a} {s}" for a, s in zip(("x", "z"), array.shape))
-    _check_shape(kind, keys[kind], values, array.shape + (n_axis,), f"{axes} x {what} {n_axis}",
-                 keymap.transpose)
+    _check_shape(
+        kind,
+        keys[kind],
+        values,
+        array.shape + (n_axis,),
+        f"{axes} x {what} {n_axis}",
+        keymap.transpose,
+    )
     out[kind] = values
     return out

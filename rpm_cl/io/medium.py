@@ -103,17 +103,25 @@ class Medium:
 
     def __post_init__(self):
         e = self.eps_r
-        if isinstance(e, bool) or not isinstance(e, (int, float, np.floating, np.integer)) \
-                or not (np.isfinite(e) and 1.0 <= e <= EPS_R_MAX):
+        if (
+            isinstance(e, bool)
+            or not isinstance(e, (int, float, np.floating, np.integer))
+            or not (np.isfinite(e) and 1.0 <= e <= EPS_R_MAX)
+        ):
             raise InputError(f"eps_r must be a number between 1 (air) and {EPS_R_MAX:g}, got {e!r}")
         object.__setattr__(self, "eps_r", float(e))
         h = self.antenna_height
         if h is not None:
-            if isinstance(h, bool) or not isinstance(h, (int, float, np.floating, np.integer)) \
-                    or not (np.isfinite(h) and 0.0 <= h <= HEIGHT_MAX):
-                raise InputError(f"antenna_height must be a height in m between 0 and "
-                                 f"{HEIGHT_MAX:g}, or None (the antennas in the medium), "
-                                 f"got {h!r}")
+            if (
+                isinstance(h, bool)
+                or not isinstance(h, (int, float, np.floating, np.integer))
+                or not (np.isfinite(h) and 0.0 <= h <= HEIGHT_MAX)
+            ):
+                raise InputError(
+                    f"antenna_height must be a height in m between 0 and "
+                    f"{HEIGHT_MAX:g}, or None (the antennas in the medium), "
+                    f"got {h!r}"
+                )
             object.__setattr__(self, "antenna_height", float(h))
 
     @property
@@ -191,8 +199,12 @@ def paraxial_data(data: RadarData, medium: Medium) -> RadarData:
     w = data.waveform
     kc = w.kc / scale
     sig = data.signal * np.exp(-2j * kc * offset).astype(data.signal.dtype)
-    return replace(data, signal=sig, range=data.range * scale + offset,
-                   waveform=Waveform(w.fc / scale, w.bandwidth / scale))
+    return replace(
+        data,
+        signal=sig,
+        range=data.range * scale + offset,
+        waveform=Waveform(w.fc / scale, w.bandwidth / scale),
+    )
 
 
 def seen_data(data: RadarData, medium: Medium) -> RadarData:
@@ -256,7 +268,7 @@ def crossing(rho, h: float, d, n: float, tol: float = 1e-13, max_iter: int = 100
         hi = np.where(g > 0, u, hi)
         with np.errstate(divide="ignore", invalid="ignore"):
             new = u - g / gp
-        out = ~((new >= lo) & (new <= hi))   # left the bracket (or NaN): bisect
+        out = ~((new >= lo) & (new <= hi))  # left the bracket (or NaN): bisect
         new = np.where(out, 0.5 * (lo + hi), new)
         step = np.abs(new - u)
         u = new
@@ -369,8 +381,9 @@ def point_on_ray(medium: Medium, antennas, p, e, r):
     t_in = np.stack([sin_m * e[:, 0], np.sqrt(1.0 - sin_m * sin_m), sin_m * e[:, 1]], axis=1)
     cross = a + air_len[:, None] * t_air
     inside = r > air_len
-    pt = np.where(inside[:, None], cross + ((r - air_len) / n)[:, None] * t_in,
-                  a + r[:, None] * t_air)
+    pt = np.where(
+        inside[:, None], cross + ((r - air_len) / n)[:, None] * t_in, a + r[:, None] * t_air
+    )
     return pt, np.where(inside[:, None], t_in, t_air)
 
 

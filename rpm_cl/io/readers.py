@@ -42,18 +42,42 @@ class Format:
 
 
 FORMATS = {
-    "gprmax": Format((".out", ".h5", ".hdf5"),
-                     ("background", "band", "waveform", "sidecar", "df", "rx"), ("band",),
-                     "gprMax 2-D TM output"),
-    "arrays": Format((".mat", ".npz", ".npy", ".h5", ".hdf5"),
-                     ("map", "transpose", "scale_x", "scale_f", "conjugate"), ("map",),
-                     "named arrays (MATLAB, NumPy, HDF5) by a key mapping"),
-    "dzt": Format((".dzt",), ("band", "dx", "time_zero", "channel", "subtract_mean"), (),
-                  "GSSI DZT (impulse GPR)"),
-    "dca1000": Format((".bin",), ("slope", "adc_rate", "samples", "start_freq", "adc_start_time",
-                                  "chirps", "rx", "layout", "dx", "rx_spacing", "receiver"),
-                      ("slope", "adc_rate", "samples", "start_freq"),
-                      "TI mmWave + DCA1000 raw ADC capture"),
+    "gprmax": Format(
+        (".out", ".h5", ".hdf5"),
+        ("background", "band", "waveform", "sidecar", "df", "rx"),
+        ("band",),
+        "gprMax 2-D TM output",
+    ),
+    "arrays": Format(
+        (".mat", ".npz", ".npy", ".h5", ".hdf5"),
+        ("map", "transpose", "scale_x", "scale_f", "conjugate"),
+        ("map",),
+        "named arrays (MATLAB, NumPy, HDF5) by a key mapping",
+    ),
+    "dzt": Format(
+        (".dzt",),
+        ("band", "dx", "time_zero", "channel", "subtract_mean"),
+        (),
+        "GSSI DZT (impulse GPR)",
+    ),
+    "dca1000": Format(
+        (".bin",),
+        (
+            "slope",
+            "adc_rate",
+            "samples",
+            "start_freq",
+            "adc_start_time",
+            "chirps",
+            "rx",
+            "layout",
+            "dx",
+            "rx_spacing",
+            "receiver",
+        ),
+        ("slope", "adc_rate", "samples", "start_freq"),
+        "TI mmWave + DCA1000 raw ADC capture",
+    ),
 }
 
 
@@ -69,8 +93,10 @@ def detect_format(inputs, mapped: bool = False) -> str:
     if mapped and exts <= set(FORMATS["arrays"].extensions):
         return "arrays"
     if len(exts) != 1:
-        raise InputError(f"inputs of several kinds ({', '.join(sorted(exts))}); convert one "
-                         f"kind at a time, or name it with --format")
+        raise InputError(
+            f"inputs of several kinds ({', '.join(sorted(exts))}); convert one "
+            f"kind at a time, or name it with --format"
+        )
     ext = exts.pop()
     if ext in (".h5", ".hdf5"):
         return "arrays" if mapped else "gprmax"
@@ -78,8 +104,10 @@ def detect_format(inputs, mapped: bool = False) -> str:
         if ext in fmt.extensions:
             return name
     known = sorted({e for f in FORMATS.values() for e in f.extensions})
-    raise InputError(f"unknown input extension {ext or '(none)'!r}; known: {', '.join(known)} "
-                     f"(or name the reader with --format {'|'.join(FORMATS)})")
+    raise InputError(
+        f"unknown input extension {ext or '(none)'!r}; known: {', '.join(known)} "
+        f"(or name the reader with --format {'|'.join(FORMATS)})"
+    )
 
 
 def convert(inputs, fmt: str | None = None, **options) -> tuple:
@@ -125,32 +153,47 @@ def convert(inputs, fmt: str | None = None, **options) -> tuple:
     alien = [k for k in given if k not in spec.options]
     if alien:
         owners = ", ".join(n for n, f in FORMATS.items() if alien[0] in f.options)
-        raise InputError(f"{_flag(alien[0])} does not apply to {fmt} input"
-                         f"{f' (it is for {owners})' if owners else ''}")
+        raise InputError(
+            f"{_flag(alien[0])} does not apply to {fmt} input"
+            f"{f' (it is for {owners})' if owners else ''}"
+        )
     missing = [k for k in spec.required if k not in given]
     if missing:
         raise InputError(f"{fmt} input needs {', '.join(_flag(k) for k in missing)}")
     from .guard import regular_file
 
-    extra = [given[k] for k in ("background", "sidecar") if isinstance(given.get(k), (str, os.PathLike))]
+    extra = [
+        given[k] for k in ("background", "sidecar") if isinstance(given.get(k), (str, os.PathLike))
+    ]
     for p in inputs + extra:
-        regular_file(p)   # a FIFO would block the reader, /dev/zero never end
+        regular_file(p)  # a FIFO would block the reader, /dev/zero never end
     return fmt, _READ[fmt](inputs, given)
 
 
 def _gprmax(inputs, o):
     from .gprmax import convert
 
-    return convert(inputs, o.get("background"), o["band"], o.get("waveform"), o.get("sidecar"),
-                   o.get("df"), o.get("rx", 1))
+    return convert(
+        inputs,
+        o.get("background"),
+        o["band"],
+        o.get("waveform"),
+        o.get("sidecar"),
+        o.get("df"),
+        o.get("rx", 1),
+    )
 
 
 def _arrays(inputs, o):
     from .mapped import KeyMap, convert
 
-    km = KeyMap.parse(o["map"], transpose=bool(o.get("transpose")),
-                      scale_x=o.get("scale_x", 1.0), scale_f=o.get("scale_f", 1.0),
-                      conjugate=bool(o.get("conjugate")))
+    km = KeyMap.parse(
+        o["map"],
+        transpose=bool(o.get("transpose")),
+        scale_x=o.get("scale_x", 1.0),
+        scale_f=o.get("scale_f", 1.0),
+        conjugate=bool(o.get("conjugate")),
+    )
     return convert(inputs, km)
 
 
@@ -159,16 +202,29 @@ def _dzt(inputs, o):
 
     if len(inputs) != 1:
         raise InputError(f"{len(inputs)} DZT files; convert one at a time")
-    return convert(inputs[0], o.get("band"), o.get("dx"), o.get("time_zero", 0.0),
-                   o.get("channel", 0), bool(o.get("subtract_mean")))
+    return convert(
+        inputs[0],
+        o.get("band"),
+        o.get("dx"),
+        o.get("time_zero", 0.0),
+        o.get("channel", 0),
+        bool(o.get("subtract_mean")),
+    )
 
 
 def _dca1000(inputs, o):
     from .dca1000 import Chirp, convert
 
-    chirp = Chirp(o["slope"], o["adc_rate"], o["samples"], o["start_freq"],
-                  o.get("adc_start_time", 0.0), o.get("chirps", 1), o.get("rx", 4),
-                  o.get("layout", "complex-2lane"))
+    chirp = Chirp(
+        o["slope"],
+        o["adc_rate"],
+        o["samples"],
+        o["start_freq"],
+        o.get("adc_start_time", 0.0),
+        o.get("chirps", 1),
+        o.get("rx", 4),
+        o.get("layout", "complex-2lane"),
+    )
     return convert(inputs, chirp, o.get("dx"), o.get("rx_spacing"), o.get("receiver", 0))
 
 

@@ -49,7 +49,7 @@ def _pad_rows(a, stride: int, fill=0):
     if a.shape[-1] == stride:
         return a
     out = np.full(a.shape[:-1] + (stride,), fill, a.dtype)
-    out[..., :a.shape[-1]] = a
+    out[..., : a.shape[-1]] = a
     return out
 
 
@@ -77,8 +77,13 @@ class DeviceRPM:
         self.env = env
         self.precision = precision
         self.timing = timing
-        self.kernel_times = {"intersect": 0.0, "score": 0.0, "argmax": 0.0, "meanshift": 0.0,
-                             "density": 0.0}
+        self.kernel_times = {
+            "intersect": 0.0,
+            "score": 0.0,
+            "argmax": 0.0,
+            "meanshift": 0.0,
+            "density": 0.0,
+        }
         self.kernel_evals = 0
         self.dtype = np.dtype(np.float32 if precision == "float32" else np.float64)
         base = {"REAL": "float" if precision == "float32" else "double"}
@@ -86,10 +91,19 @@ class DeviceRPM:
             base["REAL_IS_DOUBLE"] = 1
         self._k = dict(get_kernels(env, "circles.cl", ["intersect_circles"], base))
         self._k.update(get_kernels(env, "spheres.cl", ["intersect_spheres"], base))
-        self._k.update(get_kernels(env, "meanshift.cl", ["meanshift_spheres", "density_spheres"],
-                                   {**base, "MS_NEAR_K": MS_NEAR_K,
-                                    "MS_DENSITY_T": MS_DENSITY_T,
-                                    "MS_NEWTON_PIVOT": MS_NEWTON_PIVOT}))
+        self._k.update(
+            get_kernels(
+                env,
+                "meanshift.cl",
+                ["meanshift_spheres", "density_spheres"],
+                {
+                    **base,
+                    "MS_NEAR_K": MS_NEAR_K,
+                    "MS_DENSITY_T": MS_DENSITY_T,
+                    "MS_NEWTON_PIVOT": MS_NEWTON_PIVOT,
+                },
+            )
+        )
         self._pairs = {}  # kmax -> device pair table
         # device buffers by role, reused from call to call (a batch of frames
         # or the chunks of one image) and grown when a call needs more; the
@@ -97,8 +111,9 @@ class DeviceRPM:
         # returns, so a later call never overwrites what an earlier one uses
         self._pool = {}
         for dim in (2, 3):
-            ks = get_kernels(env, "score.cl", ["score_candidates", "argmax_candidates"],
-                             {**base, "DIM": dim})
+            ks = get_kernels(
+                env, "score.cl", ["score_candidates", "argmax_candidates"], {**base, "DIM": dim}
+            )
             self._k[f"score{dim}"] = ks["score_candidates"]
             self._k[f"argmax{dim}"] = ks["argmax_candidates"]
 
@@ -121,8 +136,9 @@ class DeviceRPM:
         if a.size == 0:
             a = np.zeros(1, a.dtype)
         if role is None:
-            return cl.Buffer(self.env.context,
-                             cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a)
+            return cl.Buffer(
+                self.env.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a
+            )
         buf = self._pooled(role, a.nbytes)
         cl.enqueue_copy(self.env.queue, buf, a, is_blocking=True)
         return buf
@@ -169,10 +185,13 @@ class DeviceRPM:
         n = total - i0 if n is None else int(n)
         _check_chunk(total, int(i0), n)
         cs, cc = np.asarray(cstart), np.asarray(ccount)
-        if (any(np.size(v) != total for v in (r, amp, cs, cc))
-                or (total and (cs.min() < 0 or cc.min() < 0 or (cs + cc).max() > total))):
-            raise InputError("x, r, amp, cstart, ccount must have one entry per RP, and every "
-                             "cluster must lie within the RPs")
+        if any(np.size(v) != total for v in (r, amp, cs, cc)) or (
+            total and (cs.min() < 0 or cc.min() < 0 or (cs + cc).max() > total)
+        ):
+            raise InputError(
+                "x, r, amp, cstart, ccount must have one entry per RP, and every "
+                "cluster must lie within the RPs"
+            )
         # Subtract a common origin on the host in float64 so that float32
         # kernels see small coordinates; the outputs are in each main
         # antenna's frame, so they do not depend on it.
@@ -182,12 +201,22 @@ class DeviceRPM:
         cand = self._out((2, n, maxc), role="cand")
         w = self._out((n, maxc), role="w")
         valid = self._out((n, maxc), np.int8, role="valid")
-        self._run(self._k["intersect_circles"], n * maxc,
-                  self._buf(x - x0, role="x"), self._buf(r, role="r"), self._buf(amp, role="amp"),
-                  self._buf(cstart, np.int32, role="cstart"),
-                  self._buf(ccount, np.int32, role="ccount"),
-                  np.int32(i0), np.int32(n), np.int32(maxc),
-                  self.dtype.type(1.0 / (2.0 * sigma_x**2)), cand, w, valid)
+        self._run(
+            self._k["intersect_circles"],
+            n * maxc,
+            self._buf(x - x0, role="x"),
+            self._buf(r, role="r"),
+            self._buf(amp, role="amp"),
+            self._buf(cstart, np.int32, role="cstart"),
+            self._buf(ccount, np.int32, role="ccount"),
+            np.int32(i0),
+            np.int32(n),
+            np.int32(maxc),
+            self.dtype.type(1.0 / (2.0 * sigma_x**2)),
+            cand,
+            w,
+            valid,
+        )
         return cand, w, valid, n, maxc
 
     def _pair_bufs(self, kmax):
@@ -195,8 +224,10 @@ class DeviceRPM:
             pa, pb = pair_table(kmax)
             stride = _stride(pa.size)
             # padding slots pair position kmax, never < nnbr: invalid
-            self._pairs[kmax] = (self._buf(_pad_rows(pa, stride, 0), np.int32),
-                                 self._buf(_pad_rows(pb, stride, kmax), np.int32))
+            self._pairs[kmax] = (
+                self._buf(_pad_rows(pa, stride, 0), np.int32),
+                self._buf(_pad_rows(pb, stride, kmax), np.int32),
+            )
         return self._pairs[kmax]
 
     def _intersect3(self, x, z, r, amp, nbr, nnbr, sigma_d, i0=0, n=None):
@@ -210,9 +241,12 @@ class DeviceRPM:
             raise InputError(f"nbr must be (N, kmax) and nnbr (N,) for N = {x.size} RPs")
         kmax = nbr.shape[1]
         used = np.arange(kmax)[None, :] < nnbr[:, None]
-        if x.size and (nnbr.min() < 0 or nnbr.max() > kmax
-                       or (used.any() and (nbr[used].min() < 0 or nbr[used].max() >= x.size))
-                       or any(np.size(v) != x.size for v in (z, r, amp))):
+        if x.size and (
+            nnbr.min() < 0
+            or nnbr.max() > kmax
+            or (used.any() and (nbr[used].min() < 0 or nbr[used].max() >= x.size))
+            or any(np.size(v) != x.size for v in (z, r, amp))
+        ):
             raise InputError("nnbr must be in 0..kmax and the listed neighbours valid RP indices")
         maxc = _stride(kmax * (kmax - 1) // 2)
         # common origin removed in float64 (outputs are in each main antenna's frame)
@@ -222,21 +256,43 @@ class DeviceRPM:
         w = self._out((n, maxc), role="w")
         valid = self._out((n, maxc), np.int8, role="valid")
         pa, pb = self._pair_bufs(kmax)
-        self._run(self._k["intersect_spheres"], n * maxc,
-                  self._buf(x - x0, role="x"), self._buf(z - z0, role="z"),
-                  self._buf(r, role="r"), self._buf(amp, role="amp"),
-                  self._buf(nbr, np.int32, role="nbr"), self._buf(nnbr, np.int32, role="nnbr"),
-                  pa, pb,
-                  np.int32(i0), np.int32(n), np.int32(kmax), np.int32(maxc),
-                  self.dtype.type(1.0 / (2.0 * sigma_d**2)), self.dtype.type(EPS_DET),
-                  cand, w, valid)
+        self._run(
+            self._k["intersect_spheres"],
+            n * maxc,
+            self._buf(x - x0, role="x"),
+            self._buf(z - z0, role="z"),
+            self._buf(r, role="r"),
+            self._buf(amp, role="amp"),
+            self._buf(nbr, np.int32, role="nbr"),
+            self._buf(nnbr, np.int32, role="nnbr"),
+            pa,
+            pb,
+            np.int32(i0),
+            np.int32(n),
+            np.int32(kmax),
+            np.int32(maxc),
+            self.dtype.type(1.0 / (2.0 * sigma_d**2)),
+            self.dtype.type(EPS_DET),
+            cand,
+            w,
+            valid,
+        )
         return cand, w, valid, n, maxc
 
     def _score(self, dim, n, maxc, cand, w, valid, sigma_r):
         score = self._out((n, maxc), role="score")
-        self._run2(self._k[f"score{dim}"], maxc, n, cand, w, valid,
-                   np.int32(n), np.int32(maxc), self.dtype.type(np.log2(np.e) / (2.0 * sigma_r**2)),
-                   score)
+        self._run2(
+            self._k[f"score{dim}"],
+            maxc,
+            n,
+            cand,
+            w,
+            valid,
+            np.int32(n),
+            np.int32(maxc),
+            self.dtype.type(np.log2(np.e) / (2.0 * sigma_r**2)),
+            score,
+        )
         if self.timing:  # valid candidates each sum over their whole row
             self.kernel_evals += int(np.count_nonzero(self._read(valid, (n, maxc), np.int8))) * maxc
         return score
@@ -245,10 +301,23 @@ class DeviceRPM:
         best = self._out((n,), np.int32, role="best")
         best_score = self._out((n,), role="best_score")
         point = self._out((dim, n), role="point")
-        self._run(self._k[f"argmax{dim}"], n, score, cand, np.int32(n), np.int32(maxc),
-                  best, best_score, point, stage="argmax")
-        return (self._read(best, (n,), np.int32), self._read(best_score, (n,)),
-                self._read(point, (dim, n)))
+        self._run(
+            self._k[f"argmax{dim}"],
+            n,
+            score,
+            cand,
+            np.int32(n),
+            np.int32(maxc),
+            best,
+            best_score,
+            point,
+            stage="argmax",
+        )
+        return (
+            self._read(best, (n,), np.int32),
+            self._read(best_score, (n,)),
+            self._read(point, (dim, n)),
+        )
 
     # -- public twins of rpm_cl.rpm.reference -------------------------------
     # Device rows are padded to _stride(maxc) slots; the twins return the
@@ -257,24 +326,37 @@ class DeviceRPM:
         """Device twin of :func:`rpm_cl.rpm.reference.intersect_circles`."""
         maxc = int(maxc)
         cand, w, valid, n, stride = self._intersect(x, r, amp, cstart, ccount, maxc, sigma_x, i0, n)
-        return (self._read(cand, (2, n, stride))[..., :maxc], self._read(w, (n, stride))[:, :maxc],
-                self._read(valid, (n, stride), np.int8)[:, :maxc])
+        return (
+            self._read(cand, (2, n, stride))[..., :maxc],
+            self._read(w, (n, stride))[:, :maxc],
+            self._read(valid, (n, stride), np.int8)[:, :maxc],
+        )
 
     def intersect_spheres(self, x, z, r, amp, nbr, nnbr, sigma_d, i0=0, n=None):
         """Device twin of :func:`rpm_cl.rpm.reference.intersect_spheres`."""
         cand, w, valid, n, stride = self._intersect3(x, z, r, amp, nbr, nnbr, sigma_d, i0, n)
         kmax = np.asarray(nbr).reshape(np.size(x), -1).shape[1]
         maxc = kmax * (kmax - 1) // 2
-        return (self._read(cand, (3, n, stride))[..., :maxc], self._read(w, (n, stride))[:, :maxc],
-                self._read(valid, (n, stride), np.int8)[:, :maxc])
+        return (
+            self._read(cand, (3, n, stride))[..., :maxc],
+            self._read(w, (n, stride))[:, :maxc],
+            self._read(valid, (n, stride), np.int8)[:, :maxc],
+        )
 
     def score_candidates(self, cand, w, valid, sigma_r):
         """Device twin of :func:`rpm_cl.rpm.reference.score_candidates`."""
         cand = np.asarray(cand)
         dim, n, maxc = cand.shape
         st = _stride(maxc)
-        score = self._score(dim, n, st, self._buf(_pad_rows(cand, st)), self._buf(_pad_rows(w, st)),
-                            self._buf(_pad_rows(np.asarray(valid, np.int8), st), np.int8), sigma_r)
+        score = self._score(
+            dim,
+            n,
+            st,
+            self._buf(_pad_rows(cand, st)),
+            self._buf(_pad_rows(w, st)),
+            self._buf(_pad_rows(np.asarray(valid, np.int8), st), np.int8),
+            sigma_r,
+        )
         return self._read(score, (n, st))[:, :maxc]
 
     def argmax_candidates(self, score, cand):
@@ -282,8 +364,13 @@ class DeviceRPM:
         cand = np.asarray(cand)
         dim, n, maxc = cand.shape
         st = _stride(maxc)
-        return self._argmax(dim, n, st, self._buf(_pad_rows(np.asarray(score), st, -1)),
-                            self._buf(_pad_rows(cand, st)))
+        return self._argmax(
+            dim,
+            n,
+            st,
+            self._buf(_pad_rows(np.asarray(score), st, -1)),
+            self._buf(_pad_rows(cand, st)),
+        )
 
     def rpm_circles(self, x, r, amp, cstart, ccount, maxc, sigma_x, sigma_r, i0=0, n=None):
         """Device twin of :func:`rpm_cl.rpm.reference.rpm_circles`.
@@ -291,7 +378,9 @@ class DeviceRPM:
         The three kernels run back to back on the device; only the per-main-RP
         results are read back.
         """
-        cand, w, valid, n, st = self._intersect(x, r, amp, cstart, ccount, int(maxc), sigma_x, i0, n)
+        cand, w, valid, n, st = self._intersect(
+            x, r, amp, cstart, ccount, int(maxc), sigma_x, i0, n
+        )
         score = self._score(2, n, st, cand, w, valid, sigma_r)
         return self._argmax(2, n, st, score, cand)
 
@@ -314,27 +403,42 @@ class DeviceRPM:
         n = total - i0 if n is None else int(n)
         _check_chunk(total, int(i0), n)
         cs, cc = np.asarray(cstart), np.asarray(ccount)
-        if (any(np.size(v) != total for v in (z, r, amp, cs, cc))
-                or (total and (cs.min() < 0 or cc.min() < 0 or (cs + cc).max() > total))):
-            raise InputError("x, z, r, amp, cstart, ccount must have one entry per RP, and every "
-                             "cluster must lie within the RPs")
-        stride = _stride(int(cc[i0:i0 + n].max()) if n else 1)
+        if any(np.size(v) != total for v in (z, r, amp, cs, cc)) or (
+            total and (cs.min() < 0 or cc.min() < 0 or (cs + cc).max() > total)
+        ):
+            raise InputError(
+                "x, z, r, amp, cstart, ccount must have one entry per RP, and every "
+                "cluster must lie within the RPs"
+            )
+        stride = _stride(int(cc[i0 : i0 + n].max()) if n else 1)
         x0 = float(np.mean(x)) if total else 0.0  # outputs are in the main antennas' frames
         z0 = float(np.mean(z)) if total else 0.0
-        return n, (self._buf(x - x0, role="x"), self._buf(z - z0, role="z"),
-                   self._buf(r, role="r"), self._buf(amp, role="amp"),
-                   self._buf(cstart, np.int32, role="cstart"),
-                   self._buf(ccount, np.int32, role="ccount"),
-                   np.int32(i0), np.int32(n), np.int32(stride))
+        return n, (
+            self._buf(x - x0, role="x"),
+            self._buf(z - z0, role="z"),
+            self._buf(r, role="r"),
+            self._buf(amp, role="amp"),
+            self._buf(cstart, np.int32, role="cstart"),
+            self._buf(ccount, np.int32, role="ccount"),
+            np.int32(i0),
+            np.int32(n),
+            np.int32(stride),
+        )
 
     def _density_args(self, sigma_d, sigma_r):
         """The truncations and constants of the density (reference module notes)."""
         t = self.dtype.type
-        return (t(1.0 / (2.0 * sigma_d**2)), t((MS_PAIR_CUTOFF * sigma_d) ** 2),
-                t(MS_CUTOFF * sigma_r), t(np.log2(np.e) / (2.0 * sigma_r**2)), t(EPS_DET))
+        return (
+            t(1.0 / (2.0 * sigma_d**2)),
+            t((MS_PAIR_CUTOFF * sigma_d) ** 2),
+            t(MS_CUTOFF * sigma_r),
+            t(np.log2(np.e) / (2.0 * sigma_r**2)),
+            t(EPS_DET),
+        )
 
-    def meanshift_spheres(self, x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, iters,
-                          i0=0, n=None):
+    def meanshift_spheres(
+        self, x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, iters, i0=0, n=None
+    ):
         """Device twin of :func:`rpm_cl.rpm.reference.meanshift_spheres`.
 
         One work-item per main RP; its scratch (5 rows of the largest cluster
@@ -350,24 +454,48 @@ class DeviceRPM:
         near = self._out((3, MS_NEAR_K, n), role="ms_nearest")
         count = self._out((n,), np.int32, role="ms_count")
         scratch = self._out((5, n, int(args[-1])), role="ms_scratch")
-        self._run(self._k["meanshift_spheres"], n, *args, *self._density_args(sigma_d, sigma_r),
-                  np.int32(iters), self.dtype.type((MS_TOL * sigma_r) ** 2),
-                  self._buf(pt, role="ms_point"), mode, dens, near, count, scratch,
-                  stage="meanshift")
-        return (self._read(mode, (3, n)), self._read(dens, (n,)),
-                self._read(near, (3, MS_NEAR_K, n)), self._read(count, (n,), np.int32))
+        self._run(
+            self._k["meanshift_spheres"],
+            n,
+            *args,
+            *self._density_args(sigma_d, sigma_r),
+            np.int32(iters),
+            self.dtype.type((MS_TOL * sigma_r) ** 2),
+            self._buf(pt, role="ms_point"),
+            mode,
+            dens,
+            near,
+            count,
+            scratch,
+            stage="meanshift",
+        )
+        return (
+            self._read(mode, (3, n)),
+            self._read(dens, (n,)),
+            self._read(near, (3, MS_NEAR_K, n)),
+            self._read(count, (n,), np.int32),
+        )
 
-    def density_spheres(self, x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r,
-                        i0=0, n=None):
+    def density_spheres(self, x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, i0=0, n=None):
         """Device twin of :func:`rpm_cl.rpm.reference.density_spheres`."""
         n, args = self._cluster_args(x, z, r, amp, cstart, ccount, i0, n)
         pt = np.asarray(point, np.float64).reshape(3, -1, n)
         nt = pt.shape[1]
         if not 1 <= nt <= MS_DENSITY_T:
-            raise InputError(f"density_spheres takes 1..{MS_DENSITY_T} points per main RP, "
-                             f"got {nt}")
+            raise InputError(
+                f"density_spheres takes 1..{MS_DENSITY_T} points per main RP, got {nt}"
+            )
         dens = self._out((nt, n), role="ms_density_at")
         scratch = self._out((5, n, int(args[-1])), role="ms_scratch")
-        self._run(self._k["density_spheres"], n, *args, *self._density_args(sigma_d, sigma_r),
-                  np.int32(nt), self._buf(pt, role="ms_point"), dens, scratch, stage="density")
+        self._run(
+            self._k["density_spheres"],
+            n,
+            *args,
+            *self._density_args(sigma_d, sigma_r),
+            np.int32(nt),
+            self._buf(pt, role="ms_point"),
+            dens,
+            scratch,
+            stage="density",
+        )
         return self._read(dens, (nt, n))

@@ -56,8 +56,14 @@ from ..io.medium import (
     virtual_centre,
 )
 
-__all__ = ["ITERATIONS", "PARTNER_TOL", "exact_crossing", "halfspace_rpm", "to_air",
-           "travel_gradient"]
+__all__ = [
+    "ITERATIONS",
+    "PARTNER_TOL",
+    "exact_crossing",
+    "halfspace_rpm",
+    "to_air",
+    "travel_gradient",
+]
 
 #: Tangent-matching passes after the paraxial one (module notes, step 3).
 ITERATIONS = 2
@@ -114,8 +120,7 @@ def travel_gradient(medium: Medium, antennas, points):
     return r, index[:, None] * t
 
 
-def exact_crossing(medium: Medium, antennas, ranges, start, max_iter: int = 30,
-                   tol: float = 1e-9):
+def exact_crossing(medium: Medium, antennas, ranges, start, max_iter: int = 30, tol: float = 1e-9):
     """The point whose optical paths from ``dim`` antennas are ``ranges``
     (Newton's iteration from ``start``).
 
@@ -172,7 +177,7 @@ def _partners(rps_virtual: RangePoints, centres_y: float, image: Image, tol: flo
         members = np.arange(s, s + count[s])
         res = np.abs(np.linalg.norm(pts[rows, None, :] - ant[None, members], axis=2) - rv[members])
         res[members[None, :] == main[rows, None]] = np.inf
-        order = np.argsort(res, axis=1)[:, :dim - 1]
+        order = np.argsort(res, axis=1)[:, : dim - 1]
         near = np.take_along_axis(res, order, axis=1) < tol
         out[rows] = np.where(near, members[order], -1)
     return out
@@ -197,8 +202,14 @@ def _polish(pts, virt, y_v, image, ant, r_air, medium, params, dim):
     return out
 
 
-def halfspace_rpm(rps: RangePoints, params: RPMParams, engine, medium: Medium,
-                  iterations: int = ITERATIONS, polish: bool = True) -> Image:
+def halfspace_rpm(
+    rps: RangePoints,
+    params: RPMParams,
+    engine,
+    medium: Medium,
+    iterations: int = ITERATIONS,
+    polish: bool = True,
+) -> Image:
     """RPM of air-equivalent RPs of antennas above a half-space (module notes).
 
     Parameters

@@ -41,8 +41,17 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["GHOST_AMP", "GHOST_TOL", "GRADIENT_STEP", "LEVEL_TOL", "MAX_OBJECT_POINTS",
-           "RADIAL_WEIGHT", "double_bounce", "flag_multipath", "ghost_points"]
+__all__ = [
+    "GHOST_AMP",
+    "GHOST_TOL",
+    "GRADIENT_STEP",
+    "LEVEL_TOL",
+    "MAX_OBJECT_POINTS",
+    "RADIAL_WEIGHT",
+    "double_bounce",
+    "flag_multipath",
+    "ghost_points",
+]
 
 #: A cluster is a double bounce when its points lie closer to the predicted
 #: ghost than this fraction of the ghost's distance to its nearer leg.
@@ -72,8 +81,7 @@ GRADIENT_STEP = 1e-4
 MAX_OBJECT_POINTS = 32
 
 
-def double_bounce(antennas: np.ndarray, a: np.ndarray, b: np.ndarray,
-                  medium=None) -> np.ndarray:
+def double_bounce(antennas: np.ndarray, a: np.ndarray, b: np.ndarray, medium=None) -> np.ndarray:
     """Range of the shortest path antenna -> A -> B -> antenna, halved.
 
     Parameters
@@ -92,9 +100,9 @@ def double_bounce(antennas: np.ndarray, a: np.ndarray, b: np.ndarray,
         m.
     """
     if medium is None:
-        da = np.linalg.norm(antennas[:, None, :] - a[None], axis=2)          # (N, Ma)
-        db = np.linalg.norm(antennas[:, None, :] - b[None], axis=2)          # (N, Mb)
-        ab = np.linalg.norm(a[:, None, :] - b[None], axis=2)                 # (Ma, Mb)
+        da = np.linalg.norm(antennas[:, None, :] - a[None], axis=2)  # (N, Ma)
+        db = np.linalg.norm(antennas[:, None, :] - b[None], axis=2)  # (N, Mb)
+        ab = np.linalg.norm(a[:, None, :] - b[None], axis=2)  # (Ma, Mb)
     else:
         from ..io.medium import one_way
 
@@ -119,8 +127,7 @@ def _xyz(p: np.ndarray) -> np.ndarray:
     return np.column_stack([p, np.zeros(len(p))])
 
 
-def flag_multipath(positions: np.ndarray, rps, image, resolution: float,
-                   medium=None) -> np.ndarray:
+def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=None) -> np.ndarray:
     """Which image points come from double-bounce clusters (module notes).
 
     Parameters
@@ -154,8 +161,7 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float,
     order = sorted(np.unique(cl_img), key=lambda c: float(np.median(rps.range[cl_rp == c])))
     accepted, strength = [], []
     for c in order:
-        ant = _spread(positions[np.unique(np.asarray(rps.antenna)[cl_rp == c])],
-                      MAX_OBJECT_POINTS)
+        ant = _spread(positions[np.unique(np.asarray(rps.antenna)[cl_rp == c])], MAX_OBJECT_POINTS)
         mine = pts3[cl_img == c]
         amp = float(np.median(np.asarray(rps.amp)[cl_rp == c]))
         # one RP of the cluster (its median range) for the level pre-test
@@ -167,15 +173,19 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float,
             for j in range(i + 1, len(accepted)):
                 if amp > GHOST_AMP * min(strength[i], strength[j]):
                     continue
-                if abs(rr[k] - double_bounce(one, accepted[i], accepted[j], medium)[0]) > \
-                        LEVEL_TOL * resolution:
+                if (
+                    abs(rr[k] - double_bounce(one, accepted[i], accepted[j], medium)[0])
+                    > LEVEL_TOL * resolution
+                ):
                     continue
                 g = ghost_points(ant, accepted[i], accepted[j], medium)
                 if len(g) == 0:
                     continue
                 centre = np.median(g, axis=0)
-                legs = min(float(np.linalg.norm(centre - np.median(accepted[i], axis=0))),
-                           float(np.linalg.norm(centre - np.median(accepted[j], axis=0))))
+                legs = min(
+                    float(np.linalg.norm(centre - np.median(accepted[i], axis=0))),
+                    float(np.linalg.norm(centre - np.median(accepted[j], axis=0))),
+                )
                 if _median_gap(mine, g, centre_xyz) < GHOST_TOL * legs:
                     ghost = True
                     break
@@ -202,8 +212,7 @@ def _median_gap(p: np.ndarray, q: np.ndarray, centre: np.ndarray) -> float:
     return float(np.median(np.min(gap, axis=1)))
 
 
-def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray,
-                 medium=None) -> np.ndarray:
+def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray, medium=None) -> np.ndarray:
     """Where RPM images the double bounce A-B seen from ``antennas``: the
     envelope point of each antenna's range sphere (module notes).
 
@@ -227,8 +236,9 @@ def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray,
     for axis in (0, 2):
         e = np.zeros(3)
         e[axis] = GRADIENT_STEP
-        grad[:, axis] = (double_bounce(antennas + e, a, b, medium)
-                         - double_bounce(antennas - e, a, b, medium)) / (2 * GRADIENT_STEP)
+        grad[:, axis] = (
+            double_bounce(antennas + e, a, b, medium) - double_bounce(antennas - e, a, b, medium)
+        ) / (2 * GRADIENT_STEP)
     across = 1.0 - grad[:, 0] ** 2 - grad[:, 2] ** 2
     ok = across > 0
     if medium is not None:

@@ -87,7 +87,7 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
         kmax = int(kmaxs[s])
         n_near = kmax if near is None else max(0, min(int(near), kmax))
         n_far = kmax - n_near
-        px, pz, ant = x[s:s + c], z[s:s + c], antenna[s:s + c]
+        px, pz, ant = x[s : s + c], z[s : s + c], antenna[s : s + c]
         grid = _grid_offsets(px, pz)
         for b0 in range(0, c, _BLOCK):
             b1 = min(c, b0 + _BLOCK)
@@ -96,7 +96,7 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
                 order, eligible, within = _ranked(px, pz, same, b0, b1, radius)
             else:
                 order, eligible, within = _ranked_grid(grid, same, b0, b1, radius)
-            if order.shape[1] < kmax:   # a cluster smaller than the list
+            if order.shape[1] < kmax:  # a cluster smaller than the list
                 order = np.pad(order, ((0, 0), (0, kmax - order.shape[1])), constant_values=-1)
             t = np.minimum(n_near, within)  # nearest taken
             rows = np.arange(b1 - b0)
@@ -111,7 +111,9 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
                 span = np.maximum(eligible - t, 0)
                 j = np.arange(kmax)[None, :]
                 frac = j / np.maximum(f - 1, 1)[:, None]
-                pos = t[:, None] + np.round(frac * np.maximum(span - 1, 0)[:, None]).astype(np.int64)
+                pos = t[:, None] + np.round(frac * np.maximum(span - 1, 0)[:, None]).astype(
+                    np.int64
+                )
                 ok = (j < f[:, None]) & (span[:, None] > 0)
                 dup = np.zeros_like(ok)
                 dup[:, 1:] = pos[:, 1:] == pos[:, :-1]
@@ -124,8 +126,8 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
             lists = np.take_along_axis(lists, comp, axis=1)[:, :kmax]
             cnt = np.minimum(valid.sum(axis=1), kmax)
             lists = np.where(np.arange(kmax)[None, :] < cnt[:, None], lists + s, -1)
-            nbr[s + b0:s + b1, :kmax] = lists
-            counts[s + b0:s + b1] = cnt
+            nbr[s + b0 : s + b1, :kmax] = lists
+            counts[s + b0 : s + b1] = cnt
     width = int(counts.max(initial=0))
     return nbr[:, :width].copy(), counts
 
@@ -184,7 +186,7 @@ def _ranked(px, pz, same, b0, b1, radius):
     d[same] = np.inf
     order = np.argsort(d, axis=1, kind="stable")
     ds = np.take_along_axis(d, order, axis=1)
-    ok = np.isfinite(ds)   # RPs at the same antenna (inf) are never within, even an inf radius
+    ok = np.isfinite(ds)  # RPs at the same antenna (inf) are never within, even an inf radius
     return order, ok.sum(axis=1), (ok & (ds <= radius)).sum(axis=1)
 
 
@@ -203,7 +205,9 @@ def _ranked_grid(grid, same, b0, b1, radius):
     flat = np.abs(ix[b0:b1, None] - ix[None, :]) * nz + np.abs(iz[b0:b1, None] - iz[None, :])
     cls = cls_table.ravel()[flat]
     cls[same] = ncls  # after every distance
-    within = (cls < np.searchsorted(keys, (radius / sx) ** 2 * (1 + 1e-12), side="right")).sum(axis=1)
+    within = (cls < np.searchsorted(keys, (radius / sx) ** 2 * (1 + 1e-12), side="right")).sum(
+        axis=1
+    )
     # int32 wherever the keys fit: they sort faster than int64
     kt = np.int32 if (ncls + 1) * c < 2**31 else np.int64
     key = np.sort(cls.astype(kt) * kt(c) + np.arange(c, dtype=kt)[None, :], axis=1)

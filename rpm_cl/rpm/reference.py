@@ -361,8 +361,7 @@ def _newton_step(s, m1, m2, sigma_r):
     return np.linalg.solve(low.T, np.linalg.solve(low, b))
 
 
-def meanshift_spheres(x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, iters,
-                      i0=0, n=None):
+def meanshift_spheres(x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, iters, i0=0, n=None):
     """Mean shift of each main RP's point to a mode of the exhaustive eq. 10 density.
 
     The density of a point p for main RP i is
@@ -435,7 +434,7 @@ def meanshift_spheres(x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, ite
             if np.sum(step**2) <= tol2:
                 break
         mode[:, il], density[il] = p, s
-        nearest[:, :len(near), il] = near.T
+        nearest[:, : len(near), il] = near.T
         count[il] = len(near)
     return mode, density, nearest, count
 
@@ -473,8 +472,8 @@ def density_spheres(x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, i0=0,
     for il in range(n):
         i = i0 + il
         c, g = _cluster_triplets(x, z, r, amp, cstart[i], cstart[i] + ccount[i], i, sigma_d)
-        t = point[:, :, il].T                                      # (nt, 3)
+        t = point[:, :, il].T  # (nt, 3)
         inside = np.sum((c - t[0]) ** 2, axis=1) <= (MS_CUTOFF * sigma_r) ** 2
-        d2 = np.sum((c[inside, None, :] - t[None]) ** 2, axis=2)   # (candidates, nt)
+        d2 = np.sum((c[inside, None, :] - t[None]) ** 2, axis=2)  # (candidates, nt)
         out[:, il] = g[inside] @ np.exp(-d2 / (2.0 * sigma_r**2))
     return out

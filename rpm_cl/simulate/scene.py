@@ -133,9 +133,13 @@ class Ellipsoid:
         return _rotation(self.dim, self.angles)
 
     def to_dict(self) -> dict:
-        return {"type": "ellipsoid", "center": self.center.tolist(),
-                "semi_axes": self.semi_axes.tolist(), "angles": self.angles.tolist(),
-                "amplitude": self.amplitude}
+        return {
+            "type": "ellipsoid",
+            "center": self.center.tolist(),
+            "semi_axes": self.semi_axes.tolist(),
+            "angles": self.angles.tolist(),
+            "amplitude": self.amplitude,
+        }
 
 
 @dataclass(frozen=True)
@@ -265,8 +269,16 @@ def boundary_samples(target, spacing: float = 1e-3) -> np.ndarray:
             ring = 2 * np.pi * max(a, b) * np.sin(th)
             n_phi = max(1, int(np.ceil(ring / spacing)))
             ph = np.linspace(0, 2 * np.pi, n_phi, endpoint=False)
-            pts.append(np.stack([a * np.sin(th) * np.cos(ph), b * np.sin(th) * np.sin(ph),
-                                 np.full(n_phi, cc * np.cos(th))], axis=1))
+            pts.append(
+                np.stack(
+                    [
+                        a * np.sin(th) * np.cos(ph),
+                        b * np.sin(th) * np.sin(ph),
+                        np.full(n_phi, cc * np.cos(th)),
+                    ],
+                    axis=1,
+                )
+            )
         local = np.concatenate(pts)
     return local @ rot.T + c
 
@@ -320,7 +332,7 @@ def _paper_2d(step: float, sigma_x: float) -> Preset:
         Array((np.arange(21) - 10) * step),
         Waveform(20e9, 0.2e9),
         np.arange(0.0, 1.5, 2.5e-3),
-        {"sigma_x": sigma_x, "sigma_r": 0.05, "window_x": 417.0}  # the paper's values,
+        {"sigma_x": sigma_x, "sigma_r": 0.05, "window_x": 417.0},  # the paper's values,
     )
 
 

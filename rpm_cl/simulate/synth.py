@@ -138,7 +138,11 @@ def echoes(scene: Scene, array: Array):
                 rho = rr[:, 0]
                 amp = tgt.amplitude * np.sqrt(rho / (2 * d * (rho + d)))
             else:
-                amp = tgt.amplitude * np.sqrt(rr[:, 0] * rr[:, 1] / ((rr[:, 0] + d) * (rr[:, 1] + d))) / (2 * d)
+                amp = (
+                    tgt.amplitude
+                    * np.sqrt(rr[:, 0] * rr[:, 1] / ((rr[:, 0] + d) * (rr[:, 1] + d)))
+                    / (2 * d)
+                )
         keep = d > 0
         for k2, other in ells:
             if k2 != k:
@@ -148,8 +152,11 @@ def echoes(scene: Scene, array: Array):
         out_r.append(d[idx])
         out_m.append(amp[idx])
         out_t.append(np.full(idx.size, k))
-    return (np.concatenate(out_a), np.concatenate(out_r), np.concatenate(out_m),
-            np.concatenate(out_t)) if n else (np.zeros(0, int),) * 4
+    return (
+        (np.concatenate(out_a), np.concatenate(out_r), np.concatenate(out_m), np.concatenate(out_t))
+        if n
+        else (np.zeros(0, int),) * 4
+    )
 
 
 def _receiver_grid(waveform: Waveform, r_max: float):
@@ -173,10 +180,19 @@ def _receiver_grid(waveform: Waveform, r_max: float):
     return f[keep], p[keep], window
 
 
-def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_axis,
-               snr_db: float | None = None, rng: np.random.Generator | None = None,
-               receiver_fs: float | None = None, progress: bool | None = False,
-               noise: str = "in-band"):
+def synthesize(
+    antenna,
+    rng_e,
+    amp,
+    n_antennas: int,
+    waveform: Waveform,
+    range_axis,
+    snr_db: float | None = None,
+    rng: np.random.Generator | None = None,
+    receiver_fs: float | None = None,
+    progress: bool | None = False,
+    noise: str = "in-band",
+):
     """Matched-filter output of a set of echoes, with optional noise.
 
     Parameters
@@ -222,16 +238,20 @@ def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_a
     if noise == "in-band" and receiver_fs is not None:
         raise InputError("receiver_fs applies to noise='receiver' only")
     if receiver_fs is None:
-        receiver_fs = max(C0 / (2.0 * float(range_axis[1] - range_axis[0])),
-                          2.0 * waveform.bandwidth)
+        receiver_fs = max(
+            C0 / (2.0 * float(range_axis[1] - range_axis[0])), 2.0 * waveform.bandwidth
+        )
     if not (np.isfinite(receiver_fs) and receiver_fs >= 2 * waveform.bandwidth * (1 - 1e-9)):
         raise InputError(f"receiver_fs must be >= 2*bandwidth, got {receiver_fs:g} Hz")
     y = np.zeros((n_antennas, f.size), np.complex128)
     # the work in blocks (echoes, antennas), each block one step of the bar;
     # blocks in order, so the sums are the same as without them
     e_step, a_step, mf_step = max(1, (1 << 22) // max(1, f.size)), 256, 1024
-    steps = (-(-len(antenna) // e_step) + (-(-n_antennas // a_step) if snr_db is not None else 0)
-             + -(-n_antennas // mf_step))
+    steps = (
+        -(-len(antenna) // e_step)
+        + (-(-n_antennas // a_step) if snr_db is not None else 0)
+        + -(-n_antennas // mf_step)
+    )
     bar = _bar(progress, steps)
     rng_e, amp, antenna = np.asarray(rng_e), np.asarray(amp), np.asarray(antenna)
     for lo in range(0, len(antenna), e_step):
@@ -264,15 +284,14 @@ def synthesize(antenna, rng_e, amp, n_antennas: int, waveform: Waveform, range_a
     mf = np.conj(p)[:, None] * np.exp(4j * np.pi * f[:, None] * range_axis[None, :] / C0)
     out = np.empty((n_antennas, range_axis.size), np.complex128)
     for lo in range(0, n_antennas, mf_step):
-        np.matmul(y[lo:lo + mf_step], mf, out=out[lo:lo + mf_step])
+        np.matmul(y[lo : lo + mf_step], mf, out=out[lo : lo + mf_step])
         bar.update()
     bar.close()
     out /= p2
     return out
 
 
-def _peak_power(y, f, norm: float, waveform: Waveform, window: float, a_step: int,
-                bar) -> float:
+def _peak_power(y, f, norm: float, waveform: Waveform, window: float, a_step: int, bar) -> float:
     """``max |sum_k y_k exp(j 2 pi f_k t) / norm|^2`` over the antennas (rows
     of ``y``) and a time grid 16 times finer than ``1 / (2 B)`` over the
     window (one period of the bins ``f``, so every time is covered; in range,
@@ -282,7 +301,7 @@ def _peak_power(y, f, norm: float, waveform: Waveform, window: float, a_step: in
     kern = np.exp(2j * np.pi * f[:, None] * t[None, :])
     peak = 0.0
     for lo in range(0, y.shape[0], a_step):
-        r_t = y[lo:lo + a_step] @ kern / norm
+        r_t = y[lo : lo + a_step] @ kern / norm
         peak = max(peak, float(np.max(np.abs(r_t) ** 2)) if r_t.size else 0.0)
         bar.update()
     return peak
@@ -294,10 +313,18 @@ def _bar(progress, total):
     return bar(total=total, desc="simulate", enabled=progress, unit="block")
 
 
-def simulate(scene: Scene, array: Array, waveform: Waveform, range_axis,
-             snr_db: float | None = None, seed: int | None = None,
-             boundary_spacing: float = 1e-3, receiver_fs: float | None = None,
-             progress: bool | None = False, noise: str = "in-band") -> RadarData:
+def simulate(
+    scene: Scene,
+    array: Array,
+    waveform: Waveform,
+    range_axis,
+    snr_db: float | None = None,
+    seed: int | None = None,
+    boundary_spacing: float = 1e-3,
+    receiver_fs: float | None = None,
+    progress: bool | None = False,
+    noise: str = "in-band",
+) -> RadarData:
     """Simulate a scene: echoes, interference, noise, matched filter, truth.
 
     Parameters
@@ -329,16 +356,32 @@ def simulate(scene: Scene, array: Array, waveform: Waveform, range_axis,
     if snr_db is not None and not np.isfinite(snr_db):
         raise InputError(f"snr must be finite, got {snr_db}")
     ant, r_e, a_e, _ = echoes(scene, array)
-    sig = synthesize(ant, r_e, a_e, array.n, waveform, range_axis, snr_db,
-                     np.random.default_rng(seed), receiver_fs, progress, noise)
+    sig = synthesize(
+        ant,
+        r_e,
+        a_e,
+        array.n,
+        waveform,
+        range_axis,
+        snr_db,
+        np.random.default_rng(seed),
+        receiver_fs,
+        progress,
+        noise,
+    )
     sig = sig.reshape(array.shape + (np.size(range_axis),))
     boundary = np.concatenate([boundary_samples(t, boundary_spacing) for t in scene.targets])
     truth = Truth(ant, r_e, boundary, scene.to_json())
     return RadarData(sig, array, range_axis, waveform, truth)
 
 
-def simulate_preset(name: str, snr_db: float | None = None, seed: int | None = None,
-                    progress: bool | None = False, noise: str = "in-band"):
+def simulate_preset(
+    name: str,
+    snr_db: float | None = None,
+    seed: int | None = None,
+    progress: bool | None = False,
+    noise: str = "in-band",
+):
     """Simulate a named preset (:data:`rpm_cl.simulate.scene.PRESETS`); ``progress``
     and ``noise`` as in :func:`synthesize` (``noise="receiver"`` gives the
     data the paper's tables are reproduced with).
@@ -351,6 +394,15 @@ def simulate_preset(name: str, snr_db: float | None = None, seed: int | None = N
     from .scene import get_preset
 
     preset = get_preset(name)
-    data = simulate(preset.scene, preset.array, preset.waveform, preset.range_axis, snr_db, seed,
-                    boundary_spacing=preset.boundary_spacing, progress=progress, noise=noise)
+    data = simulate(
+        preset.scene,
+        preset.array,
+        preset.waveform,
+        preset.range_axis,
+        snr_db,
+        seed,
+        boundary_spacing=preset.boundary_spacing,
+        progress=progress,
+        noise=noise,
+    )
     return data, preset

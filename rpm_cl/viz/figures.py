@@ -27,8 +27,20 @@ import numpy as np
 
 from ..io.data import InputError, RadarData
 
-__all__ = ["FIGURES", "Comparison", "KSpaceMap", "RPSets", "auto_grid", "compare_images",
-           "draw_compare", "draw_kspace", "draw_rps", "figure", "kspace_map", "rp_sets"]
+__all__ = [
+    "FIGURES",
+    "Comparison",
+    "KSpaceMap",
+    "RPSets",
+    "auto_grid",
+    "compare_images",
+    "draw_compare",
+    "draw_kspace",
+    "draw_rps",
+    "figure",
+    "kspace_map",
+    "rp_sets",
+]
 
 
 def _wrap(k, period: float):
@@ -84,7 +96,7 @@ def kspace_map(data: RadarData, params=None) -> KSpaceMap:
 
     pp = _params(data, params)
     p = pp.kspace
-    seen = seen_data(data, pp.medium)   # in a medium: what the decomposition sees
+    seen = seen_data(data, pp.medium)  # in a medium: what the decomposition sees
     dec = decompose(seen, p)
     arr = data.array
     kx = dec.k_axes[0]
@@ -97,14 +109,20 @@ def kspace_map(data: RadarData, params=None) -> KSpaceMap:
         kz = float(dec.k_axes[1][iz])
         kp_z = 2 * np.pi / arr.dz
         quarter = 0.25 * (p.window_z or p.window_x)
-        centres = [(c.k[0], float(air_ranges(pp.medium, c.r_centre))) for c in dec.clusters
-                   if abs(_wrap(c.k[1] - kz, kp_z)) <= quarter]
+        centres = [
+            (c.k[0], float(air_ranges(pp.medium, c.r_centre)))
+            for c in dec.clusters
+            if abs(_wrap(c.k[1] - kz, kp_z)) <= quarter
+        ]
         mag = mag[:, iz, :]
     order = np.argsort(kx)
     top = float(mag.max()) if mag.size else 0.0
     with np.errstate(divide="ignore"):
-        db = 20 * np.log10(np.maximum(mag[order], 1e-12 * top) / top) if top > 0 else \
-            np.full(mag.shape, -np.inf)
+        db = (
+            20 * np.log10(np.maximum(mag[order], 1e-12 * top) / top)
+            if top > 0
+            else np.full(mag.shape, -np.inf)
+        )
     c = np.array(centres, np.float64).reshape(-1, 2)
     c[:, 0] = _wrap(c[:, 0], kp_x)
     nf = not arr.planar and (p.near_field or (p.near_field is None and near_field_wanted(seen)))
@@ -115,13 +133,30 @@ def draw_kspace(m: KSpaceMap, ax, dynamic_range: float = 40.0):
     """Draw a :class:`KSpaceMap` on a matplotlib axes; returns the image artist."""
     dk = m.kx[1] - m.kx[0] if m.kx.size > 1 else 1.0
     dr = m.r[1] - m.r[0]
-    im = ax.imshow(m.db.T, origin="lower", aspect="auto", cmap="viridis",
-                   vmin=-dynamic_range, vmax=0.0, interpolation="nearest",
-                   extent=(m.kx[0] - dk / 2, m.kx[-1] + dk / 2,
-                           1e3 * (m.r[0] - dr / 2), 1e3 * (m.r[-1] + dr / 2)))
+    im = ax.imshow(
+        m.db.T,
+        origin="lower",
+        aspect="auto",
+        cmap="viridis",
+        vmin=-dynamic_range,
+        vmax=0.0,
+        interpolation="nearest",
+        extent=(
+            m.kx[0] - dk / 2,
+            m.kx[-1] + dk / 2,
+            1e3 * (m.r[0] - dr / 2),
+            1e3 * (m.r[-1] + dr / 2),
+        ),
+    )
     if len(m.centres):
-        ax.plot(m.centres[:, 0], 1e3 * m.centres[:, 1], "r+", ms=12, mew=2,
-                label=f"{len(m.centres)} cluster centres")
+        ax.plot(
+            m.centres[:, 0],
+            1e3 * m.centres[:, 1],
+            "r+",
+            ms=12,
+            mew=2,
+            label=f"{len(m.centres)} cluster centres",
+        )
         ax.legend(loc="upper right", fontsize=8)
     ax.set_xlabel("$k_x$ (rad/m)")
     ax.set_ylabel("R (mm)")
@@ -175,9 +210,10 @@ def rp_sets(data: RadarData, params=None) -> RPSets:
     from ..rpm.halfspace import to_air
 
     p = _params(data, params)
-    seen = seen_data(data, p.medium)   # in a medium: what the decomposition sees
-    rps = to_air(rps_from_decomposition(seen, decompose(seen, p.kspace), p.rp_threshold_db),
-                 p.medium)
+    seen = seen_data(data, p.medium)  # in a medium: what the decomposition sees
+    rps = to_air(
+        rps_from_decomposition(seen, decompose(seen, p.kspace), p.rp_threshold_db), p.medium
+    )
     arr = data.array
     keep = np.ones(len(rps), bool)
     row_z = None
@@ -203,13 +239,20 @@ def draw_rps(s: RPSets, ax) -> None:
     import matplotlib.pyplot as plt
 
     if s.true_x is not None:
-        ax.plot(1e3 * s.true_x, 1e3 * s.true_r, "o", mfc="none", mec="black", ms=9,
-                label="true RPs")
+        ax.plot(
+            1e3 * s.true_x, 1e3 * s.true_r, "o", mfc="none", mec="black", ms=9, label="true RPs"
+        )
     cmap = plt.get_cmap("tab10")
     for n, c in enumerate(np.unique(s.cluster)):
         sel = s.cluster == c
-        ax.plot(1e3 * s.x[sel], 1e3 * s.r[sel], ".", ms=7, color=cmap(n % 10),
-                label=f"cluster {c} ({sel.sum()} RPs)")
+        ax.plot(
+            1e3 * s.x[sel],
+            1e3 * s.r[sel],
+            ".",
+            ms=7,
+            color=cmap(n % 10),
+            label=f"cluster {c} ({sel.sum()} RPs)",
+        )
     ax.set_xlabel("antenna x (mm)")
     ax.set_ylabel("range (mm)")
     ax.grid(alpha=0.3)
@@ -299,8 +342,11 @@ def compare_images(data: RadarData, engine, das=None, grid=None, params=None) ->
         grid = auto_grid(data, res.image.points)
     if grid.dim != 2:
         raise InputError(f"the compare grid needs 2 axes (x, y), got {grid.dim}")
-    image = (das.backproject(data, grid, medium=p.medium) if das is not None
-             else das_numpy(data, grid, medium=p.medium))
+    image = (
+        das.backproject(data, grid, medium=p.medium)
+        if das is not None
+        else das_numpy(data, grid, medium=p.medium)
+    )
     truth = data.truth.boundary if data.truth is not None else None
     return Comparison(res.image.points, res.image.cluster, grid, image, truth, data.array.x)
 
@@ -320,19 +366,39 @@ def draw_compare(c: Comparison, axes, dynamic_range: float = 40.0):
     hx = 0.5 * (g.x[1] - g.x[0]) if g.x.size > 1 else 5e-4
     hy = 0.5 * (g.y[1] - g.y[0]) if g.y.size > 1 else 5e-4
     ext = (1e3 * (g.x[0] - hx), 1e3 * (g.x[-1] + hx), 1e3 * (g.y[0] - hy), 1e3 * (g.y[-1] + hy))
-    im = axes[0].imshow(db.T, origin="lower", extent=ext, cmap="inferno", vmin=-dynamic_range,
-                        vmax=0.0, aspect="equal", interpolation="nearest")
+    im = axes[0].imshow(
+        db.T,
+        origin="lower",
+        extent=ext,
+        cmap="inferno",
+        vmin=-dynamic_range,
+        vmax=0.0,
+        aspect="equal",
+        interpolation="nearest",
+    )
     axes[0].set_title(f"SAR / DAS |I| (dB), {dynamic_range:g} dB range", fontsize=10)
     cmap = plt.get_cmap("tab10")
     for n, k in enumerate(np.unique(c.cluster)):
         sel = c.cluster == k
-        axes[1].plot(1e3 * c.points[sel, 0], 1e3 * c.points[sel, 1], "o", ms=4,
-                     color=cmap(n % 10), label=f"cluster {k}")
+        axes[1].plot(
+            1e3 * c.points[sel, 0],
+            1e3 * c.points[sel, 1],
+            "o",
+            ms=4,
+            color=cmap(n % 10),
+            label=f"cluster {k}",
+        )
     title = f"k-space RPM: {len(c.points)} points"
     if c.truth is not None:
         for ax, colour in zip(axes, ("white", "black")):
-            ax.plot(1e3 * c.truth[:, 0], 1e3 * c.truth[:, 1], "x" if len(c.truth) < 50 else ".",
-                    color=colour, ms=8 if len(c.truth) < 50 else 1, label="truth")
+            ax.plot(
+                1e3 * c.truth[:, 0],
+                1e3 * c.truth[:, 1],
+                "x" if len(c.truth) < 50 else ".",
+                color=colour,
+                ms=8 if len(c.truth) < 50 else 1,
+                label="truth",
+            )
         if len(c.points):
             ok = int(np.sum(err_rpm(c.points, _boundary_truth(c.truth)) <= 0.05))
             title += f", {ok} within 50 mm of the truth"
@@ -359,9 +425,21 @@ def _boundary_truth(boundary):
 FIGURES = ("kspace", "rps", "compare")
 
 
-def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float = 40.0,
-           grid=None, engine=None, das=None, frame: int | None = None,
-           range_window: str = "hann", params=None, conjugate: bool = False) -> object:
+def figure(
+    name: str,
+    path,
+    png=None,
+    *,
+    size=(1200, 700),
+    dynamic_range: float = 40.0,
+    grid=None,
+    engine=None,
+    das=None,
+    frame: int | None = None,
+    range_window: str = "hann",
+    params=None,
+    conjugate: bool = False,
+) -> object:
     """Compute and draw one paper-style figure of a data file.
 
     Parameters
@@ -433,8 +511,9 @@ def figure(name: str, path, png=None, *, size=(1200, 700), dynamic_range: float 
     def render(out):
         plt = _pyplot(out, "figures")
         ncols = 2 if name == "compare" else 1
-        fig, axes = plt.subplots(1, ncols, figsize=(size[0] / 100, size[1] / 100), dpi=100,
-                                 squeeze=False)
+        fig, axes = plt.subplots(
+            1, ncols, figsize=(size[0] / 100, size[1] / 100), dpi=100, squeeze=False
+        )
         axes = axes[0]
         if name == "kspace":
             fig.colorbar(draw_kspace(what, axes[0], dynamic_range), ax=axes[0], label="dB")

@@ -78,8 +78,11 @@ def load_result(path) -> dict:
     from ..io.formats import check_members
 
     path = os.fspath(path)
-    if os.path.isfile(path) and not os.path.splitext(path)[1].lower() in (".h5", ".hdf5") \
-            and not zipfile.is_zipfile(path):
+    if (
+        os.path.isfile(path)
+        and not os.path.splitext(path)[1].lower() in (".h5", ".hdf5")
+        and not zipfile.is_zipfile(path)
+    ):
         raise InputError(f"{path}: not an .npz result (not a zip archive)")
     check_members(path, ("points", "cluster", "rp_x", "rp_z", "meta"))
     try:
@@ -91,10 +94,14 @@ def load_result(path) -> dict:
             with np.load(path, allow_pickle=False) as npz:
                 missing = [k for k in ("points", "cluster", "rp_x") if k not in npz.files]
                 if missing:
-                    hint = (f"; it holds radar data: image it first (rpm-cl image {path} -o "
-                            f"OUT.npz)" if {"signal", "spectrum"} & set(npz.files) else "")
-                    raise InputError(f"{path}: not an rpm-cl image result (no {missing[0]!r}"
-                                     f"{hint})")
+                    hint = (
+                        f"; it holds radar data: image it first (rpm-cl image {path} -o OUT.npz)"
+                        if {"signal", "spectrum"} & set(npz.files)
+                        else ""
+                    )
+                    raise InputError(
+                        f"{path}: not an rpm-cl image result (no {missing[0]!r}{hint})"
+                    )
                 out = {k: np.asarray(npz[k]) for k in ("points", "cluster", "rp_x")}
                 out["rp_z"] = np.asarray(npz["rp_z"]) if "rp_z" in npz.files else None
                 meta = json.loads(str(npz["meta"])) if "meta" in npz.files else {}
@@ -105,18 +112,25 @@ def load_result(path) -> dict:
     except KeyError as exc:
         raise InputError(f"{path}: not an rpm-cl image result (missing {exc})") from None
     except Exception as exc:  # noqa: BLE001 - any unreadable file is one line
-        raise InputError(f"{path}: not a readable result file ({type(exc).__name__}: "
-                         f"{_oneline(exc)})") from None
+        raise InputError(
+            f"{path}: not a readable result file ({type(exc).__name__}: {_oneline(exc)})"
+        ) from None
     pts = out["points"]
-    if (pts.ndim != 2 or pts.shape[1] not in (2, 3) or not _is_real(pts)
-            or not np.all(np.isfinite(pts))):
+    if (
+        pts.ndim != 2
+        or pts.shape[1] not in (2, 3)
+        or not _is_real(pts)
+        or not np.all(np.isfinite(pts))
+    ):
         raise InputError(f"{path}: points must be a finite (M, 2) or (M, 3) array")
     out["points"] = pts.astype(np.float64)
     m = len(pts)
     cl = out["cluster"]
     if cl.shape != (m,) or not (np.issubdtype(cl.dtype, np.integer) or cl.dtype == bool):
-        raise InputError(f"{path}: cluster must be an integer array of shape ({m},) like "
-                         f"points, got {cl.dtype} {cl.shape}")
+        raise InputError(
+            f"{path}: cluster must be an integer array of shape ({m},) like "
+            f"points, got {cl.dtype} {cl.shape}"
+        )
     out["cluster"] = cl.astype(np.int64)
     for key in ("rp_x", "rp_z"):
         a = out[key]
@@ -126,8 +140,10 @@ def load_result(path) -> dict:
             raise InputError(f"{path}: {key} must be a finite 1-D array, got {a.dtype} {a.shape}")
         out[key] = a.astype(np.float64)
     if out["rp_z"] is not None and out["rp_z"].shape != out["rp_x"].shape:
-        raise InputError(f"{path}: rp_x and rp_z must have the same length, got "
-                         f"{out['rp_x'].size} and {out['rp_z'].size}")
+        raise InputError(
+            f"{path}: rp_x and rp_z must have the same length, got "
+            f"{out['rp_x'].size} and {out['rp_z'].size}"
+        )
     if not isinstance(meta, dict):
         raise InputError(f"{path}: meta must be a JSON object, got {type(meta).__name__}")
     scene = meta.get("scene") or {}
@@ -232,7 +248,9 @@ def _pyplot(png, what: str):
             matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise InputError(f"pictures of {what} need matplotlib: pip install 'rpm-cl[view]'") from None
+        raise InputError(
+            f"pictures of {what} need matplotlib: pip install 'rpm-cl[view]'"
+        ) from None
     return plt
 
 
@@ -264,16 +282,23 @@ def _render_3d(res: dict, png, size) -> None:
     if len(pts):
         cloud = pv.PolyData(pts)
         cloud["cluster"] = res["cluster"]
-        plotter.add_mesh(cloud, scalars="cluster", cmap="tab20", point_size=6,
-                         render_points_as_spheres=True, show_scalar_bar=False)
+        plotter.add_mesh(
+            cloud,
+            scalars="cluster",
+            cmap="tab20",
+            point_size=6,
+            render_points_as_spheres=True,
+            show_scalar_bar=False,
+        )
     if res["rp_z"] is not None and len(res["rp_x"]):
         ant = np.unique(np.stack([res["rp_x"], np.zeros(len(res["rp_x"])), res["rp_z"]], 1), axis=0)
         plotter.add_mesh(pv.PolyData(ant), color="purple", point_size=3)
     plotter.add_axes()
     plotter.show_grid(color="grey")
     plotter.view_vector((0.55, -1.0, 0.35), viewup=(0, 0, 1))
-    plotter.add_text(f"{len(pts)} points, {len(np.unique(res['cluster']))} clusters",
-                     font_size=10, color="black")
+    plotter.add_text(
+        f"{len(pts)} points, {len(np.unique(res['cluster']))} clusters", font_size=10, color="black"
+    )
     _finish_pv(plotter, png)
 
 
@@ -296,8 +321,14 @@ def _render_2d(res: dict, png, size) -> None:
     cmap = plt.get_cmap("tab10")
     for n, c in enumerate(np.unique(res["cluster"])):
         sel = res["cluster"] == c
-        ax.plot(1e3 * pts[sel, 0], 1e3 * pts[sel, 1], "o", ms=4, color=cmap(n % 10),
-                label=f"cluster {c} ({sel.sum()} points)")
+        ax.plot(
+            1e3 * pts[sel, 0],
+            1e3 * pts[sel, 1],
+            "o",
+            ms=4,
+            color=cmap(n % 10),
+            label=f"cluster {c} ({sel.sum()} points)",
+        )
     xs = np.unique(res["rp_x"])
     ax.plot(1e3 * xs, np.zeros(xs.size), "|", color="purple", label="antennas")
     ax.set_xlabel("x (mm)")
@@ -367,8 +398,11 @@ def _stored_member(path: str, name: str):
         n_name, n_extra = struct.unpack("<HH", head[26:30])
         fh.seek(info.header_offset + 30 + n_name + n_extra)
         version = np.lib.format.read_magic(fh)
-        reader = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                  else np.lib.format.read_array_header_2_0)
+        reader = (
+            np.lib.format.read_array_header_1_0
+            if version == (1, 0)
+            else np.lib.format.read_array_header_2_0
+        )
         shape, fortran, dtype = reader(fh)
         offset = fh.tell()
     if dtype.hasobject:
@@ -377,8 +411,9 @@ def _stored_member(path: str, name: str):
         raise ValueError(f"{name} is truncated")
     if int(np.prod(shape)) == 0:
         return np.zeros(shape, dtype)
-    return np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape,
-                     order="F" if fortran else "C")
+    return np.memmap(
+        path, dtype=dtype, mode="r", offset=offset, shape=shape, order="F" if fortran else "C"
+    )
 
 
 class _H5Image:
@@ -447,7 +482,7 @@ def load_das_image(path) -> DASImage:
 
     path = os.fspath(path)
     check_members(path, ("x", "y", "z", "meta"))
-    check_members(path, ("image",), budget=False)   # read slab by slab
+    check_members(path, ("image",), budget=False)  # read slab by slab
     try:
         if os.path.splitext(path)[1].lower() in (".h5", ".hdf5"):
             axes, meta, img = _h5_image_parts(path)
@@ -459,29 +494,41 @@ def load_das_image(path) -> DASImage:
     except FileNotFoundError:
         raise InputError(f"{path}: no such file") from None
     except Exception as exc:  # noqa: BLE001 - any unreadable file is one line
-        raise InputError(f"{path}: not a readable image file ({type(exc).__name__}: "
-                         f"{_oneline(exc)})") from None
+        raise InputError(
+            f"{path}: not a readable image file ({type(exc).__name__}: {_oneline(exc)})"
+        ) from None
     if not isinstance(meta, dict):
         raise InputError(f"{path}: meta must be a JSON object, got {type(meta).__name__}")
     if img.ndim not in (2, 3) or not (_is_real(img) or np.iscomplexobj(img)):
-        raise InputError(f"{path}: image must be a numeric 2-D or 3-D array, got "
-                         f"{img.dtype} {img.shape}")
+        raise InputError(
+            f"{path}: image must be a numeric 2-D or 3-D array, got {img.dtype} {img.shape}"
+        )
     if img.size == 0:
         raise InputError(f"{path}: image is empty {img.shape}")
-    axes = axes[:img.ndim] if img.ndim == 2 and len(axes) == 3 else axes
+    axes = axes[: img.ndim] if img.ndim == 2 and len(axes) == 3 else axes
     if len(axes) != img.ndim:
-        raise InputError(f"{path}: a {img.ndim}-D image needs axes x, y{', z' if img.ndim == 3 else ''}")
+        raise InputError(
+            f"{path}: a {img.ndim}-D image needs axes x, y{', z' if img.ndim == 3 else ''}"
+        )
     for name, a, n in zip("xyz", axes, img.shape):
-        if (a.shape != (n,) or not _is_real(a) or not np.all(np.isfinite(a))
-                or np.any(np.diff(a.astype(np.float64)) <= 0)):
-            raise InputError(f"{path}: {name} must be a finite, strictly increasing axis of "
-                             f"{n} values (the image's shape {img.shape}), got {a.dtype} {a.shape}")
+        if (
+            a.shape != (n,)
+            or not _is_real(a)
+            or not np.all(np.isfinite(a))
+            or np.any(np.diff(a.astype(np.float64)) <= 0)
+        ):
+            raise InputError(
+                f"{path}: {name} must be a finite, strictly increasing axis of "
+                f"{n} values (the image's shape {img.shape}), got {a.dtype} {a.shape}"
+            )
         # the grids `rpm-cl das` writes (GRID_COORD_MAX); beyond, the picture's
         # extents and millimetre labels overflow
         big = float(np.max(np.abs(a.astype(np.float64))))
         if big > GRID_COORD_MAX:
-            raise InputError(f"{path}: {name} reaches {big:.3g} m, beyond the +-"
-                             f"{GRID_COORD_MAX:g} m of an image grid (a corrupt axis, or not m)")
+            raise InputError(
+                f"{path}: {name} reaches {big:.3g} m, beyond the +-"
+                f"{GRID_COORD_MAX:g} m of an image grid (a corrupt axis, or not m)"
+            )
     axes = tuple(a.astype(np.float64) for a in axes)
     return DASImage(img, axes, meta, mapped, path)
 
@@ -520,8 +567,13 @@ def _rows(img: DASImage, lo: int, hi: int) -> np.ndarray:
     if not (isinstance(a, np.memmap) and a.flags.c_contiguous) or hi <= lo:
         return np.array(a[lo:hi])
     row = int(np.prod(a.shape[1:])) * a.dtype.itemsize
-    part = np.memmap(img.path, dtype=a.dtype, mode="r", offset=a.offset + lo * row,
-                     shape=(hi - lo,) + a.shape[1:])
+    part = np.memmap(
+        img.path,
+        dtype=a.dtype,
+        mode="r",
+        offset=a.offset + lo * row,
+        shape=(hi - lo,) + a.shape[1:],
+    )
     out = np.array(part)
     del part
     return out
@@ -538,8 +590,8 @@ def _planes(img: DASImage, peak) -> tuple:
     step = _slab_rows(img)
     for r0 in range(0, nx, step):
         slab = _rows(img, r0, r0 + step)
-        py[r0:r0 + len(slab)] = slab[:, j, :]
-        pz[r0:r0 + len(slab)] = slab[:, :, k]
+        py[r0 : r0 + len(slab)] = slab[:, j, :]
+        pz[r0 : r0 + len(slab)] = slab[:, :, k]
     return px, py, pz
 
 
@@ -579,9 +631,10 @@ def _block_max(img: DASImage, max_side: int):
         for n, k in zip(slab.shape, f):
             shp += [n // k, k]
         blk = slab.reshape(shp).max(axis=tuple(range(1, 2 * a.ndim, 2)))
-        reduced[r0 // f[0]:r0 // f[0] + blk.shape[0]] = blk
-    axes = tuple(np.array([ax[i:i + k].mean() for i in range(0, ax.size, k)])
-                 for ax, k in zip(img.axes, f))
+        reduced[r0 // f[0] : r0 // f[0] + blk.shape[0]] = blk
+    axes = tuple(
+        np.array([ax[i : i + k].mean() for i in range(0, ax.size, k)]) for ax, k in zip(img.axes, f)
+    )
     return reduced, axes, peak, top
 
 
@@ -607,16 +660,25 @@ def _render_das_2d(img: DASImage, png, size, dynamic_range: float, max_side: int
     fig, ax = plt.subplots(figsize=(size[0] / 100, size[1] / 100), dpi=100)
     x0, x1 = _edges(axes[0])
     y0, y1 = _edges(axes[1])
-    im = ax.imshow(db.T, origin="lower", extent=(1e3 * x0, 1e3 * x1, 1e3 * y0, 1e3 * y1),
-                   vmin=-dynamic_range, vmax=0.0, cmap="inferno", aspect="equal",
-                   interpolation="nearest")
+    im = ax.imshow(
+        db.T,
+        origin="lower",
+        extent=(1e3 * x0, 1e3 * x1, 1e3 * y0, 1e3 * y1),
+        vmin=-dynamic_range,
+        vmax=0.0,
+        cmap="inferno",
+        aspect="equal",
+        interpolation="nearest",
+    )
     fig.colorbar(im, ax=ax, label="|I| (dB)")
     px, py = (img.axes[k][peak[k]] for k in range(2))
     ax.plot(1e3 * px, 1e3 * py, "c+", ms=12, label="maximum")
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("y (mm)")
-    ax.set_title(f"{img.meta.get('method', 'image')} |I|, {dynamic_range:g} dB range; "
-                 f"maximum at ({1e3 * px:.0f}, {1e3 * py:.0f}) mm")
+    ax.set_title(
+        f"{img.meta.get('method', 'image')} |I|, {dynamic_range:g} dB range; "
+        f"maximum at ({1e3 * px:.0f}, {1e3 * py:.0f}) mm"
+    )
     ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     _finish_mpl(fig, png)
@@ -632,7 +694,9 @@ def _pyvista(png):
     try:
         import pyvista as pv
     except ImportError:
-        raise InputError("pictures of 3-D results need pyvista: pip install 'rpm-cl[view]'") from None
+        raise InputError(
+            "pictures of 3-D results need pyvista: pip install 'rpm-cl[view]'"
+        ) from None
     return pv
 
 
@@ -647,7 +711,7 @@ def _load_opencl_first() -> None:
     pyopencl, or without a platform, there is nothing to protect."""
     import contextlib
 
-    with contextlib.suppress(Exception):   # any failure: no OpenCL to protect
+    with contextlib.suppress(Exception):  # any failure: no OpenCL to protect
         import pyopencl as cl
 
         cl.get_platforms()
@@ -661,13 +725,22 @@ def _pool2(a: np.ndarray, ax0: np.ndarray, ax1: np.ndarray, side: int):
         return a, ax0, ax1
     pad = [(0, -(-n // k) * k - n) for n, k in zip(a.shape, f)]
     b = np.pad(a, pad).reshape(-(-a.shape[0] // f[0]), f[0], -(-a.shape[1] // f[1]), f[1])
-    centres = [np.array([ax[i:i + k].mean() for i in range(0, ax.size, k)])
-               for ax, k in zip((ax0, ax1), f)]
+    centres = [
+        np.array([ax[i : i + k].mean() for i in range(0, ax.size, k)])
+        for ax, k in zip((ax0, ax1), f)
+    ]
     return b.max(axis=(1, 3)), centres[0], centres[1]
 
 
-def _render_das_3d(img: DASImage, png, size, dynamic_range: float, iso=None,
-                   max_side: int = 224, plane_side: int = 400) -> None:
+def _render_das_3d(
+    img: DASImage,
+    png,
+    size,
+    dynamic_range: float,
+    iso=None,
+    max_side: int = 224,
+    plane_side: int = 400,
+) -> None:
     pv = _pyvista(png)
     mag, axes, peak, top = _block_max(img, max_side)
     plotter = pv.Plotter(off_screen=png is not None, window_size=size)
@@ -681,16 +754,21 @@ def _render_das_3d(img: DASImage, png, size, dynamic_range: float, iso=None,
         i, j, k = peak
         mx, my, mz = (np.abs(p) for p in _planes(img, peak))
         mx, ay, az = _pool2(mx, y, z, plane_side)
-        planes = [(x[i:i + 1], ay, az, mx[None, :, :])]
+        planes = [(x[i : i + 1], ay, az, mx[None, :, :])]
         my, ax_, az = _pool2(my, x, z, plane_side)
-        planes.append((ax_, y[j:j + 1], az, my[:, None, :]))
+        planes.append((ax_, y[j : j + 1], az, my[:, None, :]))
         mz, ax_, ay = _pool2(mz, x, y, plane_side)
-        planes.append((ax_, ay, z[k:k + 1], mz[:, :, None]))
+        planes.append((ax_, ay, z[k : k + 1], mz[:, :, None]))
         for px, py, pz, vals in planes:
             grid = pv.RectilinearGrid(px, py, pz)
             grid.point_data["dB"] = _db(vals, top).ravel(order="F")
-            plotter.add_mesh(grid, scalars="dB", cmap="inferno", clim=(-dynamic_range, 0.0),
-                             show_scalar_bar=False)
+            plotter.add_mesh(
+                grid,
+                scalars="dB",
+                cmap="inferno",
+                clim=(-dynamic_range, 0.0),
+                show_scalar_bar=False,
+            )
         what = f"slices through the maximum, {dynamic_range:g} dB range"
         plotter.add_scalar_bar("|I| (dB)", color="black")
     else:
@@ -699,16 +777,26 @@ def _render_das_3d(img: DASImage, png, size, dynamic_range: float, iso=None,
         surf = grid.contour([iso], scalars="dB")
         if surf.n_points:
             plotter.add_mesh(surf, color="orange", smooth_shading=True)
-        what = (f"iso-surface at {iso:g} dB" + ("" if surf.n_points else " (empty)")
-                + (f" on {mag.shape[0]}x{mag.shape[1]}x{mag.shape[2]} block maxima"
-                   if mag.shape != img.image.shape else ""))
-    plotter.add_mesh(pv.Sphere(radius=0.01 * max(np.ptp(a) for a in img.axes) + 1e-4, center=where),
-                     color="cyan")
+        what = (
+            f"iso-surface at {iso:g} dB"
+            + ("" if surf.n_points else " (empty)")
+            + (
+                f" on {mag.shape[0]}x{mag.shape[1]}x{mag.shape[2]} block maxima"
+                if mag.shape != img.image.shape
+                else ""
+            )
+        )
+    plotter.add_mesh(
+        pv.Sphere(radius=0.01 * max(np.ptp(a) for a in img.axes) + 1e-4, center=where), color="cyan"
+    )
     plotter.show_bounds(color="grey", xtitle="x (m)", ytitle="y (m)", ztitle="z (m)")
     plotter.view_vector((0.55, -1.0, 0.35), viewup=(0, 0, 1))
-    plotter.add_text(f"{img.meta.get('method', 'image')} {img.image.shape}: {what}; maximum at "
-                     f"({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) m",
-                     font_size=9, color="black")
+    plotter.add_text(
+        f"{img.meta.get('method', 'image')} {img.image.shape}: {what}; maximum at "
+        f"({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) m",
+        font_size=9,
+        color="black",
+    )
     _finish_pv(plotter, png)
 
 
@@ -739,8 +827,13 @@ def _atomic_png(png, render) -> None:
     _atomic_file(png, render, ".png")
 
 
-def view(path, png=None, size=(1000, 800), dynamic_range: float = DYNAMIC_RANGE_DEFAULT,
-         iso: float | None = None) -> None:
+def view(
+    path,
+    png=None,
+    size=(1000, 800),
+    dynamic_range: float = DYNAMIC_RANGE_DEFAULT,
+    iso: float | None = None,
+) -> None:
     """Draw an image result or a DAS/RMA image; write a PNG when ``png`` is
     given (off-screen).
 
@@ -772,15 +865,17 @@ def view(path, png=None, size=(1000, 800), dynamic_range: float = DYNAMIC_RANGE_
 
     ext = os.path.splitext(os.fspath(path))[1].lower()
     if ext in (".ply", ".vtp", ".vti"):
-        raise InputError(f"{os.fspath(path)}: view draws the .npz or .h5 files of rpm-cl; open "
-                         f"{ext} files in ParaView (or write .npz/.h5 with -o)")
+        raise InputError(
+            f"{os.fspath(path)}: view draws the .npz or .h5 files of rpm-cl; open "
+            f"{ext} files in ParaView (or write .npz/.h5 with -o)"
+        )
     if not (np.isfinite(dynamic_range) and dynamic_range > 0):
         raise InputError(f"the dynamic range must be > 0 dB, got {dynamic_range:g}")
     if iso is not None and not (np.isfinite(iso) and iso < 0):
         raise InputError(f"the iso-surface level must be below the maximum (< 0 dB), got {iso:g}")
     from ..io.guard import regular_file
 
-    regular_file(path)   # before anything opens it: a FIFO would block
+    regular_file(path)  # before anything opens it: a FIFO would block
     if _is_image_file(path):
         img = load_das_image(path)
         if img.dim == 2:
@@ -797,6 +892,7 @@ def view(path, png=None, size=(1000, 800), dynamic_range: float = DYNAMIC_RANGE_
 
         def render(out):
             fn(res, out, size)
+
     if png is None:
         render(None)
     else:
