@@ -4,7 +4,7 @@ Usage::
 
     python benchmarks/bench_2d.py [--repeats 50] [--device SPEC] [--precision float64]
 
-Same as ``rpm-cl bench``; the target of issue 2 is each 2-D case imaged in
+Same as ``rpm-cl bench``; the target is each 2-D case imaged in
 under 20 ms (the paper: 2 s), compile excluded.
 """
 

@@ -7,7 +7,7 @@ Usage::
 Prints, for S/N inf and 20 dB, the median time from s(X, Z, R) to points and of
 each stage (FFT decomposition, RP extraction, RPM), the intersection and
 scoring kernels' times, and the Gaussian kernel evaluations per second of the
-scoring kernel.  Issue 3's target: the whole image in under 0.5 s on a 2-core
+scoring kernel.  The target: the whole image in under 0.5 s on a 2-core
 CPU through PoCL (the paper: 20 s on a 14-core Xeon).  Same as
 ``rpm-cl bench --scene human-body``.
 """

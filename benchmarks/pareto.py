@@ -1,4 +1,4 @@
-"""Run time against error over imaging settings and array sizes (issue 5).
+"""Run time against error over imaging settings and array sizes .
 
 Usage::
 

@@ -1,4 +1,4 @@
-"""Gaussian evaluations per second of the scoring kernel alone (issue 5).
+"""Gaussian evaluations per second of the scoring kernel alone .
 
 Times ``score_candidates`` (kernels/score.cl, float32, DIM 3) on synthetic
 candidates shaped like the human body's (n main RPs x slots per row), kernel

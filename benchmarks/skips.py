@@ -1,4 +1,4 @@
-"""What each skip saves, and what it costs in accuracy (issue 5).
+"""What each skip saves, and what it costs in accuracy .
 
 Usage::
 
@@ -6,7 +6,7 @@ Usage::
 
 For each scene, the median time of the k-space RPM image with the skips on
 (the defaults) and off, with the number of clusters, RPs and points and the
-accuracy figures of issue 2/3 for both, all measured in one run:
+accuracy figures of the paper tables for both, all measured in one run:
 
 - range gates that cannot hold a k-space centre (``KSpaceParams.skip_gates``)
   and the noise floor (``KSpaceParams.noise_pfa``), on the human body, one

@@ -8,9 +8,9 @@ For each k-space window period (rad/m, the same along k_x and k_z) and each
 list length (``max_neighbours`` and ``meanshift_neighbours``), images the
 human body at S/N inf and 20 dB (seed 0) and prints RP <= 10 mm, RPM <= 50 mm and RPM <= 10 mm (fractions), the number of
 RPs and the median time from s(X, Z, R) to points over 3 runs after a warm-up.
-The defaults of session 2 (100 rad/m, 24) were chosen from this table,
-when the list's argmax was the point; since session 10 (the exhaustive
-refinement) the window is 60 rad/m, chosen on ``pareto.py``'s grid.
+With the list's argmax as the point this table picks 100 rad/m and 24;
+with the exhaustive refinement (the default) the window is 60 rad/m, chosen
+on ``pareto.py``'s grid.
 """
 
 import argparse

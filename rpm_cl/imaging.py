@@ -129,7 +129,7 @@ class RPMParams:
         3-D: mean shift only in clusters of at most this many RPs.  A step
         costs about (near sub RPs) x (cluster RPs) pairs per main RP: the
         human body's clusters (187 RPs, one per antenna) take about 0.2 s
-        in all (two passes and the density pass, session 10),
+        in all (two passes and the density pass),
         a 32 x 32 array's (about 1000 RPs each) 5.3 s on top of the list's
         3.2 s (RPM <= 10 mm 99.0 % against 97.9 %), a 64 x 64 array's 60 s;
         so by default those keep the list's argmax.
@@ -138,7 +138,7 @@ class RPMParams:
         shift refines that hold one RP per antenna (the k-space
         decomposition's: one echo per antenna, one surface); there the
         list's argmax only picks where the steps start, so a shorter list
-        gives the same points for less (see README, "RPM 3-D").  Clusters
+        gives the same points for less (see docs/model.md, "RPM, 3-D").  Clusters
         with several RPs at an antenna (the matched-filter and Capon
         baselines put the whole scene in one) have a mode per surface, and
         the longer list starts nearer the exhaustive argmax's.  Used as
@@ -153,8 +153,8 @@ class RPMParams:
         --snr 20 --steps 0 3``) 97.8 % of the points are the exhaustive
         eq. 10 image's own to 1 um, 98.9 % to 0.1 mm and 99.9 % to 1 mm
         with the default 3 steps (noise-free 96.7 / 98.6 / 99.9 %; the mode
-        put back on the sphere, the default before session 9: 5.6 % to 0.1
-        mm, median 0.40 mm).  The rest are float32 ties: eq. 10 evaluated
+        put back on the sphere, ``"sphere"``: 5.6 % to 0.1 mm, median 0.40
+        mm).  The rest are float32 ties: eq. 10 evaluated
         in float64 at both points differs by at most 9.1e-7 (noise-free
         7.0e-7) of the density, and ours is the higher in 56 % (63 %).
         With float64 kernels (``--precision float64``) 99.8 % (noise-free

@@ -1,7 +1,7 @@
-"""Regression tests of a second adversarial review of the CLI (session 11):
-each case broke the contract (a traceback, a crash, a silent wrong result, a
-file left behind) and is now one line ``rpm-cl: error: ...`` and exit code 2,
-or a correct result."""
+"""Regression tests of an adversarial review of the CLI: each case would
+break the contract (a traceback, a crash, a silent wrong result, a file left
+behind) and must be one line ``rpm-cl: error: ...`` and exit code 2, or a
+correct result."""
 
 import os
 import signal
@@ -278,7 +278,7 @@ def test_extreme_amplitudes_image_or_are_refused(tmp_path, capsys, p2):
     """A signal x 1e300 imaged to nothing at exit 0 with overflow warnings:
     the derived sigma_r and the noise floor squared the samples.  They now
     work on amplitudes relative to the largest, so 1e-290 .. 1e300 give the
-    unscaled image (issue 5 asks for 1e-6 .. 1e6); beyond what a sum of all
+    unscaled image (the contract asks for 1e-6 .. 1e6); beyond what a sum of all
     samples or a product with a small weight holds in float64, one line."""
     d = dict(np.load(p2))
     base = tmp_path / "base.npz"

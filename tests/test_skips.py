@@ -1,4 +1,4 @@
-"""Skipping what a scene does not need (issue 5): each skip changes nothing it
+"""Skipping what a scene does not need: each skip changes nothing it
 should not, and the work follows what the scene holds.
 
 - Range gates that cannot hold a k-space centre are not transformed or

@@ -888,7 +888,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     sp = sub.add_parser(
         "image",
-        help="image an .npz or .h5 (input schema in the README); -o .npz, .h5, .ply or .vtp",
+        help="image an .npz or .h5 (input schema: docs/input-format.md); -o .npz, .h5, .ply or .vtp",
     )
     sp.add_argument("input")
     sp.add_argument("-o", "--output", required=True)

@@ -75,19 +75,17 @@ Bounds (the search on input with no targets in it -- noise, a lone sample
   Every map allowed fits the kept table (``MAP_TABLE_BYTES``, 128 MB of
   complex64), so it is built once.  Measured on the shared reference
   machine, one core, decomposition only: the paper's sparse case 0.96 M
-  terms (50 ms; the larger cases below were measured before the noise
-  floor and the kept table, not since: their whole-axis table is kept when
-  it fits TABLE_CACHE_BYTES / 2, which adds up to 64 MB to the peak);
-  64 antennas at 20 mm 10.2 M (0.71 s, 0.29 GB peak; 3.4 s
-  and 0.49 GB before the search was made faster); 21 antennas at 1 m over
-  0.4 m of range 14.8 M (1.7 s and 0.38 GB peak, against 5.0 s and 0.66
-  GB).
+  terms (50 ms); 64 antennas at 20 mm 10.2 M (0.71 s, 0.29 GB peak);
+  21 antennas at 1 m over 0.4 m of range 14.8 M (1.7 s and 0.38 GB peak).
+  These two larger cases were measured without the noise floor and the
+  kept table: their whole-axis table is kept when it fits
+  TABLE_CACHE_BYTES / 2, which adds up to 64 MB to the peak.
 
 Worst case measured on one core of the reference machine: white noise on
 the paper's sparse array (21 antennas, 600 gates) 0.95 s (5 clusters,
-budget spent; 3.0 s before the search was made faster), a 5-target scene
-on it 0.75 s (2.2 s); band-limited noise took 2.6 s on 21 antennas and 4.0 s
-on 32 before (not measured since: the budget is the same and every fit is
+budget spent), a 5-target scene on it 0.75 s; band-limited noise 2.6 s on
+21 antennas and 4.0 s on 32 with the slower search without the noise
+floor's limits (an upper bound: the budget is the same and every fit is
 cheaper; a fit costs about linearly more with N; with more antennas noise
 stops earlier, as one more centre's gain on noise falls below 0.5 dB); 3
 range samples or a one-sample spike: no search (milliseconds).
@@ -97,22 +95,19 @@ over every range gate: the clusters are separated jointly, so the part of one
 target that a window around another's k would also pass is not counted twice.
 The paper's sparse case took about 55 ms from s(X, R) to points on one
 core of the reference machine (decomposition 50 ms, median of 20 after
-warm-up; 107 ms with the search before the noise floor and the kept
-focusing table, 2.0x, measured interleaved in the same run; 0.70 s before
-the first speed-up; the paper: 2 s; worst case above), short of issue 2's
-20 ms; the plane-wave path is untouched.  The focusing table of the map is
-kept across calls per geometry (``TABLE_CACHE_BYTES``), so a first call on
-a new geometry pays about 10 ms more.  A third round measured 52 ms
-(``rpm-cl bench --scene sparse-20mm --repeats 20 --no-das``: 52.1 ms total,
-50.7 ms decomposition; the pair scan's 2 x 2 algebra written out once, 1.7x
-faster in itself, about 1 % of the image, interleaved); coarser pair grids
-(9 x 9, 11 x 7) and a map sampled half as finely in sin(theta) saved 10-15 ms
-but lost 0.8-1.9 points on layouts 20-199 and were not kept.  A fourth
-round found the map's peaks without the full maximum filter (:func:`_peaks`,
-the same peaks): the same centres on layouts 0-199, 48 ms against 51.5 ms
-per image interleaved in one run (1.06-1.08x over three runs; four
-interleaved ``rpm-cl bench`` runs, medians of 20: 47.0-51.2 ms against
-49.2-52.0 ms).
+warm-up; 107 ms without the noise floor's search limits and the kept
+focusing table, 2.0x, measured interleaved in the same run; the paper:
+2 s; worst case above), short of the 20 ms target; the plane-wave path is
+untouched.  The focusing table of the map is kept across calls per geometry
+(``TABLE_CACHE_BYTES``), so a first call on a new geometry pays about 10 ms
+more.  ``rpm-cl bench --scene sparse-20mm --repeats 20 --no-das``: 47-52 ms
+total, 50.7 ms of it decomposition.  What the parts save: the pair scan's
+2 x 2 algebra written out once is 1.7x faster in itself, about 1 % of the
+image; the map's peaks found without the full maximum filter
+(:func:`_peaks`, the same peaks on layouts 0-199) 48 ms against 51.5 ms
+per image interleaved in one run (1.06-1.08x over three runs).  Coarser
+pair grids (9 x 9, 11 x 7) and a map sampled half as finely in sin(theta)
+save 10-15 ms but lose 0.8-1.9 points on layouts 20-199.
 Tried there and not kept: the grid re-placements replaced by a joint
 Levenberg-Marquardt refinement of every centre (variable projection) lost
 0.5-1.1 points on layouts 20-199 noise-free and was slower on the paper's
@@ -125,12 +120,11 @@ of a trial at the noise floor, or its further candidates, lost up to 0.7
 points of RP <= 10 mm (the latter alone held but gained nothing); one or two
 candidates per re-seat instead of three lost 3-5 points and 0.6 points of
 RP <= 10 mm.
-A fifth round did the same work faster, with the same numbers: the pair
-scans' per-pair 2 x 2 algebra (:func:`_pair_algebra`) runs as an OpenCL
+The pair scans' per-pair 2 x 2 algebra (:func:`_pair_algebra`) runs as an OpenCL
 float64 kernel (``pair_energy``, kernels/nearfield.cl,
 :mod:`rpm_cl.extract.nearfield_cl`) where the caller passes an OpenCL environment
-with float64 (``rpm_cl.imaging`` passes the RPM engine's; without one, NumPy
-as before), its arrays handed over in place (the copies of the two 0.9 MB
+with float64 (``rpm_cl.imaging`` passes the RPM engine's; without one, the
+NumPy reference), its arrays handed over in place (the copies of the two 0.9 MB
 product matrices cost as much as the kernel); the BLAS products over the
 antennas and gates stay on the host.  Inside the search a pair scan's
 algebra takes 0.64 ms against 1.2-1.4 ms.  A search also keeps its grids'
@@ -139,7 +133,7 @@ unprojected atoms (23 of the paper's 102 grids are scanned again), and
 every image of layouts 20-199 and pooled on layouts 0-19 and the paper's
 case (noise-free and 20 dB), and bit for bit the same centres on layouts
 20-59 and the paper's case, with the device and without; per image 1.12-1.19x faster
-than the fourth round's code interleaved in one run (two runs of 20,
+than the NumPy pair algebra with atoms recomputed, interleaved in one run (two runs of 20,
 medians; ``rpm-cl bench --scene sparse-20mm --repeats 20 --no-das``
 alternated three times: 60.9-65.5 ms against 74.7-78.9 ms on the machine
 shared with two other jobs, 1.17-1.23x).  Tried there and not kept: the

@@ -622,7 +622,7 @@ def load_data(
     Parameters
     ----------
     path : str or path-like
-        ``.npz``, ``.h5`` or ``.hdf5`` following the input schema (README,
+        ``.npz``, ``.h5`` or ``.hdf5`` following the input schema (docs/input-format.md,
         "Input schema"): time domain (``signal``, ``range``) or frequency
         domain (``spectrum``, ``frequency``).
     frame : int, optional

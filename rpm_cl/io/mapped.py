@@ -3,7 +3,7 @@
 Reads named arrays from MATLAB ``.mat`` files (v4 to v7.2 through
 ``scipy.io.loadmat``, v7.3 through h5py), ``.npz`` archives, ``.npy`` files
 (the key of each is its file name without ``.npy``) and HDF5 files, and
-renames them to the input schema's names (README, "Input schema")::
+renames them to the input schema's names (docs/input-format.md, "Input schema")::
 
     KeyMap.parse("spectrum=F,frequency=f,x=da")
 

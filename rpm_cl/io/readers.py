@@ -2,7 +2,7 @@
 ``rpm-cl convert``.
 
 Each reader turns its files into the frequency-domain input schema
-(``spectrum``, ``frequency``, ``x``; README, "Input schema"), or for the
+(``spectrum``, ``frequency``, ``x``; docs/input-format.md, "Input schema"), or for the
 ``arrays`` reader into whichever form the mapping names:
 
 =========  ==========================  ===================================

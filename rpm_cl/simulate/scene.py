@@ -378,8 +378,8 @@ def _human_body() -> Preset:
         # (measured: 5 clusters instead of 11).  So the window is left to the
         # planar default (rpm_cl.imaging.WINDOW_PLANAR_DEFAULT, 60 rad/m,
         # 0.8-1.2 resolution cells), the measured best with the exhaustive
-        # refinement of the 3-D RPM (100 rad/m before it; benchmarks/RESULTS.md,
-        # session 10).  sigma_D is left to the default too, 2.5 antenna
+        # refinement of the 3-D RPM (benchmarks/pareto.py; docs/decisions.md).
+        # sigma_D is left to the default too, 2.5 antenna
         # spacings (the paper: 2-3).
         {"sigma_r": 0.05},
         boundary_spacing=3e-3,

@@ -1,2 +1,2 @@
-"""Pictures: ``rpm-cl view`` (:mod:`.view`) and the README's figures
+"""Pictures: ``rpm-cl view`` (:mod:`.view`) and the paper-style figures
 (:mod:`.figures`)."""
