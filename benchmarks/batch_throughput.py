@@ -49,7 +49,9 @@ import json, sys, time
 t0 = time.perf_counter()
 from rpm_cl.cl import create_env
 from rpm_cl.io.data import load_npz
-from rpm_cl.imaging import default_params, run_method, save_result
+from rpm_cl.imaging import run_method
+from rpm_cl.io.formats import save_result
+from rpm_cl.rpm.params import default_params
 from rpm_cl.rpm import DeviceRPM
 t1 = time.perf_counter()
 env = create_env(); engine = DeviceRPM(env, "float32")

@@ -41,9 +41,10 @@ import numpy as np
 from rpm_cl.cl import create_env
 from rpm_cl.extract.kspace import decompose
 from rpm_cl.extract.rangepoints import rps_from_decomposition
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.params import default_params
 from rpm_cl.rpm.reference import _triplet
 from rpm_cl.simulate import simulate_preset
 

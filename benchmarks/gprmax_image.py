@@ -6,7 +6,7 @@ is a 2-D TM FDTD B-scan of four PEC cylinders and a PEC plate, 41 antennas at
 subtracted, Ricker and line-source factor deconvolved), range-compressed with
 the default Hann window, and imaged by every method of
 ``rpm_cl.imaging.METHODS`` with its default parameters
-(``rpm_cl.imaging.default_params``) and by DAS (the local maxima of |I| over
+(``rpm_cl.rpm.params.default_params``) and by DAS (the local maxima of |I| over
 5 x 5 pixels within 10 dB of the maximum, ``rpm_cl.cli.reproduce.das_points``, on
 a 4 mm grid over the scene).
 
@@ -113,8 +113,9 @@ def main():
     from rpm_cl.baselines.das import DeviceDAS, parse_grid
     from rpm_cl.cl import create_env
     from rpm_cl.cli.reproduce import das_points
-    from rpm_cl.imaging import METHODS, default_params, run_method
+    from rpm_cl.imaging import METHODS, run_method
     from rpm_cl.rpm import DeviceRPM
+    from rpm_cl.rpm.params import default_params
 
     env = create_env(args.device)
     engine, das = DeviceRPM(env), DeviceDAS(env)

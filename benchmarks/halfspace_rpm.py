@@ -42,8 +42,9 @@ from pathlib import Path
 import numpy as np
 
 from rpm_cl.extract.rangepoints import RangePoints
-from rpm_cl.imaging import RPMParams, rpm_image
 from rpm_cl.io.medium import Medium, one_way
+from rpm_cl.rpm.params import RPMParams
+from rpm_cl.rpm.pipeline import rpm_image
 
 DATA = Path(__file__).resolve().parent.parent / "tests" / "data" / "gprmax_halfspace"
 EPS, H = 6.0, 0.08
@@ -134,9 +135,10 @@ def part_fixture(engine, das_grid="0.2:0.75:0.002,0.08:0.42:0.002"):
     import rpm_cl.io.medium as M
     from rpm_cl.baselines.das import das_numpy, parse_grid
     from rpm_cl.baselines.rma import image_peaks
-    from rpm_cl.imaging import METHODS, default_params, run_method
+    from rpm_cl.imaging import METHODS, run_method
     from rpm_cl.io import gprmax as G
     from rpm_cl.io.formats import load_data
+    from rpm_cl.rpm.params import default_params
 
     scene = json.loads((DATA / "scene.json").read_text())
     ys = scene["scan"]["y"]

@@ -22,8 +22,8 @@ from pareto import body_on_array  # benchmarks/pareto.py, beside this script
 
 from rpm_cl.extract.kspace import decompose
 from rpm_cl.extract.rangepoints import rps_from_decomposition
-from rpm_cl.imaging import _prepare
 from rpm_cl.rpm import neighbours
+from rpm_cl.rpm.pipeline import _prepare
 
 
 def list_args(n):

@@ -30,10 +30,11 @@ import numpy as np
 from exhaustive_3d import TIE_REL, exhaustive_image, exhaustive_ties, same_or_tied
 
 from rpm_cl.cl import create_env
-from rpm_cl.imaging import default_params, timed_run
+from rpm_cl.imaging import timed_run
 from rpm_cl.io.data import Array
 from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate, simulate_preset
 from rpm_cl.simulate.scene import HUMAN_BODY_ARRAY_Z, get_preset
 

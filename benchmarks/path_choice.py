@@ -21,10 +21,11 @@ import numpy as np
 
 from rpm_cl.cl import create_env
 from rpm_cl.extract.nearfield import near_field_wanted
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, Waveform
 from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate
 from rpm_cl.simulate.scene import Ellipsoid, PointTarget, Scene
 

@@ -14,8 +14,9 @@ import argparse
 import numpy as np
 
 from rpm_cl.cl import create_env
-from rpm_cl.imaging import default_params, reach_angles, run_method
+from rpm_cl.imaging import reach_angles, run_method
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate_preset
 
 BANDS = ((0, 45), (45, 60), (60, 70), (70, 75), (75, 90.1))

@@ -23,11 +23,13 @@ import time
 import numpy as np
 
 from rpm_cl.cl import create_env
-from rpm_cl.imaging import _prepare, default_params, pair_windows, rpm_image, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, RadarData, Waveform
 from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
 from rpm_cl.rpm.neighbours import neighbour_lists
+from rpm_cl.rpm.params import default_params
+from rpm_cl.rpm.pipeline import _prepare, pair_windows, rpm_image
 from rpm_cl.simulate import simulate, simulate_preset
 from rpm_cl.simulate.scene import Ellipsoid, PointTarget, Scene, get_preset
 

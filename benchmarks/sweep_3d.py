@@ -16,9 +16,10 @@ on ``pareto.py``'s grid.
 import argparse
 
 from rpm_cl.cl import create_env
-from rpm_cl.imaging import default_params, timed_run
+from rpm_cl.imaging import timed_run
 from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate_preset
 
 

@@ -12,8 +12,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from rpm_cl.cl import create_env
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate
 from rpm_cl.simulate.scene import HUMAN_BODY_PARTS, Scene, boundary_samples, get_preset
 
@@ -66,7 +67,7 @@ def main(quick=False, snr_db=20.0, seed=0, png=None):
         import os
         import tempfile
 
-        from rpm_cl.imaging import save_result
+        from rpm_cl.io.formats import save_result
         from rpm_cl.viz.view import view
 
         with tempfile.TemporaryDirectory() as tmp:

@@ -17,8 +17,10 @@ import numpy as np
 
 from rpm_cl import load_data
 from rpm_cl.cl import create_env
-from rpm_cl.imaging import default_params, run_method, save_result
+from rpm_cl.imaging import run_method
+from rpm_cl.io.formats import save_result
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.params import default_params
 
 C0 = 299_792_458.0
 TARGETS = [(-0.15, 0.40), (0.10, 0.45)]  # (x, y), m

@@ -6,9 +6,10 @@ Run: python examples/paper_2d.py
 import numpy as np
 
 from rpm_cl.cl import create_env
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate_preset
 
 

@@ -13,9 +13,10 @@ import numpy as np
 from rpm_cl.baselines.das import DeviceDAS, Grid
 from rpm_cl.baselines.rma import image_peaks, rma_image
 from rpm_cl.cl import create_env
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.metrics import summary
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate_preset
 
 

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
-from rpm_cl.imaging import DEFAULT_METHOD, default_params, run_method
+from rpm_cl.imaging import DEFAULT_METHOD, run_method
 from rpm_cl.io.data import InputError, load_npz, save_npz
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate_preset
 
 SEEDS = (11, 12, 13)

@@ -37,10 +37,10 @@ class _Hooks(distributed.WorkerPlugin):
         import numpy as np
 
         import rpm_cl.cli.batch
-        import rpm_cl.imaging
+        import rpm_cl.io.formats
         from rpm_cl.io.data import _atomic_file
 
-        save = rpm_cl.imaging.save_result
+        save = rpm_cl.io.formats.save_result
         reached = self.reached
 
         def hooked(path, result, meta):
@@ -64,7 +64,7 @@ class _Hooks(distributed.WorkerPlugin):
                 del held
             return load_frame(path, frame)
 
-        rpm_cl.imaging.save_result = hooked
+        rpm_cl.io.formats.save_result = hooked
         load_frame = rpm_cl.cli.batch._load_frame
         rpm_cl.cli.batch._load_frame = load
 

@@ -85,8 +85,9 @@ def test_exhaustive_ties_tells_a_tie_from_another_point(rng):
     from test_spheres import planar_cluster
 
     from rpm_cl.extract.rangepoints import RangePoints
-    from rpm_cl.imaging import RPMParams, rpm_image
     from rpm_cl.rpm import reference as ref
+    from rpm_cl.rpm.params import RPMParams
+    from rpm_cl.rpm.pipeline import rpm_image
 
     sizes = [15, 12]
     x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=1e-3, dup=False)

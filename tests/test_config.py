@@ -10,9 +10,9 @@ import pytest
 from rpm_cl.cli import build_parser, main
 from rpm_cl.cli.config import EngineParams, dump_toml, load_config, resolve, settings
 from rpm_cl.extract.kspace import KSpaceParams
-from rpm_cl.imaging import WINDOW_PLANAR_DEFAULT, ImagingParams, RPMParams, default_params
 from rpm_cl.io.data import InputError, load_npz
 from rpm_cl.io.medium import Medium
+from rpm_cl.rpm.params import WINDOW_PLANAR_DEFAULT, ImagingParams, RPMParams, default_params
 
 try:
     import tomllib
@@ -347,8 +347,8 @@ def test_derived_sigma_r_ignores_an_echo_at_zero_range(coupling):
     strongest gate lies within 1.25 mm (half a gate) of the echo's range, and
     the echo ranges across the array differ by 1.5 mm; 10 mm x 2.75 mm / 0.1 m
     = 0.28 mm."""
-    from rpm_cl.imaging import default_params
     from rpm_cl.io.data import Array, Waveform
+    from rpm_cl.rpm.params import default_params
     from rpm_cl.simulate import simulate, synthesize
     from rpm_cl.simulate.scene import PointTarget, Scene
 
@@ -371,9 +371,9 @@ def test_derived_sigma_r_of_a_narrow_band_scene_inside_half_a_resolution():
     target, 10 mm x R / L = 14 mm for the 0.32 m aperture, raised to the gate
     spacing (c / (2 df N) = 37 mm, the floor default_params
     documents), not from whatever lies beyond 0.6 m (it was the 1 m clip)."""
-    from rpm_cl.imaging import default_params
     from rpm_cl.io.data import C0, Array, RadarData, Waveform
     from rpm_cl.io.formats import range_compress
+    from rpm_cl.rpm.params import default_params
 
     x = 0.29 + np.arange(41) * 8e-3
     f = np.linspace(3.875e9, 4.125e9, 64)
@@ -393,8 +393,8 @@ def test_derived_sigma_x_of_a_long_scan_is_the_echo_reach():
     not the scan length (3.98 m) that weighed antennas metres apart as
     neighbours.  The paper's 0.1 m aperture (targets at ~0.4 m) keeps
     sigma_x = the aperture, its own choice."""
-    from rpm_cl.imaging import SIGMA_X_PER_RANGE, default_params
     from rpm_cl.io.data import Array, Waveform
+    from rpm_cl.rpm.params import SIGMA_X_PER_RANGE, default_params
     from rpm_cl.simulate import simulate, simulate_preset
     from rpm_cl.simulate.scene import PointTarget, Scene
 

@@ -11,7 +11,7 @@ import pytest
 
 from rpm_cl.cli import main
 from rpm_cl.extract.rangepoints import RangePoints, profile_peaks
-from rpm_cl.imaging import DEFAULT_METHOD, default_params, run_method
+from rpm_cl.imaging import DEFAULT_METHOD, run_method
 from rpm_cl.io import formats
 from rpm_cl.io.data import C0, InputError, load_npz
 from rpm_cl.io.formats import (
@@ -25,6 +25,7 @@ from rpm_cl.io.formats import (
     write_volume,
 )
 from rpm_cl.rpm import reference
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import echoes, simulate_preset
 from rpm_cl.simulate.scene import get_preset
 
@@ -347,7 +348,8 @@ def result(paper):
 
 
 def _result_3d(rng):
-    from rpm_cl.imaging import Image, ImageResult
+    from rpm_cl.result import ImageResult
+    from rpm_cl.rpm.pipeline import Image
 
     m, k = 40, 60
     rps = RangePoints(
@@ -363,7 +365,7 @@ def _result_3d(rng):
 
 
 def test_result_npz_h5_same_content(result, tmp_path):
-    from rpm_cl.imaging import save_result as imaging_save_result
+    from rpm_cl.io.formats import save_result as imaging_save_result
 
     meta = {"version": "x", "device": "dev", "params": {"a": 1}}
     imaging_save_result(tmp_path / "ref.npz", result, meta)

@@ -588,7 +588,8 @@ def _score(points, objects):
 
 
 def _image(band, dev32, tmp_path, method="phase-rpm"):
-    from rpm_cl.imaging import default_params, run_method
+    from rpm_cl.imaging import run_method
+    from rpm_cl.rpm.params import default_params
 
     path = tmp_path / "scan.npz"
     G.save_spectrum(path, G.convert(TARGETS, BACKGROUND, band, sidecar=SCENE))
@@ -644,7 +645,8 @@ def test_full_wave_double_bounce_is_flagged(dev32, tmp_path):
     (rpm_cl.simulate makes none).  With --multipath flag its cluster is
     flagged: every flagged point lies more than 50 mm from every object and
     every point kept lies within 50 mm of one."""
-    from rpm_cl.imaging import default_params, run_method
+    from rpm_cl.imaging import run_method
+    from rpm_cl.rpm.params import default_params
 
     path = tmp_path / "scan.npz"
     G.save_spectrum(path, G.convert(TARGETS, BACKGROUND, (1.5e9, 5e9), sidecar=SCENE))

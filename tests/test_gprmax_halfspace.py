@@ -159,7 +159,8 @@ def test_default_rpm_puts_the_rods_at_their_true_positions(data, medium, rods, d
     there (the rest: a cluster that mixes two rods' echoes, and a
     rod-surface double bounce), the median distance is under 5 mm.  Without
     the medium, or with the antennas in it, under 5 % do and no rod gets 10."""
-    from rpm_cl.imaging import DEFAULT_METHOD, default_params, run_method
+    from rpm_cl.imaging import DEFAULT_METHOD, run_method
+    from rpm_cl.rpm.params import default_params
 
     params = default_params(data, eps_r=medium.eps_r, antenna_height=medium.antenna_height)
     d = _to_boundary(run_method(DEFAULT_METHOD, data, params, dev32).image.points, rods)

@@ -164,8 +164,8 @@ def test_near_target_at_plain_gates_is_kept_beside_a_dechirped_one():
     with one relative threshold over all gates the near point fell under
     -20 dB of it and was lost (1 cluster)."""
     from rpm_cl.extract import kspace
-    from rpm_cl.imaging import default_params
     from rpm_cl.io.data import Array, Waveform
+    from rpm_cl.rpm.params import default_params
     from rpm_cl.simulate import simulate
     from rpm_cl.simulate.scene import PointTarget, Scene
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from rpm_cl.extract import kspace
-from rpm_cl.imaging import default_params
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate
 from rpm_cl.simulate.scene import get_preset
 

@@ -16,9 +16,9 @@ import pytest
 
 from rpm_cl.extract import kspace
 from rpm_cl.extract.rangepoints import rps_from_decomposition
-from rpm_cl.imaging import default_params
 from rpm_cl.io.data import Array, Waveform
 from rpm_cl.metrics import err_range
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate
 from rpm_cl.simulate.scene import Ellipsoid, PointTarget, Scene
 

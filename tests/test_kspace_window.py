@@ -19,9 +19,10 @@ import numpy as np
 import pytest
 
 from rpm_cl.extract.kspace import _window, decompose
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, Waveform
 from rpm_cl.rpm import reference
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate
 from rpm_cl.simulate.scene import PointTarget, Scene
 

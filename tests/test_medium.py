@@ -15,7 +15,7 @@ from rpm_cl.baselines.das import Grid, das_adjoint, das_numpy
 from rpm_cl.baselines.rma import image_peaks, rma_image
 from rpm_cl.cli import main
 from rpm_cl.extract.rangepoints import RangePoints
-from rpm_cl.imaging import RPMParams, default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import C0, Array, DataWarning, InputError, RadarData, Waveform
 from rpm_cl.io.formats import range_compress, range_sidelobe_db, window_bandwidth
 from rpm_cl.io.medium import (
@@ -31,6 +31,7 @@ from rpm_cl.io.medium import (
 from rpm_cl.rpm import reference as ref
 from rpm_cl.rpm.halfspace import halfspace_rpm
 from rpm_cl.rpm.multipath import double_bounce, ghost_points
+from rpm_cl.rpm.params import RPMParams, default_params
 
 EPS = 6.0
 N = np.sqrt(EPS)

@@ -9,6 +9,7 @@ from rpm_cl import imaging
 from rpm_cl.io.data import C0, Array, RadarData, Waveform
 from rpm_cl.io.formats import range_compress
 from rpm_cl.rpm.multipath import double_bounce, ghost_points
+from rpm_cl.rpm.params import default_params
 
 
 def test_double_bounce_is_the_shortest_path():
@@ -78,7 +79,7 @@ def _two_targets_and_ghost(seed, snr_db, ghost=0.3):
 def test_double_bounce_is_dropped_by_default_and_flagged_on_request(dev32, seed, snr):
     data, a, b, ghost_at = _two_targets_and_ghost(seed, snr)
     flagged = imaging.run_method(
-        "phase-rpm", data, imaging.default_params(data, multipath="flag"), dev32
+        "phase-rpm", data, default_params(data, multipath="flag"), dev32
     ).image
     near_t = (
         np.minimum(
@@ -97,7 +98,7 @@ def test_double_bounce_is_dropped_by_default_and_flagged_on_request(dev32, seed,
         mine = flagged.cluster == c
         if np.mean(near_t[mine]) > 0.5:
             assert not np.any(flagged.multipath[mine])
-    dropped = imaging.run_method("phase-rpm", data, imaging.default_params(data), dev32).image
+    dropped = imaging.run_method("phase-rpm", data, default_params(data), dev32).image
     assert dropped.multipath is None
     assert len(dropped.points) == np.count_nonzero(~flagged.multipath)
     d = np.minimum(
@@ -115,7 +116,7 @@ def test_real_targets_are_not_flagged(dev32):
     for seed in range(4):
         data, _ = _independent_scene(seed, 30.0)
         img = imaging.run_method(
-            "phase-rpm", data, imaging.default_params(data, multipath="flag"), dev32
+            "phase-rpm", data, default_params(data, multipath="flag"), dev32
         ).image
         assert not img.multipath.any()
 

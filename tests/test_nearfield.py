@@ -6,10 +6,11 @@ import pytest
 from rpm_cl.extract import nearfield
 from rpm_cl.extract.kspace import KSpaceParams, decompose
 from rpm_cl.extract.rangepoints import rps_from_decomposition
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, InputError, RadarData, Waveform
 from rpm_cl.metrics import err_range, summary
 from rpm_cl.rpm import reference
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate, simulate_preset
 from rpm_cl.simulate.scene import PointTarget, Scene, get_preset
 

@@ -96,7 +96,7 @@ def test_search_finds_the_paper_targets_with_and_without_device(cl_env):
     """The paper's sparse case: with the device and without, three centres,
     each within 10 mm of a true target's range and 0.02 of its sin(theta);
     both put them at the same places (within 1e-6 of a resolution cell)."""
-    from rpm_cl.imaging import default_params
+    from rpm_cl.rpm.params import default_params
     from rpm_cl.simulate import simulate
     from rpm_cl.simulate.scene import get_preset
 

@@ -16,6 +16,7 @@ from rpm_cl.extract.phase import PhaseParams, phase_ranges, tracks
 from rpm_cl.extract.rangepoints import RangePoints
 from rpm_cl.io.data import C0, Array, RadarData, Waveform
 from rpm_cl.io.formats import range_compress
+from rpm_cl.rpm.params import default_params
 
 FC = 20e9
 KC = 2 * np.pi * FC / C0
@@ -222,7 +223,7 @@ def test_phase_rpm_on_independent_narrow_band_data(dev32, seed):
     within 50 mm and every target hit; the paper's range-only RPM placed
     14-50 % of them there on these scenes."""
     data, tg = _independent_scene(seed, 30.0)
-    params = imaging.default_params(data)
+    params = default_params(data)
     res = imaging.run_method("phase-rpm", data, params, dev32)
     d = np.linalg.norm(res.image.points[:, None, :] - tg[None], axis=2)
     assert np.mean(d.min(axis=1) < 0.05) >= 0.9
@@ -241,9 +242,7 @@ def test_phase_rpm_on_the_paper_scene(dev32):
 
     for seed in range(3):
         data, preset = simulate_preset("paper-2d", 20.0, seed=seed, noise="receiver")
-        res = imaging.run_method(
-            "phase-rpm", data, imaging.default_params(data, **preset.defaults), dev32
-        )
+        res = imaging.run_method("phase-rpm", data, default_params(data, **preset.defaults), dev32)
         s = summary(res.rps, res.image, data.truth)
         assert s["rp_within_10mm"] == s["rp_total"] == 63
         assert s["rpm_within_50mm"] == s["rpm_total"]
@@ -263,7 +262,7 @@ def test_coherent_level_removes_the_envelope_bias_of_a_shared_range_cell():
     errs = {True: [], False: []}
     for seed in range(4):
         data, tg = _independent_scene(seed, None)
-        params = imaging.default_params(data)
+        params = default_params(data)
         dec = decompose(data, params.kspace)
         rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
         ks = np.array([c.k for c in dec.clusters])

@@ -5,10 +5,12 @@ import pytest
 
 from rpm_cl.extract.kspace import KSpaceParams, decompose
 from rpm_cl.extract.rangepoints import profile_peaks, rps_from_decomposition
-from rpm_cl.imaging import ImagingParams, default_params, rpm_image, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, Waveform
 from rpm_cl.metrics import cumulative, echoes_found, err_range, err_rpm, summary
 from rpm_cl.rpm import reference
+from rpm_cl.rpm.params import ImagingParams, default_params
+from rpm_cl.rpm.pipeline import rpm_image
 from rpm_cl.simulate import simulate, simulate_preset
 from rpm_cl.simulate.scene import PointTarget, Scene
 

@@ -5,9 +5,10 @@ import pytest
 
 from rpm_cl.extract.kspace import decompose
 from rpm_cl.extract.rangepoints import rps_from_decomposition
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, Waveform
 from rpm_cl.metrics import err_range, err_rpm, summary
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import echoes, simulate, simulate_preset
 from rpm_cl.simulate.scene import HUMAN_BODY_PARTS, Ellipsoid, PointTarget, Scene, specular_point
 

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 from rpm_cl.extract.preprocess import preprocess
-from rpm_cl.imaging import ImagingParams, default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, InputError, RadarData, Waveform
 from rpm_cl.rpm import reference
+from rpm_cl.rpm.params import ImagingParams, default_params
 from rpm_cl.simulate import simulate, synthesize
 from rpm_cl.simulate.scene import PointTarget, Scene
 

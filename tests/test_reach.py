@@ -4,8 +4,10 @@ import numpy as np
 import pytest
 
 from rpm_cl.extract.rangepoints import RangePoints
-from rpm_cl.imaging import Image, ImagingParams, in_reach, reach_angles
+from rpm_cl.imaging import in_reach, reach_angles
 from rpm_cl.io.data import Array, InputError
+from rpm_cl.rpm.params import ImagingParams
+from rpm_cl.rpm.pipeline import Image
 
 
 def _rps(antenna, x):

@@ -67,9 +67,10 @@ def test_complex64_extreme_amplitudes_match_complex128(p2):
     """complex64 x 1e19 squared left float32's range (warnings, sigma_r 45 -> 2.5
     mm, points 52 mm off); such data are now held as complex128, so the
     result is that of the same data in complex128."""
-    from rpm_cl.imaging import default_params, run_method
+    from rpm_cl.imaging import run_method
     from rpm_cl.io.formats import load_data
     from rpm_cl.rpm import reference
+    from rpm_cl.rpm.params import default_params
 
     d = load_data(p2)
     for scale in (1e19, 1e-19):

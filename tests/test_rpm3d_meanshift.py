@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 from test_spheres import lists, planar_cluster
 
-from rpm_cl.imaging import RPMParams
 from rpm_cl.io.data import InputError
 from rpm_cl.rpm import reference as ref
+from rpm_cl.rpm.params import RPMParams
 
 SD, SR = 0.03, 0.02  # sigma_D, sigma_r, m
 
@@ -167,7 +167,7 @@ def test_meanshift_only_in_clusters_up_to_max_rps(dev64, rng):
     from dataclasses import replace
 
     from rpm_cl.extract.rangepoints import RangePoints
-    from rpm_cl.imaging import rpm_image
+    from rpm_cl.rpm.pipeline import rpm_image
 
     sizes = [15, 40, 20]
     x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=3e-3, dup=False)
@@ -248,7 +248,7 @@ def test_default_point_is_the_exhaustive_argmax(dev64, rng):
     from dataclasses import replace
 
     from rpm_cl.extract.rangepoints import RangePoints
-    from rpm_cl.imaging import rpm_image
+    from rpm_cl.rpm.pipeline import rpm_image
 
     sizes = [60, 45, 80]
     x, z, r, amp, ant, _, _ = planar_cluster(rng, sizes, noise=1e-3, dup=False)
@@ -303,7 +303,7 @@ def test_short_list_only_where_one_rp_per_antenna(dev64, rng):
     from dataclasses import replace
 
     from rpm_cl.extract.rangepoints import RangePoints
-    from rpm_cl.imaging import _one_per_antenna, rpm_image
+    from rpm_cl.rpm.pipeline import _one_per_antenna, rpm_image
 
     sizes = [30, 40]
     x, z, r, amp, ant, st_, _ = planar_cluster(rng, sizes, noise=3e-3, dup=False)

@@ -18,8 +18,10 @@ import pytest
 
 from rpm_cl.extract import kspace
 from rpm_cl.extract.kspace import decompose
-from rpm_cl.imaging import default_params, pair_windows, rpm_image, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, RadarData, Waveform
+from rpm_cl.rpm.params import default_params
+from rpm_cl.rpm.pipeline import pair_windows, rpm_image
 from rpm_cl.simulate import simulate, simulate_preset
 from rpm_cl.simulate.scene import Ellipsoid, PointTarget, Scene, get_preset
 
@@ -186,8 +188,8 @@ def test_pair_cutoff_2d_long_array(dev32):
     number of points, the same accuracy, every point within 1 mm of the
     exhaustive one (measured: 68 % identical, the rest neighbouring
     intersections on the same arc)."""
-    from rpm_cl.imaging import _prepare
     from rpm_cl.metrics import summary
+    from rpm_cl.rpm.pipeline import _prepare
 
     arr = Array((np.arange(201) - 100) * 5e-3)
     # one point: two in one range cell (0.75 m at 0.2 GHz) are one cluster

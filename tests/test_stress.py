@@ -8,9 +8,10 @@ and the measured figures are in the comments.
 import numpy as np
 import pytest
 
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, RadarData, Waveform
 from rpm_cl.metrics import summary
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate, simulate_preset
 from rpm_cl.simulate.scene import PointTarget, Scene
 

@@ -236,9 +236,10 @@ def test_render_then_opencl_build_in_one_process(tmp_path):
     # ("LLVM ERROR: inconsistency in registered CommandLine options").  A
     # fresh process renders a 3-D result, then builds and runs a kernel.
     pytest.importorskip("pyvista")
-    from rpm_cl.imaging import default_params, run_method
+    from rpm_cl.imaging import run_method
     from rpm_cl.io.formats import save_result
     from rpm_cl.rpm import reference
+    from rpm_cl.rpm.params import default_params
     from rpm_cl.simulate import simulate
     from rpm_cl.simulate.scene import get_preset
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from rpm_cl.cli import main
-from rpm_cl.imaging import default_params, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.io.data import C0, Array, DataWarning, InputError
 from rpm_cl.io.formats import (
     RANGE_WINDOWS,
@@ -24,6 +24,7 @@ from rpm_cl.io.formats import (
     window_bandwidth,
 )
 from rpm_cl.rpm import reference
+from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import echoes, simulate_preset
 from rpm_cl.simulate.scene import PointTarget, Scene
 

@@ -2,7 +2,7 @@
 
 ``rpm-cl batch IN -o OUT`` images every frame of ``IN`` (a folder of ``.npz`` /
 ``.h5`` files, or one HDF5 stack whose ``signal`` has a leading frame axis) and
-writes, per frame, ``OUT/<name>.npz`` (the result of :func:`rpm_cl.imaging.save_result`)
+writes, per frame, ``OUT/<name>.npz`` (the result of :func:`rpm_cl.io.formats.save_result`)
 and, with a DAS grid, ``OUT/<name>_das.npz`` (the format of ``rpm-cl das``);
 then ``OUT/summary.json``.
 
@@ -131,8 +131,9 @@ class BatchConfig:
 
     def __post_init__(self):
         from ..extract.kspace import KSpaceParams
-        from ..imaging import DEFAULT_METHOD, METHODS, ImagingParams, RPMParams
+        from ..imaging import DEFAULT_METHOD, METHODS
         from ..io.medium import Medium
+        from ..rpm.params import ImagingParams, RPMParams
 
         if self.method is None:
             object.__setattr__(self, "method", DEFAULT_METHOD)
@@ -450,7 +451,8 @@ def _image_frame(src: FrameSource, out_dir: str, config: BatchConfig) -> dict:
     from distributed import get_worker
 
     from .. import __version__
-    from ..imaging import run_method, save_result
+    from ..imaging import run_method
+    from ..io.formats import save_result
     from .config import resolve
 
     t_start = time.perf_counter()

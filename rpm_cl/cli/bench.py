@@ -13,8 +13,9 @@ import time
 
 import numpy as np
 
-from ..imaging import METHODS, default_params, timed_run
+from ..imaging import METHODS, timed_run
 from ..metrics import summary
+from ..rpm.params import default_params
 from ..simulate.synth import simulate_preset
 
 __all__ = ["bench_case", "run_bench"]

@@ -505,7 +505,7 @@ def cmd_demo(args) -> int:
         import os
         import tempfile
 
-        from ..imaging import save_result
+        from ..io.formats import save_result
         from ..viz.view import view
 
         with tempfile.TemporaryDirectory() as tmp:

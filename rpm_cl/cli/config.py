@@ -8,9 +8,9 @@ editing this module):
 section          fields of
 ===============  ==========================================================
 ``[kspace]``     :class:`rpm_cl.extract.kspace.KSpaceParams` (decomposition)
-``[rpm]``        :class:`rpm_cl.imaging.RPMParams` (the RPM step)
+``[rpm]``        :class:`rpm_cl.rpm.params.RPMParams` (the RPM step)
 ``[medium]``     :class:`rpm_cl.io.medium.Medium` (the material: eps_r, antenna_height)
-``[imaging]``    the plain fields of :class:`rpm_cl.imaging.ImagingParams`
+``[imaging]``    the plain fields of :class:`rpm_cl.rpm.params.ImagingParams`
 ``[engine]``     :class:`EngineParams` (OpenCL device, precision)
 ===============  ==========================================================
 
@@ -22,7 +22,7 @@ where two sections share a field name).  A field whose default may be None
 flag; the field's docstring says what None means.
 
 Precedence: flags override the file, which overrides the defaults derived from
-the data (:func:`rpm_cl.imaging.default_params`) and, for the preset scenes of
+the data (:func:`rpm_cl.rpm.params.default_params`) and, for the preset scenes of
 ``demo``, the paper's values.  Every error (unknown section or key, wrong
 type, value out of range) is an :class:`rpm_cl.io.data.InputError` of one line
 naming the key and the file or flag it came from.
@@ -225,7 +225,7 @@ def _kind(hint):
 
 
 def _section_classes() -> dict:
-    from ..imaging import ImagingParams
+    from ..rpm.params import ImagingParams
 
     hints = typing.get_type_hints(ImagingParams)
     out = {
@@ -375,7 +375,7 @@ def dump_toml(
 
     Parameters
     ----------
-    params : rpm_cl.imaging.ImagingParams
+    params : rpm_cl.rpm.params.ImagingParams
     engine : EngineParams, optional
         Adds an ``[engine]`` section.
     header : str
@@ -483,7 +483,7 @@ def resolve(data, values: dict, base: dict | None = None, sources: dict | None =
 
     Returns
     -------
-    rpm_cl.imaging.ImagingParams
+    rpm_cl.rpm.params.ImagingParams
         Every explicit value as given, the rest derived.
 
     Raises
@@ -491,7 +491,7 @@ def resolve(data, values: dict, base: dict | None = None, sources: dict | None =
     InputError
         A value out of range: one line naming the key and where it came from.
     """
-    from ..imaging import default_params
+    from ..rpm.params import default_params
 
     sources = sources or {}
     explicit = {k: v for k, v in values.items() if k[0] != "engine"}

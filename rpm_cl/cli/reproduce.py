@@ -16,9 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..imaging import METHODS, default_params, timed_run
+from ..imaging import METHODS, timed_run
 from ..io.data import InputError
 from ..metrics import summary
+from ..rpm.params import default_params
 from ..simulate.synth import simulate_preset
 
 __all__ = ["CASES", "PAPER", "ReproRow", "format_table", "pct", "reproduce", "write_json"]

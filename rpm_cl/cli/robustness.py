@@ -327,6 +327,7 @@ def run(engine, das=None, geometries=None, snrs=SNRS, seeds=(0,), methods=None, 
         imaging time), ``crb_range``, ``crb_position`` (m).
     """
     from .. import imaging
+    from ..rpm.params import default_params
 
     geometries = geometries or (*GEOMETRIES_2D, GEOMETRY_3D)
     methods = list(methods or ("kspace-rpm", "phase-rpm", "mf-rpm", "capon-rpm"))
@@ -340,7 +341,7 @@ def run(engine, das=None, geometries=None, snrs=SNRS, seeds=(0,), methods=None, 
                 spec, f, sigma2 = synthesize(g, snr, seed)
                 crbs = crbs or crb(g, sigma2)
                 data = radar_data(g, spec, f)
-                params = imaging.default_params(data)
+                params = default_params(data)
                 names = [m for m in methods if not (g.dim == 3 and m in ("mf-rpm", "capon-rpm"))]
                 for m in names:
                     t0 = time.perf_counter()

@@ -1092,7 +1092,7 @@ def save_result(path, result, meta: dict | None = None) -> None:
     """Write an image result; the format follows the extension.
 
     - ``.npz``: :func:`result_arrays` (the same file as
-      :func:`rpm_cl.imaging.save_result`);
+      :func:`rpm_cl.io.formats.save_result`);
     - ``.h5`` / ``.hdf5``: the same names as root datasets, ``meta`` a UTF-8
       string dataset;
     - ``.ply``: a binary point cloud, vertex properties ``x y z`` (m; z = 0
@@ -1105,7 +1105,7 @@ def save_result(path, result, meta: dict | None = None) -> None:
     Parameters
     ----------
     path : str or path-like
-    result : rpm_cl.imaging.ImageResult
+    result : rpm_cl.result.ImageResult
     meta : dict, optional
         Run metadata (version, device, parameters ...), stored as JSON.
 

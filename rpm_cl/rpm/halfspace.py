@@ -45,7 +45,6 @@ from dataclasses import replace
 import numpy as np
 
 from ..extract.rangepoints import RangePoints
-from ..imaging import Image, RPMParams, rpm_image
 from ..io.medium import (
     Medium,
     air_ranges,
@@ -55,6 +54,8 @@ from ..io.medium import (
     ray_through,
     virtual_centre,
 )
+from .params import RPMParams
+from .pipeline import Image, rpm_image
 
 __all__ = [
     "ITERATIONS",
@@ -218,7 +219,7 @@ def halfspace_rpm(
         Air-equivalent ranges (c tau / 2), antennas at y = 0.
     params : RPMParams
     engine : object
-        As for :func:`rpm_cl.imaging.rpm_image`.
+        As for :func:`rpm_cl.rpm.pipeline.rpm_image`.
     medium : Medium
         ``medium.half_space`` must hold.
     iterations : int

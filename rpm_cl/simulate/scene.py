@@ -300,7 +300,7 @@ class Preset:
         m.
     defaults : dict
         Imaging parameters the paper uses for this case (see
-        :class:`rpm_cl.imaging.ImagingParams`).
+        :class:`rpm_cl.rpm.params.ImagingParams`).
     boundary_spacing : float
         Spacing of the true-boundary samples kept for Err_RPM, m.
     """
@@ -376,7 +376,7 @@ def _human_body() -> Preset:
         # 49 rad/m (z), so those numbers cannot be periods in rad/m, and read
         # as rad/mm they span the whole k axis (838 rad/m) and merge clusters
         # (measured: 5 clusters instead of 11).  So the window is left to the
-        # planar default (rpm_cl.imaging.WINDOW_PLANAR_DEFAULT, 60 rad/m,
+        # planar default (rpm_cl.rpm.params.WINDOW_PLANAR_DEFAULT, 60 rad/m,
         # 0.8-1.2 resolution cells), the measured best with the exhaustive
         # refinement of the 3-D RPM (benchmarks/pareto.py; docs/decisions.md).
         # sigma_D is left to the default too, 2.5 antenna

@@ -76,7 +76,7 @@ class KSpaceMap:
 
 
 def _params(data: RadarData, params):
-    from ..imaging import default_params
+    from ..rpm.params import default_params
 
     return default_params(data) if params is None else params
 
@@ -87,8 +87,8 @@ def kspace_map(data: RadarData, params=None) -> KSpaceMap:
     Parameters
     ----------
     data : RadarData
-    params : rpm_cl.imaging.ImagingParams, optional
-        Default :func:`rpm_cl.imaging.default_params` of the data.
+    params : rpm_cl.rpm.params.ImagingParams, optional
+        Default :func:`rpm_cl.rpm.params.default_params` of the data.
     """
     from ..extract.kspace import decompose
     from ..extract.nearfield import near_field_wanted
@@ -201,7 +201,7 @@ def rp_sets(data: RadarData, params=None) -> RPSets:
     Parameters
     ----------
     data : RadarData
-    params : rpm_cl.imaging.ImagingParams, optional
+    params : rpm_cl.rpm.params.ImagingParams, optional
     """
     from ..extract.kspace import decompose
     from ..extract.rangepoints import rps_from_decomposition
@@ -329,7 +329,7 @@ def compare_images(data: RadarData, engine, das=None, grid=None, params=None) ->
         Back-projects on the device; None uses :func:`rpm_cl.baselines.das.das_numpy`.
     grid : rpm_cl.baselines.das.Grid, optional
         2 axes; default :func:`auto_grid`.
-    params : rpm_cl.imaging.ImagingParams, optional
+    params : rpm_cl.rpm.params.ImagingParams, optional
     """
     from ..baselines.das import das_numpy
     from ..imaging import run_method
@@ -463,12 +463,12 @@ def figure(
         Frame of a stacked input (as :func:`rpm_cl.load_data`).
     range_window : str
         Range window of a frequency-domain input (as :func:`rpm_cl.load_data`).
-    params : rpm_cl.imaging.ImagingParams or callable, optional
+    params : rpm_cl.rpm.params.ImagingParams or callable, optional
         The imaging parameters of the figure, or a function of the loaded
         :class:`~rpm_cl.io.data.RadarData` returning them (how ``rpm-cl figure``
         applies ``--config`` and the flags over the defaults derived from the
         data, as ``rpm-cl image`` does).  Default
-        :func:`rpm_cl.imaging.default_params` of the data.
+        :func:`rpm_cl.rpm.params.default_params` of the data.
     conjugate : bool
         Conjugate a frequency-domain input first (as :func:`rpm_cl.load_data`).
 

@@ -46,7 +46,7 @@ __all__ = ["DASImage", "load_das_image", "load_result", "view"]
 
 
 def load_result(path) -> dict:
-    """Read an image result written by :func:`rpm_cl.imaging.save_result`.
+    """Read an image result written by :func:`rpm_cl.io.formats.save_result`.
 
     Everything the pictures use is checked here, so that an odd file (edited by
     hand, or written by another tool) gives one :class:`InputError` rather than
