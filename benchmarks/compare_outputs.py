@@ -49,9 +49,9 @@ def _digest(path: Path) -> dict[str, str]:
 
 def fingerprints(methods: list[str] | None = None) -> dict[str, dict[str, str]]:
     from rpm_cl.cli import main
-    from rpm_cl.imaging import METHODS
+    from rpm_cl.imaging import RPM_METHODS
 
-    methods = methods or list(METHODS)
+    methods = methods or list(RPM_METHODS)
     got: dict[str, dict[str, str]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

@@ -5,7 +5,7 @@ is a 2-D TM FDTD B-scan of four PEC cylinders and a PEC plate, 41 antennas at
 8 mm.  For each band it is converted (``rpm_cl.io.gprmax.convert``: background
 subtracted, Ricker and line-source factor deconvolved), range-compressed with
 the default Hann window, and imaged by every method of
-``rpm_cl.imaging.METHODS`` with its default parameters
+``rpm_cl.imaging.RPM_METHODS`` with its default parameters
 (``rpm_cl.rpm.params.default_params``) and by DAS (the local maxima of |I| over
 5 x 5 pixels within 10 dB of the maximum, ``rpm_cl.cli.reproduce.das_points``, on
 a 4 mm grid over the scene).
@@ -113,7 +113,7 @@ def main():
     from rpm_cl.baselines.das import DeviceDAS, parse_grid
     from rpm_cl.cl import create_env
     from rpm_cl.cli.reproduce import das_points
-    from rpm_cl.imaging import METHODS, run_method
+    from rpm_cl.imaging import RPM_METHODS, run_method
     from rpm_cl.rpm import DeviceRPM
     from rpm_cl.rpm.params import default_params
 
@@ -146,14 +146,14 @@ def main():
             data = load_data(path)
             trees = object_trees(side, data.array.x, side.scan_y)
             rows = []
-            for name in METHODS:
+            for name in RPM_METHODS:
                 res = run_method(name, data, default_params(data), engine)
                 rows.append((name, score(res.image.points, trees)))
             pts, _ = das_points(das, data, grid, "image")
             rows.append(("das", score(pts, trees)))
             if args.twin:
                 twin = go_twin(side, data)
-                for name in METHODS:
+                for name in RPM_METHODS:
                     res = run_method(name, twin, default_params(twin), engine)
                     rows.append((f"{name}/go", score(res.image.points, trees)))
             for name, (n, share, med, hit) in rows:

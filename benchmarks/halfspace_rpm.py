@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rpm_cl.baselines.peaks import image_peaks
 from rpm_cl.extract.rangepoints import RangePoints
 from rpm_cl.io.medium import Medium, one_way
 from rpm_cl.rpm.params import RPMParams
@@ -134,8 +135,7 @@ def part_fixture(engine, das_grid="0.2:0.75:0.002,0.08:0.42:0.002"):
 
     import rpm_cl.io.medium as M
     from rpm_cl.baselines.das import das_numpy, parse_grid
-    from rpm_cl.baselines.rma import image_peaks
-    from rpm_cl.imaging import METHODS, run_method
+    from rpm_cl.imaging import RPM_METHODS, run_method
     from rpm_cl.io import gprmax as G
     from rpm_cl.io.formats import load_data
     from rpm_cl.rpm.params import default_params
@@ -189,7 +189,9 @@ def part_fixture(engine, das_grid="0.2:0.75:0.002,0.08:0.42:0.002"):
             img = das_numpy(data, grid, medium=med)
         finally:
             M.one_way = saved
-        peaks, _ = image_peaks(img, grid.x, grid.y, n_peaks=len(rods), min_separation=0.05)
+        peaks, _ = image_peaks(
+            img, (grid.x, grid.y), n_peaks=len(rods), min_separation=0.05, threshold_db=-20
+        )
         off = np.abs(peaks[:, None, :] - tops[None])
         best = np.argmin(np.linalg.norm(off, axis=2), axis=0)
         cells = " ".join(
@@ -200,7 +202,7 @@ def part_fixture(engine, das_grid="0.2:0.75:0.002,0.08:0.42:0.002"):
         "RPM: points, share within 20 mm of a rod's boundary, median distance, "
         "points within 20 mm per rod"
     )
-    for name in METHODS:
+    for name in RPM_METHODS:
         for label, kw in (
             ("half-space", {"eps_r": medium.eps_r, "antenna_height": medium.antenna_height}),
             ("no medium", {}),

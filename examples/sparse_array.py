@@ -11,7 +11,8 @@ import sys
 import numpy as np
 
 from rpm_cl.baselines.das import DeviceDAS, Grid
-from rpm_cl.baselines.rma import image_peaks, rma_image
+from rpm_cl.baselines.peaks import image_peaks
+from rpm_cl.baselines.rma import rma_image
 from rpm_cl.cl import create_env
 from rpm_cl.imaging import run_method
 from rpm_cl.metrics import summary
@@ -44,7 +45,7 @@ def main(quick=False, png=None):
     rma, rx, ry = rma_image(data, y_min=0.2, y_max=0.65)
     out = {"rpm": s, "targets": targets}
     for name, img, x, y in (("DAS", das, grid.x, grid.y), ("RMA", rma, rx, ry)):
-        peaks, _ = image_peaks(img, x, y, n_peaks=50, min_separation=0.02, rel_threshold_db=-6)
+        peaks, _ = image_peaks(img, (x, y), n_peaks=50, min_separation=0.02, threshold_db=-6)
         d = nearest_target(peaks, targets)
         print(
             f"{name}: {len(peaks)} peaks above -6 dB, {np.sum(d > 0.05)} more than 50 mm "

@@ -1,7 +1,11 @@
-"""Imaging methods behind one interface, with a registry by name.
+"""Every imaging method behind one call, registered by name.
 
-A method maps ``RadarData`` to an :class:`ImageResult` (RPs, image points,
-stage timings).  ``--method`` and ``reproduce`` iterate over :data:`METHODS`.
+An :class:`Imager` maps ``RadarData`` to an :class:`rpm_cl.result.ImageResult`
+(image points, the RPs they came from, stage timings); :func:`run_method`
+runs one by name after the steps every method shares (preprocessing, the
+data checks).  ``rpm-cl image --method``, ``batch`` and ``bench`` list
+:data:`METHODS`; ``reproduce`` and the robustness benchmark iterate over the
+RPM family (:data:`RPM_METHODS`) and add their own DAS and RMA rows.
 
 - ``kspace-rpm``: k-space decomposition -> clustered RPs -> RPM per cluster
   (the paper's method, eq. 2-6).
@@ -11,168 +15,89 @@ stage timings).  ``--method`` and ``reproduce`` iterate over :data:`METHODS`.
   (:mod:`rpm_cl.extract.capon`, the paper's comparator) -> RPM.
 - ``phase-rpm``: the k-space decomposition's RPs with their ranges refined by
   each echo's carrier phase across the array (:mod:`rpm_cl.extract.phase`) -> RPM.
+- ``das``, ``rma``: the coherent baselines (:mod:`rpm_cl.baselines.imagers`):
+  an image on a grid taken from the data, its peaks as the points.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
+from .baselines.imagers import das_method, rma_method
 from .extract.hyperbola import check_medium
-from .extract.kspace import decompose
 from .extract.preprocess import preprocess
-from .extract.rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
 from .io.data import InputError, RadarData
-from .io.medium import Medium, seen_data
+from .io.medium import seen_data
 from .result import ImageResult
+from .rpm.methods import capon_rpm, kspace_rpm, mf_rpm, phase_rpm
 from .rpm.params import PREPROCESS_FIELDS, ImagingParams
-from .rpm.pipeline import Image, rpm_image
 
-__all__ = ["DEFAULT_METHOD", "METHODS", "run_method", "timed_run"]
-
-
-def _kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
-    t0 = time.perf_counter()
-    # the near-field search's pair scans run on the engine's device, if any
-    dec = decompose(data, params.kspace, getattr(engine, "env", None))
-    t1 = time.perf_counter()
-    rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
-    t2 = time.perf_counter()
-    image = _rpm(rps, params, engine)
-    t3 = time.perf_counter()
-    return ImageResult(
-        "kspace-rpm",
-        rps,
-        image,
-        {"decompose": t1 - t0, "range_points": t2 - t1, "rpm": t3 - t2, "total": t3 - t0},
-    )
+__all__ = ["DEFAULT_METHOD", "METHODS", "RPM_METHODS", "Imager", "run_method", "timed_run"]
 
 
-def _phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
-    from .extract.phase import phase_ranges
+@dataclass(frozen=True)
+class Imager:
+    """One imaging method, as the registry holds it.
 
-    t0 = time.perf_counter()
-    dec = decompose(data, params.kspace, getattr(engine, "env", None))
-    t1 = time.perf_counter()
-    rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
-    if not dec.near_field and dec.clusters:
-        rps, _ = phase_ranges(data, rps, np.array([c.k for c in dec.clusters]))
-    t2 = time.perf_counter()
-    image = _rpm(rps, params, engine)
-    t3 = time.perf_counter()
-    n_rpm = len(image.points)
-    image = _multipath(data, rps, image, params.multipath, params.medium)
-    n_single = len(image.points)
-    image = in_reach(data.array, rps, image, params.reach_deg)
-    t4 = time.perf_counter()
-    return ImageResult(
-        "phase-rpm",
-        rps,
-        image,
-        {
-            "decompose": t1 - t0,
-            "range_points": t2 - t1,
-            "rpm": t3 - t2,
-            "multipath": t4 - t3,
-            "total": t4 - t0,
-        },
-        {"multipath": n_rpm - n_single, "reach": n_single - len(image.points)},
-    )
+    Attributes
+    ----------
+    name : str
+        What ``--method`` calls it.
+    family : {"rpm", "coherent"}
+        "rpm": range points, then RPM (it runs on the scene its extraction
+        sees in a medium, :func:`rpm_cl.io.medium.seen_data`, and its RPs come
+        back with air-equivalent ranges); "coherent": an image on a grid
+        and its peaks, no range points (it handles the medium itself).
+    run : callable
+        ``run(data, params, engine) -> ImageResult``.
+    summary : str
+        One line for ``rpm-cl image --help``.
+    """
+
+    name: str
+    family: str
+    run: Callable[..., ImageResult]
+    summary: str
 
 
-def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
-    """RPM of the method's RPs: :func:`rpm_image`, or above a half-space
-    :func:`rpm_cl.rpm.halfspace.halfspace_rpm` of their air-equivalent ranges
-    (the refracted equal-time curves)."""
-    if params.medium.half_space:
-        from .rpm.halfspace import halfspace_rpm, to_air
-
-        return halfspace_rpm(to_air(rps, params.medium), params.rpm, engine, params.medium)
-    return rpm_image(rps, params.rpm, engine)
-
-
-def _multipath(
-    data: RadarData, rps: RangePoints, image: Image, mode: str, medium: Medium | None = None
-) -> Image:
-    """The image without (``"drop"``) or with flags on (``"flag"``) the
-    points of double-bounce clusters (:mod:`rpm_cl.rpm.multipath`); above a
-    half-space the double bounces' paths refract (``medium``)."""
-    from dataclasses import replace
-
-    from .rpm.multipath import flag_multipath
-
-    resolution = data.waveform.range_resolution
-    if medium is not None and medium.half_space:  # rps of the paraxial scene: back to air
-        from .rpm.halfspace import to_air
-
-        rps, resolution = to_air(rps, medium), resolution * medium.n
-    flags = flag_multipath(
-        data.array.positions(),
-        rps,
-        image,
-        resolution,
-        medium if medium is not None and medium.half_space else None,
-    )
-    if mode == "flag":
-        return replace(image, multipath=flags)
-    return image.keep(~flags)
-
-
-def reach_angles(array, rps: RangePoints, image: Image) -> np.ndarray:
-    """Each point's angle from boresight (the array's normal, +y) seen from
-    the antenna of its main RP, deg, shape (M,)."""
-    pos = array.positions()[np.asarray(rps.antenna)[image.rp_index]]
-    p = image.points
-    lateral = (
-        np.abs(p[:, 0] - pos[:, 0])
-        if p.shape[1] == 2
-        else np.hypot(p[:, 0] - pos[:, 0], p[:, 2] - pos[:, 2])
-    )
-    return np.degrees(np.arctan2(lateral, p[:, 1]))
-
-
-def in_reach(array, rps: RangePoints, image: Image, reach_deg: float) -> Image:
-    """The image without the points beyond ``reach_deg`` from their main
-    antenna's boresight (:func:`reach_angles`; ``ImageResult.dropped``
-    counts them)."""
-    if reach_deg >= 90 or image.points.shape[0] == 0:
-        return image
-    keep = reach_angles(array, rps, image) <= reach_deg
-    return image if keep.all() else image.keep(keep)
-
-
-def _mf_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
-    t0 = time.perf_counter()
-    rps = rps_from_profiles(data, params.rp_threshold_db)
-    t1 = time.perf_counter()
-    image = _rpm(rps, params, engine)
-    t2 = time.perf_counter()
-    return ImageResult(
-        "mf-rpm", rps, image, {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0}
-    )
-
-
-def _capon_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
-    from .extract.capon import CaponParams, rps_from_capon
-
-    t0 = time.perf_counter()
-    rps = rps_from_capon(data, CaponParams(), params.rp_threshold_db)
-    t1 = time.perf_counter()
-    image = _rpm(rps, params, engine)
-    t2 = time.perf_counter()
-    return ImageResult(
-        "capon-rpm", rps, image, {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0}
-    )
-
-
-#: Imaging methods by name.
+#: Every imaging method by name, the paper's first.
 METHODS = {
-    "kspace-rpm": _kspace_rpm,
-    "phase-rpm": _phase_rpm,
-    "mf-rpm": _mf_rpm,
-    "capon-rpm": _capon_rpm,
+    m.name: m
+    for m in (
+        Imager(
+            "kspace-rpm",
+            "rpm",
+            kspace_rpm,
+            "k-space decomposition -> RPs per cluster -> RPM (the paper's method)",
+        ),
+        Imager(
+            "phase-rpm",
+            "rpm",
+            phase_rpm,
+            "kspace-rpm with each RP's range refined by its echo's phase",
+        ),
+        Imager("mf-rpm", "rpm", mf_rpm, "matched-filter RPs (one cluster) -> RPM"),
+        Imager("capon-rpm", "rpm", capon_rpm, "Capon range-filter RPs -> RPM"),
+        Imager(
+            "das",
+            "coherent",
+            das_method,
+            "delay-and-sum image on a grid from the data, its peaks as points",
+        ),
+        Imager(
+            "rma",
+            "coherent",
+            rma_method,
+            "range-migration (f-k) image of a linear array, its peaks as points",
+        ),
+    )
 }
+#: The RPM family's names (range points, then RPM).
+RPM_METHODS = tuple(n for n, m in METHODS.items() if m.family == "rpm")
 
 
 #: The method ``rpm-cl image`` and ``batch`` run unless told otherwise: the
@@ -208,7 +133,7 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
     metres.
     """
     try:
-        fn = METHODS[name]
+        imager = METHODS[name]
     except KeyError:
         raise InputError(f"unknown method {name!r}; choose from {', '.join(METHODS)}") from None
     data = preprocess(data, **{k: getattr(params, k) for k in PREPROCESS_FIELDS})
@@ -216,9 +141,11 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
         _check_sidelobes(data, params.kspace.peak_threshold_db)
     medium = params.medium
     check_medium(data, medium)
+    if imager.family == "coherent":
+        return imager.run(data, params, engine)
     # in a medium the method runs on the scene of rpm_cl.io.medium.seen_data
     # (in air: ``data`` itself)
-    result = fn(seen_data(data, medium), params, engine)
+    result = imager.run(seen_data(data, medium), params, engine)
     if not medium.air:  # RPs as measured: air-equivalent ranges
         from dataclasses import replace
 

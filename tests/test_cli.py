@@ -391,13 +391,13 @@ def test_bench_table_and_kernel_profile(capsys, dev32):
     k-space RPM at the paper's Table I / II noise-free figures or better
     (94 % RP <= 10 mm, 67 % RPM <= 50 mm)."""
     from rpm_cl.cli.bench import bench_case, kernel_profile
-    from rpm_cl.imaging import METHODS
+    from rpm_cl.imaging import RPM_METHODS
     from rpm_cl.rpm.params import default_params
     from rpm_cl.simulate import simulate_preset
 
     assert main(["bench", "--scene", "points-5mm", "--repeats", "1", "--no-das"]) == 0
     out = capsys.readouterr().out
-    for method in METHODS:
+    for method in RPM_METHODS:
         assert sum(f" {method} " in line for line in out.splitlines()) == 2, method
     b = bench_case(dev32, "paper-2d", None, "kspace-rpm", repeats=1)
     assert b["rp10"] >= 0.94 and b["rpm50"] >= 0.67
@@ -440,7 +440,7 @@ def test_boundary_only_truth_round_trips_and_summary(tmp_path):
     from rpm_cl.io.data import InputError, Truth, load_npz
     from rpm_cl.io.formats import load_data, save_data
     from rpm_cl.metrics import echoes_found, summary
-    from rpm_cl.rpm.pipeline import Image
+    from rpm_cl.result import Image
     from rpm_cl.simulate import simulate_preset
 
     data = simulate_preset("paper-2d")[0]

@@ -9,7 +9,6 @@ from rpm_cl.baselines.das import (
     Grid,
     das_adjoint,
     das_numpy,
-    image_points,
     parse_grid,
 )
 from rpm_cl.io.data import Array, InputError, RadarData, Waveform
@@ -151,13 +150,6 @@ def test_reuse_plan_matches_and_refuses_beyond_budget(rng):
     other = RadarData(data.signal, data.array, data.range, Waveform(24e9, 3e9))
     with pytest.raises(InputError, match="differs"):
         plan.apply(other)
-
-
-def test_image_points_follow_the_peak_column():
-    g = Grid(np.array([0.0, 0.1]), np.array([0.5, 0.6, 0.7]))
-    img = np.array([[0.1, 1.0, 0.2], [0.05, 0.01, 0.02]])
-    pts = image_points(img, g, threshold_db=-10)
-    np.testing.assert_allclose(pts, [[0.0, 0.6]])
 
 
 def test_numpy_das_stays_within_its_memory_budget(rng):

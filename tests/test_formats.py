@@ -348,8 +348,7 @@ def result(paper):
 
 
 def _result_3d(rng):
-    from rpm_cl.result import ImageResult
-    from rpm_cl.rpm.pipeline import Image
+    from rpm_cl.result import Image, ImageResult
 
     m, k = 40, 60
     rps = RangePoints(

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rpm_cl.baselines.peaks import image_peaks
 from rpm_cl.io import gprmax as G
 from rpm_cl.io.data import DataWarning
 from rpm_cl.io.formats import load_data, range_compress
@@ -82,9 +83,8 @@ def _to_boundary(points, rods):
 def _peaks_at_rods(image, x, y, rods, tol):
     """For each rod, is one of the strongest len(rods) local maxima of |I|
     (at least 50 mm apart) within ``tol`` of its top (x and depth)?"""
-    from rpm_cl.baselines.rma import image_peaks
 
-    peaks, _ = image_peaks(image, x, y, n_peaks=len(rods), min_separation=0.05)
+    peaks, _ = image_peaks(image, (x, y), n_peaks=len(rods), min_separation=0.05, threshold_db=-20)
     tops = np.column_stack([rods[:, 0], rods[:, 1] - rods[:, 2]])
     off = np.abs(peaks[:, None, :] - tops[None])  # (peaks, rods, 2)
     return np.any(np.all(off <= tol, axis=2), axis=0), peaks

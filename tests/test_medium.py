@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from rpm_cl.baselines.das import Grid, das_adjoint, das_numpy
-from rpm_cl.baselines.rma import image_peaks, rma_image
+from rpm_cl.baselines.peaks import image_peaks
+from rpm_cl.baselines.rma import rma_image
 from rpm_cl.cli import main
 from rpm_cl.extract.rangepoints import RangePoints
 from rpm_cl.imaging import run_method
@@ -280,11 +281,11 @@ def test_halfspace_das_and_rma_peak_at_the_targets():
     m = Medium(EPS, H)
     g = Grid(np.arange(-0.3, 0.3, 0.001), np.arange(H + 0.02, H + 0.3, 0.001))
     img = das_numpy(data, g, medium=m)
-    peaks, _ = image_peaks(img, g.x, g.y, n_peaks=4, min_separation=0.05)
+    peaks, _ = image_peaks(img, (g.x, g.y), n_peaks=4, min_separation=0.05, threshold_db=-20)
     assert np.max(_nearest(peaks, TARGETS)) <= 0.003
     rma, rx, ry = rma_image(data, medium=m, upsample_x=4, y_max=H + 0.3, dy=1e-3)
     assert ry[0] >= H
-    peaks, _ = image_peaks(rma, rx, ry, n_peaks=4, min_separation=0.05)
+    peaks, _ = image_peaks(rma, (rx, ry), n_peaks=4, min_separation=0.05, threshold_db=-20)
     assert np.max(_nearest(peaks, TARGETS)) <= 0.003
     with pytest.raises(InputError, match="material below the surface"):
         rma_image(data, medium=m, y_min=0.0, y_max=0.3)
@@ -357,7 +358,9 @@ def test_cli_medium_flags(tmp_path, capsys):
         == 0
     )
     with np.load(img) as z:
-        peaks, _ = image_peaks(z["image"], z["x"], z["y"], n_peaks=3, min_separation=0.05)
+        peaks, _ = image_peaks(
+            z["image"], (z["x"], z["y"]), n_peaks=3, min_separation=0.05, threshold_db=-20
+        )
     assert np.max(_nearest(peaks, tg)) <= 0.003
     assert (
         main(

@@ -6,8 +6,8 @@ import pytest
 from rpm_cl.extract.rangepoints import RangePoints
 from rpm_cl.imaging import in_reach, reach_angles
 from rpm_cl.io.data import Array, InputError
+from rpm_cl.result import Image
 from rpm_cl.rpm.params import ImagingParams
-from rpm_cl.rpm.pipeline import Image
 
 
 def _rps(antenna, x):

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from rpm_cl.baselines.rma import image_peaks, rma_image
+from rpm_cl.baselines.peaks import image_peaks
+from rpm_cl.baselines.rma import rma_image
 from rpm_cl.io.data import C0, Array, InputError, Waveform
 from rpm_cl.simulate import simulate, simulate_preset
 from rpm_cl.simulate.scene import PointTarget, Scene
@@ -37,7 +38,7 @@ def test_crop_and_upsampling():
     img, x, y = rma_image(data, upsample_x=4, y_min=0.5, y_max=0.7, dy=1e-3)
     assert y[0] >= 0.5 and y[-1] <= 0.7 and np.allclose(np.diff(y), y[1] - y[0])
     assert y[1] - y[0] <= 1e-3 and np.allclose(np.diff(x), ARRAY.dx / 4)
-    pts, lev = image_peaks(img, x, y, n_peaks=1)
+    pts, lev = image_peaks(img, (x, y), n_peaks=1, threshold_db=-20)
     assert np.hypot(*(pts[0] - (0.012, 0.6))) <= 3e-3 and lev[0] == 0.0
 
 
@@ -61,7 +62,7 @@ def test_image_peaks_separation():
     x, y = np.arange(50) * 1e-2, np.arange(60) * 1e-2
     img = np.zeros((50, 60))
     img[10, 10], img[12, 10], img[40, 50] = 1.0, 0.9, 0.5
-    pts, lev = image_peaks(img, x, y, n_peaks=3, min_separation=0.05)
+    pts, lev = image_peaks(img, (x, y), n_peaks=3, min_separation=0.05, threshold_db=-20)
     assert np.allclose(pts, [[0.10, 0.10], [0.40, 0.50]])
     assert np.allclose(lev, [0.0, 20 * np.log10(0.5)])
 

@@ -49,7 +49,6 @@ __all__ = [
     "check_float32_range",
     "das_adjoint",
     "das_numpy",
-    "image_points",
     "parse_grid",
     "write_image",
 ]
@@ -472,29 +471,3 @@ class DeviceDAS:
         flat = out.reshape(-1, nlast)
         reduce(0, flat)
         return None
-
-
-def image_points(
-    image: np.ndarray, grid: Grid, threshold_db: float = -10.0, along: int = 1
-) -> np.ndarray:
-    """Points of a DAS/RMA image for the paper's Err_RPM: the maximum of |I|
-    along ``along`` (the range-like y axis) in each column, kept when above
-    ``threshold_db`` of the image maximum and a local maximum along that axis.
-
-    Returns
-    -------
-    ndarray, shape (M, dim), m
-    """
-    mag = np.abs(image)
-    if mag.size == 0 or mag.max() == 0:
-        return np.zeros((0, grid.dim))
-    best = np.argmax(mag, axis=along)
-    peak = np.take_along_axis(mag, np.expand_dims(best, along), axis=along).squeeze(along)
-    keep = peak >= mag.max() * 10 ** (threshold_db / 20)
-    cols = np.nonzero(keep)
-    pts = np.zeros((len(cols[0]), grid.dim))
-    other = [a for a in range(grid.dim) if a != along]
-    for k, a in enumerate(other):
-        pts[:, a] = grid.axes[a][cols[k]]
-    pts[:, along] = grid.axes[along][best[cols]]
-    return pts

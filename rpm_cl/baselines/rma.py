@@ -64,7 +64,7 @@ import numpy as np
 from ..extract.capon import frequency_samples
 from ..io.data import C0, InputError, RadarData
 
-__all__ = ["RMA_MIN_WEIGHT", "image_peaks", "rma_image"]
+__all__ = ["RMA_MIN_WEIGHT", "rma_image"]
 
 #: Lower bound of the matched-filter weight ``cos^4(pi f / 2B)`` on the band
 #: used: 1e-4 keeps ``|f| <= 0.94 B``; the rest carries less than 1e-4 of the
@@ -279,68 +279,3 @@ def rma_image(
     if iy.size == 0:
         raise InputError(f"the crop [{y_lo}, {y_hi}] m holds no pixel of {ny_step:g} m")
     return img[:, iy % n_y], x_axis, height + iy * ny_step
-
-
-def image_peaks(
-    image: np.ndarray,
-    x: np.ndarray,
-    y: np.ndarray,
-    *,
-    n_peaks: int = 10,
-    min_separation: float = 0.0,
-    rel_threshold_db: float = -20.0,
-):
-    """The strongest local maxima of ``|image|``, at least ``min_separation`` apart.
-
-    Local maxima over the 3 x 3 neighbourhood, taken strongest first; a
-    maximum closer than ``min_separation`` to one already taken is skipped.
-
-    Parameters
-    ----------
-    image : ndarray, shape (nx_img, ny_img)
-        Complex or real.
-    x : ndarray, shape (nx_img,)
-        m.
-    y : ndarray, shape (ny_img,)
-        m.
-    n_peaks : int
-        At most this many (>= 1).
-    min_separation : float
-        m (>= 0).
-    rel_threshold_db : float
-        Ignore maxima below this level relative to the image's maximum, dB.
-
-    Returns
-    -------
-    points : ndarray, shape (K, 2)
-        ``(x, y)`` of each peak, m, strongest first.
-    level_db : ndarray, shape (K,)
-        ``20 log10(|I| / max |I|)`` there, dB (<= 0).
-    """
-    from scipy.ndimage import maximum_filter
-
-    n_peaks = _positive_int("n_peaks", n_peaks)
-    if not (np.isfinite(min_separation) and min_separation >= 0):
-        raise InputError(f"min_separation must be >= 0, got {min_separation}")
-    a = np.abs(np.asarray(image))
-    if a.shape != (np.size(x), np.size(y)):
-        raise InputError(
-            f"image shape {a.shape} does not match the axes ({np.size(x)}, {np.size(y)})"
-        )
-    top = float(a.max()) if a.size else 0.0
-    if top <= 0:
-        return np.zeros((0, 2)), np.zeros(0)
-    local = (a == maximum_filter(a, size=3, mode="constant")) & (
-        a >= top * 10.0 ** (rel_threshold_db / 20.0)
-    )
-    i, j = np.nonzero(local)
-    order = np.argsort(-a[i, j], kind="stable")
-    pts, lev = [], []
-    for o in order:
-        p = np.array([x[i[o]], y[j[o]]], np.float64)
-        if all(np.hypot(*(p - q)) >= min_separation for q in pts):
-            pts.append(p)
-            lev.append(20.0 * np.log10(a[i[o], j[o]] / top))
-            if len(pts) == n_peaks:
-                break
-    return np.array(pts).reshape(-1, 2), np.array(lev)

@@ -13,7 +13,7 @@ import time
 
 import numpy as np
 
-from ..imaging import METHODS, timed_run
+from ..imaging import RPM_METHODS, timed_run
 from ..metrics import summary
 from ..rpm.params import default_params
 from ..simulate.synth import simulate_preset
@@ -186,7 +186,7 @@ def run_bench(
 
     chosen = [sc for sc in SCENES if scenes is None or sc[0] in scenes]
     pbar = progress(
-        total=len(chosen) * (len(METHODS) + 1 + (das is not None)),
+        total=len(chosen) * (len(RPM_METHODS) + 1 + (das is not None)),
         desc="bench",
         enabled=bar,
         unit="row",
@@ -205,7 +205,7 @@ def run_bench(
     ]
     t0 = time.perf_counter()
     for label, preset, snr in chosen:
-        for method in METHODS:
+        for method in RPM_METHODS:
             pbar.set_postfix_str(f"{label} {method}")
             b = bench_case(engine, preset, snr, method, repeats)
             pbar.update()

@@ -896,7 +896,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--method",
         choices=sorted(METHODS),
         default=DEFAULT_METHOD,
-        help=f"imaging method (default {DEFAULT_METHOD}; kspace-rpm is the paper's)",
+        help=f"imaging method (default {DEFAULT_METHOD}): "
+        + "; ".join(f"{m.name}: {m.summary}" for m in METHODS.values()),
     )
     input_opts(sp)
     device_opts(sp)
@@ -1081,7 +1082,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--method",
         choices=sorted(METHODS),
         default=DEFAULT_METHOD,
-        help=f"imaging method (default {DEFAULT_METHOD}; kspace-rpm is the paper's)",
+        help=f"imaging method (default {DEFAULT_METHOD}): "
+        + "; ".join(f"{m.name}: {m.summary}" for m in METHODS.values()),
     )
     sp.add_argument(
         "--das-grid", help="also write a DAS image per frame on this grid (as `das --grid`)"

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..imaging import METHODS, timed_run
+from ..baselines.peaks import image_peaks
+from ..imaging import RPM_METHODS, timed_run
 from ..io.data import InputError
 from ..metrics import summary
 from ..rpm.params import default_params
@@ -148,24 +149,10 @@ def das_points(das, data, grid, kind: str, progress=False):
     img = das.backproject(data, grid)
     sec = time.perf_counter() - t0
     if kind == "image":
-        return image_peak_points(img, grid.axes), sec
+        return image_peaks(img, grid.axes, threshold_db=-10.0, size=5)[0], sec
     mag = np.abs(img)
     idx = np.nonzero(mag >= mag.max() * 10 ** (-6 / 20))
     return np.stack([grid.axes[a][idx[a]] for a in range(grid.dim)], axis=1), sec
-
-
-def image_peak_points(img: np.ndarray, axes, threshold_db: float = -10.0) -> np.ndarray:
-    """Local maxima of |img| over 5 x 5 pixels above ``threshold_db`` of its
-    maximum: the targets a 2-D coherent image shows, as points (M, 2), m."""
-    from scipy import ndimage
-
-    mag = np.abs(img)
-    if mag.size == 0 or mag.max() == 0:
-        return np.zeros((0, 2))
-    peak = mag == ndimage.maximum_filter(mag, size=5, mode="nearest")
-    peak &= mag >= mag.max() * 10 ** (threshold_db / 20)
-    idx = np.nonzero(peak)
-    return np.stack([axes[0][idx[0]], axes[1][idx[1]]], axis=1)
 
 
 #: RMA rows (linear arrays): preset -> (label, y_min, y_max) of the image.
@@ -186,7 +173,7 @@ def rma_points(data, y_min: float, y_max: float):
     t0 = time.perf_counter()
     img, x, y = rma_image(data, upsample_x=4, y_min=y_min, y_max=y_max)
     sec = time.perf_counter() - t0
-    return image_peak_points(img, (x, y)), sec, img.shape
+    return image_peaks(img, (x, y), threshold_db=-10.0, size=5)[0], sec, img.shape
 
 
 def _rma_rows(case, preset_name, snr, datasets, progress):
@@ -278,7 +265,7 @@ def reproduce(
     engine : object
         RPM engine (:class:`rpm_cl.rpm.DeviceRPM` or the reference module).
     methods : list of str, optional
-        Default: all of :data:`rpm_cl.imaging.METHODS`.
+        Default: the RPM family, :data:`rpm_cl.imaging.RPM_METHODS`.
     trials : int
         Noise realisations per noisy row (noise-free rows use 1).
     seed : int
@@ -302,7 +289,7 @@ def reproduce(
         raise InputError(f"trials must be >= 1, got {trials}")
     from ..progress import progress as progress_bar
 
-    methods = list(methods or METHODS)
+    methods = list(methods or RPM_METHODS)
     rows = []
     # one step per (scene, S/N, trial): simulation and every method on it
     steps = sum(1 if snr is None else trials for _, snrs in CASES[name].values() for snr in snrs)

@@ -20,7 +20,7 @@ antennas and ranges, against ``sigma^2 / nf`` for a per-sample noise variance
 Each method's points are scored as the paper scores RPM (Err_RPM: the
 distance to the nearest sample of the true boundary): the fraction within
 50 mm (20 mm for the 3-D scene) and the median.  DAS is scored by the local
-maxima of its image (:func:`rpm_cl.cli.reproduce.image_peak_points`, 5 x 5
+maxima of its image (:func:`rpm_cl.baselines.peaks.image_peaks`, 5 x 5
 pixels, -10 dB).  A target is hit when a point lies within that distance of
 it.  Beside them, the Cramer-Rao bounds of one target alone in the same
 noise: the range at one antenna, and the position from the whole array
@@ -302,11 +302,11 @@ def _score(points: np.ndarray, g: Geometry, boundary: np.ndarray):
 
 def _das_points(das, data: RadarData, g: Geometry) -> np.ndarray:
     from ..baselines.das import Grid
-    from .reproduce import image_peak_points
+    from ..baselines.peaks import image_peaks
 
     if g.dim == 2:
         grid = Grid(np.arange(-0.4, 0.4, 1e-3), np.arange(0.2, 0.7, 1e-3))
-        return image_peak_points(das.backproject(data, grid), grid.axes)
+        return image_peaks(das.backproject(data, grid), grid.axes, threshold_db=-10.0, size=5)[0]
     from .reproduce import das_points
 
     grid = Grid(

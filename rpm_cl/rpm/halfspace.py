@@ -54,8 +54,9 @@ from ..io.medium import (
     ray_through,
     virtual_centre,
 )
+from ..result import Image
 from .params import RPMParams
-from .pipeline import Image, rpm_image
+from .pipeline import rpm_image
 
 __all__ = [
     "ITERATIONS",

@@ -1,0 +1,157 @@
+"""The RPM family's methods: range points by one of the extractions
+(:mod:`rpm_cl.extract`), RPM of them (:mod:`rpm_cl.rpm.pipeline`, or
+:mod:`rpm_cl.rpm.halfspace` above a half-space), and the point filters
+(double bounces, the antennas' reach).  Each takes the data as its
+extraction sees them (:func:`rpm_cl.io.medium.seen_data`) and returns an
+:class:`rpm_cl.result.ImageResult`; :mod:`rpm_cl.imaging` registers them.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..extract.kspace import decompose
+from ..extract.rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
+from ..io.data import RadarData
+from ..io.medium import Medium
+from ..result import Image, ImageResult
+from .params import ImagingParams
+from .pipeline import rpm_image
+
+__all__ = ["capon_rpm", "in_reach", "kspace_rpm", "mf_rpm", "phase_rpm", "reach_angles"]
+
+
+def kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
+    t0 = time.perf_counter()
+    # the near-field search's pair scans run on the engine's device, if any
+    dec = decompose(data, params.kspace, getattr(engine, "env", None))
+    t1 = time.perf_counter()
+    rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
+    t2 = time.perf_counter()
+    image = _rpm(rps, params, engine)
+    t3 = time.perf_counter()
+    return ImageResult(
+        "kspace-rpm",
+        rps,
+        image,
+        {"decompose": t1 - t0, "range_points": t2 - t1, "rpm": t3 - t2, "total": t3 - t0},
+    )
+
+
+def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
+    from ..extract.phase import phase_ranges
+
+    t0 = time.perf_counter()
+    dec = decompose(data, params.kspace, getattr(engine, "env", None))
+    t1 = time.perf_counter()
+    rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
+    if not dec.near_field and dec.clusters:
+        rps, _ = phase_ranges(data, rps, np.array([c.k for c in dec.clusters]))
+    t2 = time.perf_counter()
+    image = _rpm(rps, params, engine)
+    t3 = time.perf_counter()
+    n_rpm = len(image.points)
+    image = _multipath(data, rps, image, params.multipath, params.medium)
+    n_single = len(image.points)
+    image = in_reach(data.array, rps, image, params.reach_deg)
+    t4 = time.perf_counter()
+    return ImageResult(
+        "phase-rpm",
+        rps,
+        image,
+        {
+            "decompose": t1 - t0,
+            "range_points": t2 - t1,
+            "rpm": t3 - t2,
+            "multipath": t4 - t3,
+            "total": t4 - t0,
+        },
+        {"multipath": n_rpm - n_single, "reach": n_single - len(image.points)},
+    )
+
+
+def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
+    """RPM of the method's RPs: :func:`rpm_image`, or above a half-space
+    :func:`rpm_cl.rpm.halfspace.halfspace_rpm` of their air-equivalent ranges
+    (the refracted equal-time curves)."""
+    if params.medium.half_space:
+        from .halfspace import halfspace_rpm, to_air
+
+        return halfspace_rpm(to_air(rps, params.medium), params.rpm, engine, params.medium)
+    return rpm_image(rps, params.rpm, engine)
+
+
+def _multipath(
+    data: RadarData, rps: RangePoints, image: Image, mode: str, medium: Medium | None = None
+) -> Image:
+    """The image without (``"drop"``) or with flags on (``"flag"``) the
+    points of double-bounce clusters (:mod:`rpm_cl.rpm.multipath`); above a
+    half-space the double bounces' paths refract (``medium``)."""
+    from dataclasses import replace
+
+    from .multipath import flag_multipath
+
+    resolution = data.waveform.range_resolution
+    if medium is not None and medium.half_space:  # rps of the paraxial scene: back to air
+        from .halfspace import to_air
+
+        rps, resolution = to_air(rps, medium), resolution * medium.n
+    flags = flag_multipath(
+        data.array.positions(),
+        rps,
+        image,
+        resolution,
+        medium if medium is not None and medium.half_space else None,
+    )
+    if mode == "flag":
+        return replace(image, multipath=flags)
+    return image.keep(~flags)
+
+
+def reach_angles(array, rps: RangePoints, image: Image) -> np.ndarray:
+    """Each point's angle from boresight (the array's normal, +y) seen from
+    the antenna of its main RP, deg, shape (M,)."""
+    pos = array.positions()[np.asarray(rps.antenna)[image.rp_index]]
+    p = image.points
+    lateral = (
+        np.abs(p[:, 0] - pos[:, 0])
+        if p.shape[1] == 2
+        else np.hypot(p[:, 0] - pos[:, 0], p[:, 2] - pos[:, 2])
+    )
+    return np.degrees(np.arctan2(lateral, p[:, 1]))
+
+
+def in_reach(array, rps: RangePoints, image: Image, reach_deg: float) -> Image:
+    """The image without the points beyond ``reach_deg`` from their main
+    antenna's boresight (:func:`reach_angles`; ``ImageResult.dropped``
+    counts them)."""
+    if reach_deg >= 90 or image.points.shape[0] == 0:
+        return image
+    keep = reach_angles(array, rps, image) <= reach_deg
+    return image if keep.all() else image.keep(keep)
+
+
+def mf_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
+    t0 = time.perf_counter()
+    rps = rps_from_profiles(data, params.rp_threshold_db)
+    t1 = time.perf_counter()
+    image = _rpm(rps, params, engine)
+    t2 = time.perf_counter()
+    return ImageResult(
+        "mf-rpm", rps, image, {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0}
+    )
+
+
+def capon_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
+    from ..extract.capon import CaponParams, rps_from_capon
+
+    t0 = time.perf_counter()
+    rps = rps_from_capon(data, CaponParams(), params.rp_threshold_db)
+    t1 = time.perf_counter()
+    image = _rpm(rps, params, engine)
+    t2 = time.perf_counter()
+    return ImageResult(
+        "capon-rpm", rps, image, {"range_points": t1 - t0, "rpm": t2 - t1, "total": t2 - t0}
+    )
