@@ -161,13 +161,22 @@ def das_method(data: RadarData, params, engine) -> ImageResult:
 
 
 def rma_method(data: RadarData, params, engine) -> ImageResult:
-    """RMA (:mod:`rpm_cl.baselines.rma`, x pixels a quarter of the pitch) of a
-    linear array's data in ``params.medium``; ``engine`` is not used (RMA
+    """RMA (:mod:`rpm_cl.baselines.rma`, x pixels a quarter of the pitch,
+    depths of the echoes, :func:`echo_span`) of a linear array's data in
+    ``params.medium``; ``engine`` is not used (RMA
     runs on the host)."""
     from .rma import rma_image
 
     if data.array.planar:
         raise InputError("rma images linear arrays only; this array is planar (use das)")
+    medium = params.medium
+    r_lo, r_hi = echo_span(data)
     t0 = time.perf_counter()
-    img, x, y = rma_image(data, upsample_x=4, medium=params.medium)
+    img, x, y = rma_image(
+        data,
+        upsample_x=4,
+        medium=medium,
+        y_min=_depth(medium, max(r_lo, 0.0)),
+        y_max=_depth(medium, r_hi),
+    )
     return _result("rma", data, img, (x, y), params.reach_deg, t0, time.perf_counter())

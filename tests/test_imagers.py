@@ -1,0 +1,101 @@
+"""The imager registry (rpm_cl.imaging.METHODS): every method behind one
+call with one result type, DAS and RMA among them (rpm_cl.baselines.imagers)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from rpm_cl.baselines.imagers import default_grid, echo_span, in_reach
+from rpm_cl.cli import main
+from rpm_cl.imaging import METHODS, RPM_METHODS, run_method
+from rpm_cl.io.data import InputError
+from rpm_cl.io.medium import Medium
+from rpm_cl.metrics import err_rpm
+from rpm_cl.result import ImageResult
+from rpm_cl.rpm.params import default_params
+from rpm_cl.simulate import simulate_preset
+
+
+@pytest.fixture(scope="module")
+def paper2d():
+    return simulate_preset("paper-2d", None, 0)[0]
+
+
+def test_registry_lists_every_method():
+    assert set(METHODS) == {"kspace-rpm", "phase-rpm", "mf-rpm", "capon-rpm", "das", "rma"}
+    assert RPM_METHODS == ("kspace-rpm", "phase-rpm", "mf-rpm", "capon-rpm")
+    assert all(m.family in ("rpm", "coherent") and m.summary for m in METHODS.values())
+
+
+def test_every_method_one_call_one_result(paper2d, dev32):
+    """Each method returns an ImageResult whose points lie in the plane of a
+    linear array's scene, with one score, cluster and RP index per point."""
+    params = default_params(paper2d)
+    for name in METHODS:
+        res = run_method(name, paper2d, params, dev32)
+        assert isinstance(res, ImageResult) and res.method == name
+        m = len(res.image.points)
+        assert m > 0 and res.image.points.shape == (m, 2), name
+        assert res.image.score.shape == res.image.cluster.shape == res.image.rp_index.shape == (m,)
+        assert res.timings["total"] > 0
+
+
+def test_das_points_are_the_targets(paper2d, dev32):
+    """DAS through the registry: its points (the image's peaks within 6 dB)
+    lie within 50 mm of the paper scene's three targets and hit each; the
+    NumPy back-projection (no device) gives the same points."""
+    params = default_params(paper2d)
+    res = run_method("das", paper2d, params, dev32)
+    d = err_rpm(res.image.points, paper2d.truth)
+    assert np.all(d <= 0.05)
+    tg = np.array([t["position"] for t in json.loads(paper2d.truth.scene)["targets"]])
+    near = np.linalg.norm(res.image.points[:, None] - tg[None], axis=2) <= 0.05
+    assert near.any(axis=0).all()
+    ref = run_method("das", paper2d, params, None)
+    np.testing.assert_allclose(ref.image.points, res.image.points, atol=1e-9)
+
+
+def test_planar_arrays_take_das_not_rma(dev32):
+    data = simulate_preset("human-body", None, 0)[0]
+    res = run_method("das", data, default_params(data), dev32)
+    assert res.image.points.shape[1] == 3 and np.all(err_rpm(res.image.points, data.truth) <= 0.05)
+    with pytest.raises(InputError, match="linear arrays only"):
+        run_method("rma", data, default_params(data), dev32)
+
+
+def test_default_grid_covers_the_echoes(paper2d):
+    """The grid spans the echoes' depths (one echo at 0.6 m of a 1-3 GHz
+    band whose axis runs to 9.6 m: within three resolutions of it) and the
+    array's extent plus that depth sideways; its size is capped; in a medium
+    the depths are true ones."""
+    from test_medium import X, _spectrum_data
+
+    data = _spectrum_data(np.full((X.size, 1), 0.6))
+    res = data.waveform.range_resolution
+    lo, hi = echo_span(data)
+    assert 0.6 - 3 * res <= lo < 0.6 < hi <= 0.6 + 3 * res and data.range[-1] > 9
+    g = default_grid(data)
+    step = g.y[1] - g.y[0]
+    assert g.y[0] == pytest.approx(lo) and hi - step <= g.y[-1] <= hi + 1e-12
+    assert g.x[0] == pytest.approx(X[0] - hi) and g.x[-1] >= X[-1] + hi - step
+    gn = default_grid(data, Medium(4.0))
+    assert gn.y[-1] == pytest.approx(g.y[-1] / 2, rel=0.02)
+    assert default_grid(paper2d).size <= 1_000_000
+
+
+def test_reach_filter():
+    pos = np.array([[-0.05, 0.0], [0.05, 0.0]])
+    pts = np.array([[0.0, 0.1], [0.05, 0.001], [0.5, 0.1], [-0.05 - 0.09, 0.1]])
+    np.testing.assert_array_equal(in_reach(pos, pts, 45.0), [True, True, False, True])
+    np.testing.assert_array_equal(in_reach(pos, pts, 41.0), [True, True, False, False])
+
+
+def test_cli_image_method_das(tmp_path, capsys, p2):
+    out = tmp_path / "das.npz"
+    assert main(["image", str(p2), "-o", str(out), "--method", "das"]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith("das:") and "Err_RPM<=50mm 100.0%" in text
+    with np.load(out) as z:
+        assert z["points"].shape[1] == 2 and z["rp_range"].size == 0
+        assert json.loads(str(z["meta"]))["method"] == "das"
