@@ -165,7 +165,7 @@ import numpy as np
 
 from ..io.data import InputError
 from .blas import one_blas_thread
-from .nearfield_cl import device_for
+from .nearfield_cl import DEGENERATE_DET, device_for
 from .types import Cluster, Decomposition
 
 __all__ = ["decompose_near_field", "near_field_wanted"]
@@ -447,16 +447,6 @@ def _explained_pairs(qm, qn, sp, algebra=None):
     pn = gn3 @ gn3.conj().transpose(0, 2, 1)  # (nj, 2, 2)
     em = np.sum(np.abs(gm3) ** 2, axis=(1, 2))
     return (algebra or _pair_algebra)(c, x, pm, pn, em)
-
-
-#: det(I - C^H C) at or below which a pair of candidates counts as one
-#: (dimensionless: the product of the squared sines of the two bases'
-#: principal angles).  Two equal candidates leave det at rounding level,
-#: 1e-30 either side of zero, and tr at the same level, so tr / det is
-#: noise as large as the data's energy; 1e-24 (both angles under ~1e-6 rad)
-#: sits a millionfold above that, and a pair degenerate in one direction
-#: only keeps det ~1e-12 through the regularisation.
-DEGENERATE_DET = 1e-24
 
 
 def least_squares(*args, **kwargs):

@@ -12,7 +12,17 @@ import numpy as np
 
 from ..cl import CLEnv, get_kernels
 
-__all__ = ["NearFieldDevice", "device_for"]
+__all__ = ["DEGENERATE_DET", "NearFieldDevice", "device_for"]
+
+#: det(I - C^H C) at or below which a pair of candidates counts as one
+#: (dimensionless: the product of the squared sines of the two bases'
+#: principal angles).  Two equal candidates leave det at rounding level,
+#: 1e-30 either side of zero, and tr at the same level, so tr / det is
+#: noise as large as the data's energy; 1e-24 (both angles under ~1e-6 rad)
+#: sits a millionfold above that, and a pair degenerate in one direction
+#: only keeps det ~1e-12 through the regularisation.  The NumPy reference
+#: (:func:`rpm_cl.extract.nearfield._pair_algebra`) and the kernel share it.
+DEGENERATE_DET = 1e-24
 
 
 def device_for(env: CLEnv | None) -> NearFieldDevice | None:
@@ -35,8 +45,6 @@ class NearFieldDevice:
     def __init__(self, env: CLEnv):
         if not env.has_double:
             raise ValueError(f"device {env.name} has no float64 support")
-        from .nearfield import DEGENERATE_DET  # nearfield imports this module
-
         self.env = env
         self._k = get_kernels(
             env, "nearfield.cl", ["pair_energy"], {"DEGENERATE_DET": DEGENERATE_DET}
