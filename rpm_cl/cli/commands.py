@@ -417,7 +417,7 @@ def _accuracy_line(s: dict) -> str:
 
 
 def cmd_reproduce(args) -> int:
-    from .reproduce import format_table, reproduce, write_json
+    from .reproduce import format_markdown, format_table, reproduce, update_markdown, write_json
 
     _imaging_config_unused(args, "reproduce")
     engine, env = _engine(args)
@@ -443,19 +443,29 @@ def cmd_reproduce(args) -> int:
         f"{args.trials} noise realisations"
     )
     print(format_table(rows))
+    meta = {
+        "version": __version__,
+        "device": env.name,
+        "precision": args.precision,
+        "trials": args.trials,
+        "seed": args.seed,
+        "command": " ".join(
+            ["rpm-cl reproduce", args.name, f"--trials {args.trials}"]
+            + [
+                f"--{f.replace('_', '-')}"
+                for f in ("no_das", "no_rma", "skip_volume")
+                if getattr(args, f)
+            ]
+            + ([f"--seed {args.seed}"] if args.seed else [])
+            + [f"--markdown {args.markdown}"]
+        ),
+    }
     if args.json:
-        write_json(
-            args.json,
-            rows,
-            {
-                "version": __version__,
-                "device": env.name,
-                "precision": args.precision,
-                "trials": args.trials,
-                "seed": args.seed,
-            },
-        )
+        write_json(args.json, rows, meta)
         print(f"wrote {args.json}")
+    if args.markdown:
+        update_markdown(args.markdown, args.name, format_markdown(args.name, rows, meta))
+        print(f"wrote the {args.name} section of {args.markdown}")
     return 0
 
 
@@ -917,6 +927,11 @@ def build_parser() -> argparse.ArgumentParser:
     sp = sub.add_parser("reproduce", help="reproduce the paper's tables")
     sp.add_argument("name", choices=sorted(CASES))
     sp.add_argument("--json", help="write the rows as JSON here")
+    sp.add_argument(
+        "--markdown",
+        metavar="FILE.md",
+        help="write (or replace) this case's section of a Markdown results file (docs/results.md)",
+    )
     sp.add_argument(
         "--trials", type=_positive_int, default=10, help="noise realisations per noisy row"
     )

@@ -23,7 +23,17 @@ from ..metrics import summary
 from ..rpm.params import default_params
 from ..simulate.synth import simulate_preset
 
-__all__ = ["CASES", "PAPER", "ReproRow", "format_table", "pct", "reproduce", "write_json"]
+__all__ = [
+    "CASES",
+    "PAPER",
+    "ReproRow",
+    "format_markdown",
+    "format_table",
+    "pct",
+    "reproduce",
+    "update_markdown",
+    "write_json",
+]
 
 #: The paper's figures (Tables I, II, IV, V and Section V-A4), as fractions;
 #: ``*_n`` are the paper's counts of accurate RPs / points where it gives them.
@@ -366,6 +376,99 @@ def format_table(rows: list[ReproRow]) -> str:
             + (f" | {r.grid}" if r.grid else "")
         )
     return "\n".join(lines)
+
+
+def _paper_cell(r: ReproRow) -> str:
+    ref = PAPER.get((r.case, r.method, r.snr_db))
+    if ref is None:
+        return ""
+    return " / ".join(
+        (f"{100 * ref[k]:.0f} %" + (f" ({ref[k + '_n']})" if k + "_n" in ref else ""))
+        if k in ref
+        else "-"
+        for k in ("rp10", "rpm50", "rpm100")
+    )
+
+
+#: The columns of :func:`format_markdown`'s table.
+MARKDOWN_COLUMNS = (
+    "case",
+    "method",
+    "S/N (dB)",
+    "RP <= 10 mm",
+    "RPM <= 50 mm",
+    "RPM <= 100 mm",
+    "ms",
+    "paper (RP / RPM 50 / RPM 100)",
+    "grid",
+)
+
+
+def format_markdown(name: str, rows: list[ReproRow], meta: dict) -> str:
+    """The rows as a Markdown section ``## name``: how they were made (the
+    command, device, precision, trials), then one table row per
+    :class:`ReproRow` with the paper's figures beside ours."""
+    cmd = meta.get("command") or f"rpm-cl reproduce {name} --markdown docs/results.md"
+    lines = [
+        f"## {name}",
+        "",
+        (
+            f"`{cmd}` on {meta['device']} ({meta['precision']}), rpm-cl {meta['version']}; "
+            f"noisy rows pooled over {meta['trials']} noise realisations (seeds from "
+            f"{meta['seed']}). Each cell: the fraction of RPs within 10 mm of a true RP "
+            "(Err_range) or of image points within 50 / 100 mm of the boundary (Err_RPM), "
+            "with the counts; `ms`: median imaging time per trial, compile excluded."
+        ),
+        "",
+        "| " + " | ".join(MARKDOWN_COLUMNS) + " |",
+        "|" + "|".join("---" for _ in MARKDOWN_COLUMNS) + "|",
+    ]
+    for r in rows:
+        cells = [
+            r.case,
+            r.method,
+            "inf" if r.snr_db is None else f"{r.snr_db:g}",
+            pct(r.rp_within_10mm, r.rp_total),
+            pct(r.rpm_within_50mm, r.rpm_total),
+            pct(r.rpm_within_100mm, r.rpm_total),
+            f"{1e3 * r.seconds:.2f}",
+            _paper_cell(r),
+            r.grid,
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+#: The head of a results file that :func:`update_markdown` creates.
+MARKDOWN_HEAD = (
+    "# Results\n\n"
+    "The paper's tables reproduced on the engine's own simulator, one section per "
+    "`rpm-cl reproduce` case, each written by the command it names (`--markdown`); "
+    "regenerate a section by running that command again.\n"
+)
+
+
+def update_markdown(path, name: str, section: str) -> None:
+    """Write ``section`` (:func:`format_markdown`) into the Markdown file
+    ``path``, replacing that case's section if there is one, else appending
+    it (a new file starts with :data:`MARKDOWN_HEAD`); atomically."""
+    import os
+
+    from ..io.data import atomic_write_text
+
+    text = MARKDOWN_HEAD
+    if os.path.exists(path):
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+    parts = text.split("\n## ")
+    head, sections = parts[0], parts[1:]
+    title = section.split("\n", 1)[0][3:]
+    body = section[3:].rstrip("\n") + "\n"
+    kept = [s if s.split("\n", 1)[0] != title else body for s in sections]
+    if body not in kept:
+        kept.append(body)
+    out = head.rstrip("\n") + "\n" + "".join("\n## " + s.rstrip("\n") + "\n" for s in kept)
+    atomic_write_text(path, out)
 
 
 def write_json(path, rows: list[ReproRow], meta: dict) -> None:

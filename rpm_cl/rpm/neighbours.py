@@ -15,7 +15,7 @@ Which RPs it holds matters:
   nearest: on the human body (S/N 20 dB) 94 % of points within 10 mm with 4
   near + 20 spread, against 84 % for the 24 nearest and 97 % exhaustive
   (which takes 1500 times longer), all at 100 % within 50 mm
-  (``benchmarks/RESULTS.md``, 100 rad/m, the list's argmax as the point;
+  (``docs/benchmarks.md``, 100 rad/m, the list's argmax as the point;
   with the mean-shift refinement on, the point is refined to the exhaustive
   argmax, and the list only matters where that refinement does not run).
 
