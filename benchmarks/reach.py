@@ -2,7 +2,7 @@
 they are there: the measurement behind ``ImagingParams.reach_deg``.
 
 For each scene and S/N: every point's angle from boresight at its main RP's
-antenna (:func:`rpm_cl.imaging.reach_angles`, with ``reach_deg = 90``, so
+antenna (:func:`rpm_cl.rpm.methods.reach_angles`, with ``reach_deg = 90``, so
 nothing is dropped), counted per angle band with how many lie within 50 mm
 of the true boundary.
 
@@ -14,8 +14,9 @@ import argparse
 import numpy as np
 
 from rpm_cl.cl import create_env
-from rpm_cl.imaging import reach_angles, run_method
+from rpm_cl.imaging import run_method
 from rpm_cl.rpm import DeviceRPM
+from rpm_cl.rpm.methods import reach_angles
 from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import simulate_preset
 

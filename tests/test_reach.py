@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from rpm_cl.extract.rangepoints import RangePoints
-from rpm_cl.imaging import in_reach, reach_angles
 from rpm_cl.io.data import Array, InputError
 from rpm_cl.result import Image
+from rpm_cl.rpm.methods import in_reach, reach_angles
 from rpm_cl.rpm.params import ImagingParams
 
 
