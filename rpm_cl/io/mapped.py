@@ -37,18 +37,25 @@ Safety: the shape and type of every array are read from its header (the
 checked before its data are; HDF5 external links, soft links, external raw
 storage and virtual datasets are refused; MATLAB cells, structs of v4-v7.2
 files, strings and sparse matrices are refused.
+
+Where the code lives: :mod:`.mapped_keymap` (:class:`KeyMap`) and
+:mod:`.mapped_sources` (the files' arrays, one interface per format); their
+names are importable from here too.  This module reads the mapped arrays
+from several files (with the size limit :data:`MAX_ELEMENTS`) and checks
+them against the schema (:func:`convert`, :func:`list_keys`).
 """
 
 from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
 
 import numpy as np
 
-from .data import Array, InputError, Waveform, _finite_scalar, _uniform_axis
-from .guard import h5_inside
+from .checks import InputError, _finite_scalar, _uniform_axis
+from .mapped_keymap import DATA_NAMES, SCHEMA_NAMES, KeyMap
+from .mapped_sources import MAPPED_EXTENSIONS, _H5Source, _open_source
+from .model import Array, Waveform
 
 __all__ = [
     "DATA_NAMES",
@@ -60,316 +67,17 @@ __all__ = [
     "list_keys",
 ]
 
-#: Names a mapping may give (the input schema's, without the truth).
-SCHEMA_NAMES = ("spectrum", "frequency", "signal", "range", "fc", "bandwidth", "x", "z")
-#: The data arrays: one of them, exactly.
-DATA_NAMES = ("spectrum", "signal")
-#: What each data array needs, and what it refuses.
-_NEEDS = {"spectrum": ("frequency", "x"), "signal": ("range", "fc", "bandwidth", "x")}
-_REFUSES = {"spectrum": ("range",), "signal": ("frequency",)}
 _AXES = ("x", "z", "frequency", "range")
 _SCALARS = ("fc", "bandwidth")
-#: Input extensions.
-MAPPED_EXTENSIONS = (".mat", ".npz", ".npy", ".h5", ".hdf5")
 #: Most elements read from one array (1 GB of float64).
 MAX_ELEMENTS = 1 << 27
-#: MATLAB classes read (numbers; ``logical``, ``char``, ``cell``, ``struct``,
-#: ``function_handle`` ... are not).
-_MATLAB_NUMERIC = (
-    "double",
-    "single",
-    "int8",
-    "uint8",
-    "int16",
-    "uint16",
-    "int32",
-    "uint32",
-    "int64",
-    "uint64",
-)
-
-
-@dataclass(frozen=True)
-class KeyMap:
-    """Which array of the input becomes which name of the schema.
-
-    Attributes
-    ----------
-    pairs : tuple of (str, str)
-        ``(schema name, key in the file)``; a key may name a member of a
-        group (HDF5, MATLAB v7.3 struct) as ``a/b`` or ``a.b``.
-    transpose : bool
-        Reverse all axes of the data array (``spectrum`` / ``signal``).
-    scale_x : float
-        Factor applied to ``x`` and ``z`` (to metres), > 0.
-    scale_f : float
-        Factor applied to ``frequency``, ``fc`` and ``bandwidth`` (to Hz), > 0.
-    conjugate : bool
-        Conjugate a ``spectrum`` (one recorded as ``a exp(+j 4 pi f R / c)``).
-    """
-
-    pairs: tuple
-    transpose: bool = False
-    scale_x: float = 1.0
-    scale_f: float = 1.0
-    conjugate: bool = False
-
-    def __post_init__(self):
-        pairs = tuple((str(a), str(b)) for a, b in self.pairs)
-        object.__setattr__(self, "pairs", pairs)
-        names = [a for a, _ in pairs]
-        for name, key in pairs:
-            if name not in SCHEMA_NAMES:
-                raise InputError(
-                    f"unknown name {name!r} in the mapping; the schema's names are "
-                    f"{', '.join(SCHEMA_NAMES)}"
-                )
-            if not key:
-                raise InputError(f"{name} is mapped to an empty key")
-            if names.count(name) > 1:
-                raise InputError(f"{name} is mapped twice")
-        data = [n for n in DATA_NAMES if n in names]
-        if not data:
-            raise InputError(
-                "the mapping names neither spectrum (frequency domain) nor signal (time domain)"
-            )
-        if len(data) == 2:
-            raise InputError("the mapping names both spectrum and signal; keep one")
-        kind = data[0]
-        extra = [n for n in _REFUSES[kind] if n in names]
-        if extra:
-            raise InputError(
-                f"{extra[0]} does not go with {kind} (spectrum takes frequency, signal takes range)"
-            )
-        missing = [n for n in _NEEDS[kind] if n not in names]
-        if missing:
-            raise InputError(
-                f"the mapping lacks {', '.join(missing)} ({kind} needs {', '.join(_NEEDS[kind])})"
-            )
-        if self.conjugate and kind != "spectrum":
-            raise InputError("conjugate applies to a spectrum, not to a time-domain signal")
-        for what in ("scale_x", "scale_f"):
-            object.__setattr__(self, what, _finite_scalar(what, getattr(self, what)))
-
-    @classmethod
-    def parse(cls, text: str, **options) -> KeyMap:
-        """``"spectrum=F,frequency=f,x=da"`` (``NAME=KEY`` pairs, commas between)."""
-        pairs = []
-        for part in str(text).split(","):
-            name, sep, key = part.partition("=")
-            if not sep or "=" in key:
-                raise InputError(
-                    f"the mapping must be NAME=KEY pairs separated by commas "
-                    f"(e.g. spectrum=F,frequency=f,x=da), got {part.strip()!r}"
-                )
-            pairs.append((name.strip(), key.strip()))
-        return cls(tuple(pairs), **options)
-
-    @property
-    def kind(self) -> str:
-        """``"spectrum"`` or ``"signal"``."""
-        return next(a for a, _ in self.pairs if a in DATA_NAMES)
-
-
-# --------------------------------------------------------------------------
-# sources: (shape, dtype) from the header, then the data
-def _h5py():
-    import h5py
-
-    return h5py
-
-
-class _NpySource:
-    def __init__(self, path: str):
-        self.path = path
-        self.key = os.path.splitext(os.path.basename(path))[0]
-
-    def keys(self):
-        return [self.key]
-
-    def header(self, key):
-        with open(self.path, "rb") as fh:
-            version = np.lib.format.read_magic(fh)
-            read = (
-                np.lib.format.read_array_header_1_0
-                if version == (1, 0)
-                else np.lib.format.read_array_header_2_0
-            )
-            shape, _, dtype = read(fh)
-        return tuple(shape), np.dtype(dtype)
-
-    def read(self, key):
-        return np.load(self.path, allow_pickle=False)
-
-    def close(self):
-        pass
-
-
-class _NpzSource:
-    def __init__(self, path: str):
-        from .formats import _NpzSource as Npz
-
-        self.path = path
-        self.src = Npz(path)
-
-    def keys(self):
-        return sorted(self.src.keys())
-
-    def header(self, key):
-        return self.src.shape_dtype(key)
-
-    def read(self, key):
-        return self.src.read(key)
-
-    def close(self):
-        self.src.close()
-
-
-class _MatSource:
-    """MATLAB v4 to v7.2 (``scipy.io.loadmat``); top-level variables only."""
-
-    def __init__(self, path: str):
-        from scipy.io import whosmat
-
-        self.path = path
-        self.vars = {name: (tuple(shape), cls) for name, shape, cls in whosmat(path)}
-
-    def keys(self):
-        return sorted(self.vars)
-
-    def header(self, key):
-        shape, cls = self.vars[key]
-        if cls not in _MATLAB_NUMERIC:
-            how = (
-                (" (a struct of a v4-v7.2 file: save its fields as variables, or save with -v7.3)")
-                if cls == "struct"
-                else ""
-            )
-            raise InputError(f"{key} is a MATLAB {cls}, not a numeric array{how}")
-        return shape, None
-
-    def read(self, key):
-        from scipy.io import loadmat
-
-        v = loadmat(self.path, variable_names=[key], squeeze_me=False)[key]
-        if v.dtype.kind not in "iufc":
-            raise InputError(f"{key} is not a numeric array (dtype {v.dtype})")
-        return v
-
-    def close(self):
-        pass
-
-
-class _H5Source:
-    """HDF5 datasets reached through hard links; with ``matlab=True`` (a v7.3
-    MAT-file) axes are reversed to MATLAB's order and MATLAB's classes checked."""
-
-    def __init__(self, path: str, matlab: bool):
-        self.path = path
-        self.matlab = matlab
-        self.f = _h5py().File(path, "r")
-
-    def keys(self):
-        h5py = _h5py()
-        out = []
-
-        def visit(name, obj):
-            if isinstance(obj, h5py.Dataset) and not name.startswith("#"):
-                out.append(name)
-
-        self.f.visititems(visit)
-        return sorted(out)[:50]
-
-    def _ds(self, key):
-        from .gprmax import _get
-
-        path = key.replace(".", "/") if self.matlab else key
-        ds = _get(self.f, path, f"{key!r}")
-        h5py = _h5py()
-        if isinstance(ds, h5py.Group):
-            cls = _matlab_class(ds)
-            raise InputError(
-                f"{key} is a group{f' (a MATLAB {cls})' if cls else ''}, not an "
-                f"array; name one of its members as {key}/NAME"
-            )
-        h5_inside(self.f, ds, key)
-        if self.matlab:
-            cls = _matlab_class(ds)
-            if cls is not None and cls not in _MATLAB_NUMERIC:
-                raise InputError(f"{key} is a MATLAB {cls}, not a numeric array")
-            if ds.attrs.get("MATLAB_empty"):
-                raise InputError(f"{key} is an empty MATLAB array")
-        return ds
-
-    def header(self, key):
-        ds = self._ds(key)
-        dt = ds.dtype
-        if dt.names is not None:
-            if set(dt.names) != {"real", "imag"}:
-                raise InputError(
-                    f"{key} is a compound of {', '.join(dt.names)}; a complex "
-                    f"array is a compound of real and imag"
-                )
-            dt = np.result_type(dt["real"], dt["imag"], np.complex64)
-        elif dt.kind not in "iufc":
-            raise InputError(f"{key} is not a numeric array (dtype {dt})")
-        shape = tuple(ds.shape)
-        return (shape[::-1] if self.matlab else shape), dt
-
-    def read(self, key):
-        ds = self._ds(key)
-        v = ds[()]
-        if ds.dtype.names is not None:
-            v = v["real"] + 1j * v["imag"]
-        v = np.asarray(v)
-        return v.transpose() if self.matlab else v
-
-    def close(self):
-        self.f.close()
-
-
-def _matlab_class(obj) -> str | None:
-    v = obj.attrs.get("MATLAB_class")
-    if v is None:
-        return None
-    return v.decode("ascii", "replace") if isinstance(v, bytes) else str(v)
-
-
-def _mat_version(path: str) -> int:
-    """0 (v4), 1 (v5 to v7.2) or 2 (v7.3, HDF5)."""
-    from scipy.io.matlab import matfile_version
-
-    try:
-        return int(matfile_version(path)[0])
-    except Exception as exc:  # noqa: BLE001 - scipy raises ValueError, MatReadError ...
-        raise InputError(f"not a MATLAB file ({' '.join(str(exc).split())})") from None
-
-
-def _open_source(path: str):
-    ext = os.path.splitext(path)[1].lower()
-    if ext not in MAPPED_EXTENSIONS:
-        raise InputError(
-            f"unknown input extension {ext or '(none)'!r}; supported: "
-            f"{', '.join(MAPPED_EXTENSIONS)}"
-        )
-    if not os.path.isfile(path):
-        raise InputError("no such file")
-    if ext == ".npy":
-        return _NpySource(path)
-    if ext == ".npz":
-        return _NpzSource(path)
-    if ext in (".h5", ".hdf5"):
-        return _H5Source(path, matlab=False)
-    if _mat_version(path) == 2:
-        return _H5Source(path, matlab=True)
-    return _MatSource(path)
 
 
 class _Sources:
     """The keys of several files; a key held by two of them is refused."""
 
     def __init__(self, paths):
-        from .formats import _guarded
+        from .sources import _guarded
 
         self.srcs = []
         self.where = {}
@@ -386,7 +94,7 @@ class _Sources:
             raise
 
     def read(self, key: str, name: str):
-        from .formats import _guarded
+        from .sources import _guarded
 
         src = self._find(key)
         if src is None:
@@ -437,8 +145,6 @@ def list_keys(paths) -> list:
         srcs.close()
 
 
-# --------------------------------------------------------------------------
-# the schema's arrays
 def _vector(name: str, key: str, v: np.ndarray) -> np.ndarray:
     if v.ndim > 1 and sum(s != 1 for s in v.shape) <= 1:
         v = v.reshape(-1)  # MATLAB 1 x n or n x 1
@@ -523,7 +229,7 @@ def convert(inputs, keymap: KeyMap) -> dict:
         ``--transpose`` where it would fit), a non-numeric or oversized
         array, an unreadable file.
     """
-    from .formats import _frequency_axis
+    from .compress import _frequency_axis
 
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]

@@ -1,0 +1,142 @@
+"""Range-compressed radar data (:class:`RadarData`), validated at
+construction: the signal's shape, dtype and amplitudes against the array and
+the range axis, the range axis against the range resolution, the truth
+against the array."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .checks import InputError, _finite_scalar, _uniform_axis, scale_hint
+from .model import C0, Array, Truth, Waveform
+
+#: Bounds of the largest signal amplitude accepted: a sum of all the samples
+#: stays within float64 (at most SUM_MAX: the FFTs and the coherent sums add
+#: up to every sample; powers are formed from amplitudes relative to the
+#: largest), and the smallest peak keeps products with weights and windows
+#: of 1e-8 normal numbers (float64's smallest normal is 2.2e-308).
+SUM_MAX = 1e307
+AMPLITUDE_MIN = 1e-300
+
+
+#: A range resolution ``c / 2B`` more than BANDWIDTH_SPAN_WARN times the
+#: range axis's span is warned about as a bandwidth in kHz numbers (the whole
+#: axis within 1 % of one resolution cell), more than BANDWIDTH_SPAN_MAX
+#: times refused as one in MHz or GHz numbers (as fc's are).  The searches
+#: sized by the resolution are bounded by the axis, so such data cost what
+#: the clean data do.  The frequency domain compares a given bandwidth with
+#: its band by the same ratios.
+BANDWIDTH_SPAN_WARN = 100.0
+BANDWIDTH_SPAN_MAX = 1e4
+
+
+def _bandwidth_line(bw: float, span: float, ratio: float) -> str:
+    res = C0 / (2 * bw)
+    return (
+        f"bandwidth = {bw:g} Hz gives a range resolution c/2B = {res:g} m, over {ratio:g} "
+        f"times the whole range axis ({span:g} m): it looks like "
+        f"{scale_hint(bw, C0 / (2 * span))}; give fc and bandwidth in Hz"
+    )
+
+
+@dataclass(frozen=True)
+class RadarData:
+    """Range-compressed radar data, validated at construction.
+
+    Attributes
+    ----------
+    signal : ndarray, complex, shape (nx, nr) or (nx, nz, nr)
+        Baseband range profiles s(X[, Z], R); phase ``exp(-2j k_c R_t)`` at a
+        target of range ``R_t``.
+    array : Array
+    range : ndarray, shape (nr,)
+        Uniform range axis, m.
+    waveform : Waveform
+    truth : Truth, optional
+    range_sidelobe_db : float, optional
+        The strongest range sidelobe of the range compression that a k-space
+        peak search can take for an echo (one beyond half a range
+        resolution from its main lobe), dB relative to the main lobe, < 0;
+        known for a spectrum compressed by :func:`rpm_cl.io.formats.range_compress`,
+        None otherwise.  Imaging warns when a peak threshold lies below it.
+    """
+
+    signal: np.ndarray
+    array: Array
+    range: np.ndarray
+    waveform: Waveform
+    truth: Truth | None = field(default=None)
+    range_sidelobe_db: float | None = field(default=None)
+
+    def __post_init__(self):
+        s = np.asarray(self.signal)
+        if not np.iscomplexobj(s):
+            raise InputError(
+                f"signal must be complex baseband (complex64/complex128), got dtype {s.dtype}"
+            )
+        rng = _uniform_axis("range", self.range, 2)
+        want = self.array.shape + (rng.size,)
+        if s.shape != want:
+            raise InputError(
+                f"signal must have shape {want} (array {self.array.shape} x "
+                f"range {rng.size}), got {s.shape}"
+            )
+        if not np.all(np.isfinite(s)):
+            raise InputError("signal contains NaN or Inf")
+        if rng[0] < 0:
+            raise InputError(f"range must be >= 0, starts at {rng[0]:g} m")
+        res = self.waveform.range_resolution
+        dr = float(rng[1] - rng[0])
+        if dr > res:
+            raise InputError(
+                f"range spacing {dr:g} m is coarser than the range resolution "
+                f"c/2B = {res:g} m: range peaks cannot be located (range is "
+                f"in m: millimetre numbers are 1000 times too large)"
+            )
+        span = float(rng[-1] - rng[0])
+        if res > BANDWIDTH_SPAN_MAX * span:
+            raise InputError(_bandwidth_line(self.waveform.bandwidth, span, BANDWIDTH_SPAN_MAX))
+        if dr < 1e-9 * res:
+            raise InputError(
+                f"range spacing {dr:g} m is below 1e-9 of the range resolution {res:g} m"
+            )
+        t = self.truth
+        if t is not None:
+            if t.boundary.shape[1] != self.array.dim or len(t.boundary) == 0:
+                raise InputError(
+                    f"truth_boundary must have shape (P>0, {self.array.dim}) for "
+                    f"this array, got {t.boundary.shape}"
+                )
+            if (
+                t.has_rps
+                and t.rp_antenna.size
+                and (t.rp_antenna.min() < 0 or t.rp_antenna.max() >= self.array.n)
+            ):
+                raise InputError(f"truth_rp_antenna must index the {self.array.n} antennas")
+        peak = float(np.max(np.abs(s))) if s.size else 0.0
+        top = SUM_MAX / max(s.size, 1)
+        if peak > 0 and not AMPLITUDE_MIN <= peak <= top:
+            raise InputError(
+                f"signal amplitudes up to {peak:.3g} are outside {AMPLITUDE_MIN:g} .. "
+                f"{top:.3g} (for {s.size} samples: a sum of them all stays within "
+                f"float64's range); scale the data"
+            )
+        # complex64 stays complex64 unless |s|^2 would leave float32's range
+        # (1.2e-38 .. 3.4e38) on the way: then complex128, exactly
+        keep64 = s.dtype == np.complex64 and (peak == 0 or 1e-15 <= peak <= 1e15)
+        s = s.astype(np.complex64 if keep64 else np.complex128, copy=False)
+        object.__setattr__(self, "signal", s)
+        object.__setattr__(self, "range", rng)
+        sl = self.range_sidelobe_db
+        if sl is not None:
+            sl = _finite_scalar("range_sidelobe_db", sl, positive=False)
+            if sl >= 0:
+                raise InputError(f"range_sidelobe_db must be < 0 dB, got {sl:g}")
+            object.__setattr__(self, "range_sidelobe_db", sl)
+
+    @property
+    def dr(self) -> float:
+        """Range sample spacing, m."""
+        return float(self.range[1] - self.range[0])
