@@ -7,7 +7,7 @@ Fig. 12(b), its refs. [7], [20]): an image on an ``(x, y)`` grid from
 Model
 -----
 The frequency samples of a monostatic linear array at ``y = 0``
-(:func:`rpm_cl.extract.capon.frequency_samples`, matched-filter weight kept) are
+(:func:`rpm_cl.extract.frequency.frequency_samples`, matched-filter weight kept) are
 ``Y(X, k) = sum_t a_t W(f) exp(-j 2 k R_t(X))`` with ``k = 2 pi (fc + f) / c``
 and ``R_t(X) = sqrt((X - x_t)^2 + y_t^2)``.  Their FFT along X,
 ``S(kx, k) = sum_X Y(X, k) exp(-j kx X)``, is by stationary phase
@@ -61,7 +61,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..extract.capon import frequency_samples
+from ..extract.frequency import frequency_samples
 from ..io.data import C0, InputError, RadarData
 
 __all__ = ["RMA_MIN_WEIGHT", "rma_image"]
@@ -192,36 +192,63 @@ def rma_image(
     zero_pad_r = _positive_int("zero_pad_r", zero_pad_r)
     if dy is not None and not (np.isfinite(dy) and dy > 0):
         raise InputError(f"dy must be > 0, got {dy}")
+    y_lo, y_hi = _crop(data, medium.half_space, n_in, height, y_min, y_max)
+    f, k, kx, spec = _spectrum(data, pad_x, zero_pad_r, medium.half_space, n_in, height)
+    ky, dky = _ky_grid(k, kx)
+    img_k = _stolt(spec, kx, k, ky, jacobian)  # (n_kx, nky)
+    want = dy if dy is not None else C0 / (data.waveform.fc + f[-1]) / n_in / 4
+    return _image(data, img_k, ky, dky, upsample_x, want, height, (y_lo, y_hi))
+
+
+def _crop(data: RadarData, half_space: bool, n_in: float, height: float, y_min, y_max):
+    """The image's y crop, m: ``y_min`` .. ``y_max``, by default the data's
+    range axis (above a half-space: the material it reaches).
+
+    Raises
+    ------
+    InputError
+        An empty crop, or one beyond where a target can lie.
+    """
     # |y| <= R for every target: pixels beyond the range axis hold only the
     # FFT's periodic copies of the scene (every zero_pad_r * nr * dr in y),
     # which would read as targets; below a surface the deepest point an
     # air-equivalent range R reaches is h + (R - h) / n
     r_max = float(data.range[-1]) + data.dr
     lo_lim, hi_lim = (
-        (height, height + max(r_max - height, 0.0) / n_in) if medium.half_space else (-r_max, r_max)
+        (height, height + max(r_max - height, 0.0) / n_in) if half_space else (-r_max, r_max)
     )
-    y_lo = (
-        (float(data.range[0]) if not medium.half_space else lo_lim)
-        if y_min is None
-        else float(y_min)
-    )
-    y_hi = (
-        (float(data.range[-1]) if not medium.half_space else hi_lim)
-        if y_max is None
-        else float(y_max)
-    )
+    y_lo = (float(data.range[0]) if not half_space else lo_lim) if y_min is None else float(y_min)
+    y_hi = (float(data.range[-1]) if not half_space else hi_lim) if y_max is None else float(y_max)
     if not (np.isfinite(y_lo) and np.isfinite(y_hi) and y_hi > y_lo):
         raise InputError(f"need y_min < y_max, got {y_lo} and {y_hi}")
     if y_lo < lo_lim or y_hi > hi_lim:
         what = (
             "the material below the surface at y = h and the depth the range axis reaches"
-            if medium.half_space
+            if half_space
             else "the data's range axis: no target lies farther"
         )
         raise InputError(
             f"the y crop {y_lo:g} .. {y_hi:g} m must lie within {lo_lim:g} .. {hi_lim:g} m ({what})"
         )
+    return y_lo, y_hi
 
+
+def _spectrum(
+    data: RadarData, pad_x: int, zero_pad_r: int, half_space: bool, n_in: float, height: float
+):
+    """``S(kx, k)``: the frequency samples' FFT along X, referred to the
+    surface of a half-space below the array.
+
+    Returns
+    -------
+    f : ndarray, shape (L,)
+        Baseband frequencies, Hz.
+    k : ndarray, shape (L,)
+        Wavenumbers, rad/m (in the material below a half-space).
+    kx : ndarray, shape (pad_x nx,)
+        rad/m, FFT order.
+    spec : ndarray, complex, shape (pad_x nx, L)
+    """
     # frequency samples with the matched-filter weight (a tapered spectrum:
     # low range sidelobes), from the zero-padded FFT of the windowed profiles
     f, y_f = frequency_samples(
@@ -232,12 +259,16 @@ def rma_image(
     n_kx = pad_x * nx
     spec = np.fft.fft(y_f, n=n_kx, axis=0)  # (n_kx, L): X relative to x[0]
     kx = 2 * np.pi * np.fft.fftfreq(n_kx, dx)
-    if medium.half_space:
+    if half_space:
         # phase shift through the air layer: the data referred to the surface
         kz2 = 4 * k[None, :] ** 2 - kx[:, None] ** 2
         spec = np.where(kz2 > 0, spec * np.exp(1j * np.sqrt(np.maximum(kz2, 0.0)) * height), 0)
         k = n_in * k  # then Stolt with the material's wavenumber
+    return f, k, kx, spec
 
+
+def _ky_grid(k: np.ndarray, kx: np.ndarray):
+    """The uniform ``ky`` grid (rad/m, > 0) of the Stolt mapping, and its spacing."""
     # uniform ky grid over every ky the band reaches, spaced 2 dk (the spacing
     # of ky = 2k at kx = 0, so the y period stays c / 2 df)
     dk = k[1] - k[0]
@@ -246,8 +277,36 @@ def rma_image(
     ky_min = np.sqrt(max(4 * k[0] ** 2 - np.max(kx**2), 0.0))
     ky = ky_min + dky * np.arange(int(np.floor((ky_max - ky_min) / dky)) + 1)
     ky = ky[ky > 0]
-    img_k = _stolt(spec, kx, k, ky, jacobian)  # (n_kx, nky)
+    return ky, dky
 
+
+def _image(data: RadarData, img_k, ky, dky: float, upsample_x: int, want: float, height, crop):
+    """``I(x, y)`` from ``S(kx, ky)`` by inverse FFTs, on the crop's pixels.
+
+    Parameters
+    ----------
+    img_k : ndarray, complex, shape (n_kx, nky)
+        The Stolt-mapped spectrum.
+    ky : ndarray, shape (nky,)
+        rad/m, spaced ``dky``.
+    upsample_x : int
+        Zero-padding factor of ``kx``.
+    want : float
+        The y pixel asked for, m (zero-padding of ``ky`` where finer than
+        the grid's own).
+    height : float
+        Depth origin, m (the surface below a half-space, else 0).
+    crop : (float, float)
+        y_lo, y_hi, m.
+
+    Returns
+    -------
+    image, x, y
+        As :func:`rma_image`.
+    """
+    y_lo, y_hi = crop
+    nx, dx = data.array.x.size, data.array.dx
+    n_kx = img_k.shape[0]
     # inverse FFTs: kx zero-padded for upsample_x, ky for dy
     n_x = n_kx * upsample_x
     if upsample_x > 1:
@@ -258,7 +317,6 @@ def rma_image(
         img_k = full
     period_y = 2 * np.pi / dky
     dy_nat = 2 * np.pi / (ky.size * dky)
-    want = dy if dy is not None else C0 / (data.waveform.fc + f[-1]) / n_in / 4
     n_y = max(ky.size, int(np.ceil(period_y / min(want, dy_nat))))
     img = np.fft.ifft(np.fft.ifft(img_k, axis=0), n=n_y, axis=1) * (n_x * n_y)
 

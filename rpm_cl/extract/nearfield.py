@@ -159,28 +159,40 @@ decomposed envelope along R (eq. 5) and the image is still RPM (eq. 6).
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 
 from ..io.data import InputError
 from .blas import one_blas_thread
-from .nearfield_cl import DEGENERATE_DET, device_for
-from .types import Cluster, Decomposition
+from .nearfield_cl import device_for
+from .nearfield_map import _FocusMap
+from .nearfield_model import _compress, _Model
+from .nearfield_pairs import _PairPlacement
+from .nearfield_place import _Placement
+from .nearfield_polish import _clusters, _Polish
+from .nearfield_pursuit import _Pursuit
+from .types import Decomposition
+
+# isort: split
+# The search's parts that kernels/nearfield.cl, these notes and the tests
+# name in this module, importable from here as well as from their own:
+from .nearfield_cl import DEGENERATE_DET  # noqa: F401
+from .nearfield_map import (  # noqa: F401
+    _TABLES,
+    MAP_TABLE_BYTES,
+    MAP_TERMS_MAX,
+    TABLE_CACHE_BYTES,
+    _peaks,
+)
+from .nearfield_model import _explained_pairs, _orthonormal, _pair_algebra, _steer  # noqa: F401
+from .nearfield_place import PAIR_CORRELATION, PAIR_GRID  # noqa: F401
+from .nearfield_polish import ENVELOPE_TERMS, _real_fit  # noqa: F401
 
 __all__ = ["decompose_near_field", "near_field_wanted"]
 
-#: Terms of the polynomial envelope across X in the final fit (4: a target
-#: 20 degrees off axis at 0.4 m migrates 140 mm across the sparse aperture;
-#: 3 terms leave up to 7 mm of RP error on it, 4 terms under 1 mm).
-ENVELOPE_TERMS = 4
-#: Same while the centres are searched (fewer: a flexible model forgives a
+#: Terms of the polynomial envelope across X while the centres are searched
+#: (fewer than the final fit's ENVELOPE_TERMS: a flexible model forgives a
 #: misplaced centre, and the search then settles between targets).
 SEARCH_TERMS = 2
-#: Peaks of the residual map tried for each new centre.
-CANDIDATES = 3
-#: A new centre must lower the residual energy by this much, dB.
-MIN_GAIN_DB = 0.5
 #: Most clusters.  Fewer with few antennas: at most ``N // (2 SEARCH_TERMS)``
 #: centres for N antennas (see :meth:`_Search.max_centres`).
 MAX_CLUSTERS = 8
@@ -203,52 +215,11 @@ POLISH_MAX_NFEV = 100
 #: Longest aperture, in range resolutions c / 2B, decomposed in the near
 #: field (see :func:`near_field_wanted`).
 MAX_APERTURE_RESOLUTIONS = 1.2
-#: Largest |sin theta| searched.
-U_MAX = 0.985
-#: Pairs of centres whose waves correlate above this are re-placed jointly.
-PAIR_CORRELATION = 0.2
-#: Local grids (points in sin(theta) over +-1 resolution cell, points in R over
-#: +-1.5 depths of focus) for re-placing one centre, and a pair of centres.
-#: The one-centre scan is then refined REFINE_STAGES times on REFINE_GRID
-#: over +-half a step of the grid before (each divides the step by 4: du / 12
-#: and 0.09 depths of focus in the end, finer than the former single 21 x 25
-#: grid); a pair that moves is followed by the one-centre scans.  The pair
-#: grid stays fine: (7, 7), and (7, 7) refined on (3, 3) or (5, 5), lost 1-4
-#: points of RPM <= 50 mm on random layouts.
-EACH_GRID = (7, 9)
-PAIR_GRID = (11, 11)
-REFINE_GRID = (5, 5)
-REFINE_STAGES = 1
-#: A centre counts as moved (another re-placing sweep, another re-seat
-#: cycle) when it moves by more than this fraction of a resolution cell in
-#: sin(theta) or of a depth of focus in R; smaller moves are kept but are
-#: left to the final polish.
-MOVE_TOLERANCE = 0.25
-#: Passes that take each centre out and search its place again.
-RESEAT_CYCLES = 2
 #: The re-seat cycles are skipped once the residual energy is below
 #: FLOOR_MARGIN times the noise's expected share or FLOOR_REL of the
 #: searched energy (see :meth:`_Search.floor`).
 FLOOR_MARGIN = 1.5
 FLOOR_REL = 1e-3
-#: Grids of atoms kept per search (:meth:`_Model._atoms`; at most
-#: N x 121 x SEARCH_TERMS complex numbers each, 81 kB for 21 antennas).
-ATOM_CACHE = 128
-#: Largest table of focusing phases kept for the detection map, bytes.
-MAP_TABLE_BYTES = 128 << 20
-#: Most terms (directions x antennas x range samples) of one focused map:
-#: as many as the kept table holds (complex64), so that every map allowed
-#: is built once; a larger search is refused (see the module docstring).
-MAP_TERMS_MAX = MAP_TABLE_BYTES // 8
-#: Focusing tables kept across calls (one per geometry: antennas,
-#: frequency, directions, range axis), bytes in all; one table is kept only
-#: when it takes at most half of this (the paper's sparse case: 44 MB for
-#: its 600 gates, of which the rows of the gates searched are filled).
-TABLE_CACHE_BYTES = 128 << 20
-_TABLES = {}
-# one thread at a time reads or changes _TABLES (a Dask worker may run
-# several searches in threads)
-_TABLES_LOCK = threading.Lock()
 
 
 def near_field_wanted(data) -> bool:
@@ -279,176 +250,6 @@ def near_field_wanted(data) -> bool:
     return aperture <= MAX_APERTURE_RESOLUTIONS * data.waveform.range_resolution
 
 
-def _steer(x, u, r, k0):
-    """Spherical waves of points (u, r), shape (N, n): exp(-j 2 k0 (|X - p| - r))."""
-    u, r = np.atleast_1d(u), np.atleast_1d(r)
-    d = np.sqrt(np.maximum(x[:, None] ** 2 - 2 * x[:, None] * (r * u)[None] + (r * r)[None], 0.0))
-    return np.exp(-2j * k0 * (d - r[None]))
-
-
-def _basis(x, terms):
-    """Orthonormal polynomials in X (real), shape (N, terms)."""
-    t = (x - x.mean()) / max(0.5 * float(np.ptp(x)), 1e-12)
-    q, _ = np.linalg.qr(np.stack([t**l for l in range(terms)], axis=1))
-    return q
-
-
-def _compress(s):
-    """U * sigma of the SVD: the same least-squares residuals with at most N columns."""
-    u, sv, _ = np.linalg.svd(s, full_matrices=False)
-    return u * sv
-
-
-class _Model:
-    """Complex-amplitude model (search) on compressed data."""
-
-    def __init__(self, x, k0, sc, terms, device=None):
-        self.x, self.k0, self.sc = x, k0, sc
-        self.b = _basis(x, terms).astype(complex)
-        # the pair scans' OpenCL twin (rpm_cl.extract.nearfield_cl), or None: NumPy
-        self.device = device
-        self.energy = float(np.sum(np.abs(sc) ** 2))
-        self.fits = 0  # candidate fits evaluated (see FIT_BUDGET)
-        self._last = None
-        self._atom_cache = {}
-
-    def columns(self, centres):
-        n = self.x.size
-        if len(centres) == 0:
-            return np.zeros((n, 0), complex)
-        c = np.asarray(centres, float)
-        a = _steer(self.x, c[:, 0], c[:, 1], self.k0)[:, :, None] * self.b[:, None, :]
-        return a.reshape(n, -1)
-
-    def residual(self, centres, s=None):
-        s = self.sc if s is None else s
-        q, _ = np.linalg.qr(self.columns(centres))
-        return s - q @ (q.conj().T @ s)
-
-    def cost(self, centres):
-        self.fits += 1
-        return float(np.sum(np.abs(self.residual(centres)) ** 2))
-
-    def _projector(self, fixed):
-        if fixed.shape[1] == 0:
-            return lambda y: y
-        q, _ = np.linalg.qr(fixed)
-        return lambda y: y - q @ (q.conj().T @ y)
-
-    def _atoms(self, u, r, proj):
-        n, t = self.x.size, self.b.shape[1]
-        u, r = np.asarray(u, float), np.asarray(r, float)
-        # the unprojected atoms of a grid, kept: a centre re-placed because
-        # another one moved scans the same grid again (the paper's case:
-        # 23 of 102 grids), and the re-seat searches meet earlier grids
-        key = (u.tobytes(), r.tobytes())
-        a = self._atom_cache.pop(key, None)
-        if a is None:
-            a = (_steer(self.x, u, r, self.k0)[:, :, None] * self.b[:, None, :]).reshape(n, -1)
-            a.flags.writeable = False
-            while len(self._atom_cache) >= ATOM_CACHE:
-                self._atom_cache.pop(next(iter(self._atom_cache)))
-        self._atom_cache[key] = a  # most recently used last
-        return proj(a).reshape(n, -1, t)
-
-    def _prepared(self, others):
-        """Projector off ``others``' columns, the data projected and its
-        energy (the last ``others`` kept: a placement scans it twice)."""
-        key = tuple(tuple(c) for c in others)
-        if self._last is None or self._last[0] != key:
-            proj = self._projector(self.columns(others))
-            sp = proj(self.sc)
-            self._last = (key, proj, sp, float(np.sum(np.abs(sp) ** 2)))
-        return self._last[1:]
-
-    def scan(self, others, u, r):
-        """Residual energy with the centres ``others`` and one more at each (u[i], r[i])."""
-        self.fits += np.size(u)
-        proj, sp, esp = self._prepared(others)
-        a = self._atoms(u, r, proj)  # (N, n, t)
-        if a.shape[2] == 2:
-            q = _orthonormal(a).reshape(a.shape[0], -1)
-            g = q.conj().T @ sp  # (2 n, G)
-            return esp - np.sum(_abs2(g).reshape(-1, 2 * g.shape[1]), axis=1)
-        n, t = a.shape[1], a.shape[2]
-        g = (a.reshape(a.shape[0], -1).conj().T @ sp).reshape(n, t, -1)  # A^H S per candidate
-        h = _gram(a)
-        gg = g @ np.conj(np.swapaxes(g, 1, 2))
-        return esp - _trace(_inv(h) @ gg)
-
-    def scan_pair(self, others, um, rm, un, rn):
-        """Residual energy with ``others`` and two more centres, for every
-        combination of one of (um, rm) and one of (un, rn): shape (len(um), len(un))."""
-        self.fits += np.size(um) * np.size(un)
-        proj, sp, esp = self._prepared(others)
-        am, an = self._atoms(um, rm, proj), self._atoms(un, rn, proj)
-        if am.shape[2] == 2:
-            algebra = None if self.device is None else self.device.pair_algebra
-            return esp - _explained_pairs(_orthonormal(am), _orthonormal(an), sp, algebra)
-        nx, ni, t = am.shape
-        nj = an.shape[1]
-        fm, fn = am.reshape(nx, -1), an.reshape(nx, -1)
-        gm = (fm.conj().T @ sp).reshape(ni, t, -1)
-        gn = (fn.conj().T @ sp).reshape(nj, t, -1)
-        ainv = _inv(_gram(am))  # (ni, t, t)
-        d = _gram(an)  # (nj, t, t)
-        bm = (fm.conj().T @ fn).reshape(ni, t, nj, t).transpose(0, 2, 1, 3)  # B = Am^H An
-        p = gm @ np.conj(np.swapaxes(gm, 1, 2))  # g_m g_m^H
-        q = gm.reshape(ni * t, -1) @ gn.reshape(nj * t, -1).conj().T  # g_m g_n^H
-        q = q.reshape(ni, t, nj, t).transpose(0, 2, 1, 3)
-        rr = gn @ np.conj(np.swapaxes(gn, 1, 2))  # g_n g_n^H
-        # block elimination of [[A, B], [B^H, D]]: first A, then the Schur complement
-        kk = np.conj(np.swapaxes(bm, 2, 3)) @ ainv[:, None]  # K = B^H A^-1
-        schur = d[None] - kk @ bm
-        kq = kk @ q
-        kpk = kk @ p[:, None] @ np.conj(np.swapaxes(kk, 2, 3))
-        yy = rr[None] - kq - np.conj(np.swapaxes(kq, 2, 3)) + kpk  # (g_n - K g_m)(...)^H
-        explained = _trace(ainv @ p)[:, None] + _trace(_inv(schur) @ yy)
-        return esp - explained
-
-
-def _orthonormal(a):
-    """Orthonormal bases (Gram-Schmidt) of each candidate's two atoms (N, n, 2).
-
-    The column norms are ``np.linalg.norm(., axis=0)``'s own sum, written
-    out (the same numbers without its dispatch), and the two columns are
-    written into one array (no stack)."""
-    a0, a1 = a[:, :, 0], a[:, :, 1]
-    q = np.empty(a.shape, complex)
-    q0, q1 = q[:, :, 0], q[:, :, 1]
-    np.divide(a0, np.maximum(_colnorm(a0), 1e-300), out=q0)
-    v = a1 - q0 * np.add.reduce(q0.conj() * a1, axis=0)
-    np.divide(v, np.maximum(_colnorm(v), 1e-300), out=q1)
-    return q
-
-
-def _colnorm(z):
-    """Euclidean norms of the columns of a complex (N, n) array, as
-    ``np.linalg.norm(z, axis=0)`` computes them."""
-    return np.sqrt(np.add.reduce((z.conj() * z).real, axis=0))
-
-
-def _explained_pairs(qm, qn, sp, algebra=None):
-    """Energy of ``sp`` explained jointly by candidates m and n, for every
-    pair: shape (n_m, n_n).  ``qm``, ``qn``: orthonormal bases (N, n, 2).
-
-    The products over the antennas and gates are BLAS matrix products here;
-    the 2 x 2 algebra of every pair is ``algebra`` (:func:`_pair_algebra`,
-    or its OpenCL twin :meth:`rpm_cl.extract.nearfield_cl.NearFieldDevice.pair_algebra`
-    with the same signature)."""
-    nx, ni, _ = qm.shape
-    nj = qn.shape[1]
-    fm, fn = qm.reshape(nx, -1), qn.reshape(nx, -1)
-    gm, gn = fm.conj().T @ sp, fn.conj().T @ sp  # (2 n, G)
-    c = fm.conj().T @ fn  # (2 ni, 2 nj)
-    x = gm @ gn.conj().T  # g_m g_n^H
-    gm3, gn3 = gm.reshape(ni, 2, -1), gn.reshape(nj, 2, -1)
-    pm = gm3 @ gm3.conj().transpose(0, 2, 1)  # (ni, 2, 2)
-    pn = gn3 @ gn3.conj().transpose(0, 2, 1)  # (nj, 2, 2)
-    em = np.sum(np.abs(gm3) ** 2, axis=(1, 2))
-    return (algebra or _pair_algebra)(c, x, pm, pn, em)
-
-
 def least_squares(*args, **kwargs):
     """:func:`scipy.optimize.least_squares`, imported at the first call
     (SciPy's optimize costs 0.2 s of import; :mod:`rpm_cl.lazy`)."""
@@ -457,204 +258,17 @@ def least_squares(*args, **kwargs):
     return solve(*args, **kwargs)
 
 
-def _pair_algebra(c, x, pm, pn, em):
-    """Joint explained energy of every pair from its products (float64
-    NumPy reference of the ``pair_energy`` kernel, kernels/nearfield.cl).
+class _Search(_Pursuit, _PairPlacement, _Placement, _FocusMap):
+    """Matching pursuit of the cluster centres (see the module docstring).
 
-    Parameters
-    ----------
-    c : complex ndarray, shape (2 ni, 2 nj)
-        ``Fm^H Fn``: row ``2 i + a``, column ``2 j + b`` is
-        ``C_ij[a, b] = qm_i[:, a]^H qn_j[:, b]``.
-    x : complex ndarray, shape (2 ni, 2 nj)
-        ``Gm Gn^H``, the same layout (``g = Q^H S``, the data's coefficients).
-    pm : complex ndarray, shape (ni, 2, 2)
-        ``g_m g_m^H``.
-    pn : complex ndarray, shape (nj, 2, 2)
-        ``g_n g_n^H``.
-    em : ndarray, shape (ni,)
-        ``|g_m|^2``.
-
-    Returns
-    -------
-    ndarray, shape (ni, nj)
-        ``|g_m|^2 + tr((I - C^H C)^-1 Y)``, Y = (g_n - C^H g_m)(g_n - C^H g_m)^H,
-        or ``|g_m|^2`` alone where det(I - C^H C) <= :data:`DEGENERATE_DET`
-        (the block elimination of the joint Gram matrix [[I, C], [C^H, I]]);
-        the 2 x 2 algebra is written out per element over all pairs at once
-        (the stacked 2 x 2 matrix products it replaces cost 3-5 times more).
+    Composed of the search's stages, one mixin each: candidate centres from
+    the focused map (:class:`rpm_cl.extract.nearfield_map._FocusMap`), one
+    centre re-placed on local grids (:class:`rpm_cl.extract.nearfield_place._Placement`),
+    correlated pairs re-placed jointly
+    (:class:`rpm_cl.extract.nearfield_pairs._PairPlacement`) and the pursuit
+    that adds and re-seats centres (:class:`rpm_cl.extract.nearfield_pursuit._Pursuit`).
+    This class holds the data searched, the model and the search's limits.
     """
-    ni, nj = pm.shape[0], pn.shape[0]
-    c = c.reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)  # c[a][b]: (ni, nj)
-    x = x.reshape(ni, 2, nj, 2).transpose(1, 3, 0, 2)
-    pm = pm.transpose(1, 2, 0)[:, :, :, None]  # (2, 2, ni, 1)
-    pn = pn.transpose(1, 2, 0)[:, :, None, :]  # (2, 2, 1, nj)
-    # D = I - C^H C and Y = Pn - C^H X - X^H C + C^H Pm C, Hermitian 2 x 2,
-    # element by element; tr(D^-1 Y) = tr(adj(D) Y) / det(D) with
-    # tr(adj(D) Y) = d11 y00 + d00 y11 - 2 Re(conj(d01) y01)
-    c00, c01, c10, c11 = c[0][0], c[0][1], c[1][0], c[1][1]
-    k00, k10 = c00.conj(), c10.conj()
-    a00, a11 = _abs2(c00) + _abs2(c10), _abs2(c01) + _abs2(c11)
-    d01 = -(k00 * c01 + k10 * c11)
-    pm01 = pm[0][1]
-    # Pm C, column by column
-    e00, e10 = pm[0][0].real * c00 + pm01 * c10, pm01.conj() * c00 + pm[1][1].real * c10
-    e01, e11 = pm[0][0].real * c01 + pm01 * c11, pm01.conj() * c01 + pm[1][1].real * c11
-    y00 = pn[0][0].real - 2 * (k00 * x[0][0] + k10 * x[1][0]).real + (k00 * e00 + k10 * e10).real
-    y11 = (
-        pn[1][1].real
-        - 2 * (c01.conj() * x[0][1] + c11.conj() * x[1][1]).real
-        + (c01.conj() * e01 + c11.conj() * e11).real
-    )
-    y01 = (
-        pn[0][1]
-        - (k00 * x[0][1] + k10 * x[1][1])
-        - (x[0][0].conj() * c01 + x[1][0].conj() * c11)
-        + k00 * e01
-        + k10 * e11
-    )
-    d00, d11 = 1.0 - a00, 1.0 - a11
-    eps = 1e-12 * (d00 + d11)  # the regularisation of _inv
-    d00, d11 = d00 + eps, d11 + eps
-    det = d00 * d11 - _abs2(d01)
-    tr = d11 * y00 + d00 * y11 - 2 * (d01.conj() * y01).real
-    with np.errstate(divide="ignore", invalid="ignore"):
-        joint = np.where(det > DEGENERATE_DET, tr / det, 0.0)
-    return np.asarray(em)[:, None] + joint
-
-
-def _peaks(fmap, size, floor, count):
-    """Indices (i, j) of the ``count`` largest local maxima of ``fmap`` (2-D)
-    at or above ``floor``, largest first (ties in row-major order).
-
-    A local maximum is a point equal to the maximum of the ``size`` window
-    centred on it, clipped at the edges: the points where ``fmap`` equals
-    ``ndimage.maximum_filter(fmap, size, mode="nearest")``.  Such a point is
-    no smaller than its eight neighbours (windows of one point along an axis
-    leave those neighbours out), so only those points are checked against
-    their whole window, strongest first, until ``count`` are found: the same
-    peaks (the paper's sparse case: 140-300 of the map's 45864 points pass
-    the first test; 0.25 ms against 0.45 ms for the filter alone)."""
-    near = fmap.copy()  # the maximum over each point's 3 x 3 neighbours, by rows then columns
-    if size[0] > 1:
-        np.maximum(near[1:], fmap[:-1], out=near[1:])
-        np.maximum(near[:-1], fmap[1:], out=near[:-1])
-    if size[1] > 1:
-        rows = near.copy()
-        np.maximum(near[:, 1:], rows[:, :-1], out=near[:, 1:])
-        np.maximum(near[:, :-1], rows[:, 1:], out=near[:, :-1])
-    idx = np.argwhere((fmap >= near) & (fmap >= floor))
-    idx = idx[np.argsort(-fmap[tuple(idx.T)], kind="stable")]
-    hu, hr = size[0] // 2, size[1] // 2
-    out = []
-    for i, j in idx:
-        if len(out) == count:
-            break
-        win = fmap[max(i - hu, 0) : i + size[0] - hu, max(j - hr, 0) : j + size[1] - hr]
-        if fmap[i, j] >= win.max():
-            out.append((int(i), int(j)))
-    return out
-
-
-def _abs2(z):
-    """|z|^2 of a complex array, real."""
-    return z.real**2 + z.imag**2
-
-
-def _gram(a):
-    """Per-candidate Gram matrices of atoms (N, n, t): shape (n, t, t)."""
-    b = np.ascontiguousarray(a.transpose(1, 0, 2))
-    return np.conj(np.swapaxes(b, 1, 2)) @ b
-
-
-def _inv(h):
-    """Inverse of a stack of small Hermitian matrices (closed form up to 2 x 2),
-    regularised by 1e-12 of the trace."""
-    t = h.shape[-1]
-    h = h + 1e-12 * np.trace(h, axis1=-2, axis2=-1).real[..., None, None] * np.eye(t)
-    if t == 1:
-        return 1.0 / h
-    if t == 2:
-        a, b, c, d = h[..., 0, 0], h[..., 0, 1], h[..., 1, 0], h[..., 1, 1]
-        det = a * d - b * c
-        return np.stack([np.stack([d, -b], -1), np.stack([-c, a], -1)], -2) / det[..., None, None]
-    return np.linalg.inv(h)
-
-
-def _trace(m):
-    return np.trace(m, axis1=-2, axis2=-1).real
-
-
-def _real_fit(x, k0, centres, terms, s):
-    """Fit with real coefficients; ``centres`` rows are (u, r, psi).
-
-    Returns the complex design matrix, the coefficients and the residual
-    (real and imaginary parts stacked)."""
-    c = np.atleast_2d(np.asarray(centres, float))
-    b = _basis(x, terms)
-    d = (_steer(x, c[:, 0], c[:, 1], k0) * np.exp(1j * c[:, 2])[None])[:, :, None] * b[:, None, :]
-    d = d.reshape(x.size, -1)
-    dr = np.concatenate([d.real, d.imag])
-    sr = np.concatenate([s.real, s.imag])
-    coef, *_ = np.linalg.lstsq(dr, sr, rcond=None)
-    return d, coef, sr - dr @ coef
-
-
-class _Polish:
-    """Residual and Jacobian of the real-amplitude fit (:func:`_real_fit`)
-    as functions of the centres' (u, r, psi), for ``least_squares``.
-
-    The Jacobian is Kaufman's variable-projection one, ``-P (dD/dv) c``
-    (``P`` the projector off the model's columns, ``c`` the fitted real
-    coefficients): analytic, one evaluation instead of one per parameter,
-    and its gradient ``J^T res`` is the exact one (the term it drops is
-    orthogonal to the residual), so the minimum is the same.
-    """
-
-    def __init__(self, x, k0, terms, s):
-        self.x, self.k0, self.t = x, k0, terms
-        self.b = _basis(x, terms)
-        self.sr = np.concatenate([s.real, s.imag])
-        self._v, self._fit = None, None
-
-    def _solve(self, v):
-        if self._v is None or not np.array_equal(v, self._v):
-            c = v.reshape(-1, 3)
-            e = _steer(self.x, c[:, 0], c[:, 1], self.k0) * np.exp(1j * c[:, 2])[None]  # (N, M)
-            d = (e[:, :, None] * self.b[:, None, :]).reshape(self.x.size, -1)
-            q, rr = np.linalg.qr(np.concatenate([d.real, d.imag]))
-            qs = q.T @ self.sr
-            self._v = np.array(v, copy=True)
-            self._fit = (d, q, np.linalg.solve(rr, qs) if rr.size else qs, self.sr - q @ qs)
-        return self._fit
-
-    def fun(self, v):
-        return self._solve(v)[3].ravel()
-
-    def jac(self, v):
-        d, q, coef, _ = self._solve(v)
-        c = v.reshape(-1, 3)
-        x, u, r = self.x[:, None], c[None, :, 0], c[None, :, 1]
-        dist = np.sqrt(np.maximum(x * x - 2 * x * r * u + r * r, 1e-30))
-        n, m = d.shape[0], c.shape[0]
-        # d/du, d/dr, d/dpsi of each centre's column factor exp(-j2k0(d-r)+j psi), (N, M, 3)
-        fac = np.stack(
-            [
-                2j * self.k0 * x * r / dist,
-                -2j * self.k0 * ((r - x * u) / dist - 1.0),
-                np.broadcast_to(1j, dist.shape),
-            ],
-            axis=-1,
-        )
-        fitted = np.einsum("nmt,mtg->nmg", d.reshape(n, m, self.t), coef.reshape(m, self.t, -1))
-        e = fac[..., None] * fitted[:, :, None, :]  # (N, M, 3, G)
-        er = np.concatenate([e.real, e.imag]).reshape(2 * n, 3 * m, -1)
-        er = er - np.einsum("ik,kjg->ijg", q, np.einsum("ik,ijg->kjg", q, er))
-        return -er.transpose(0, 2, 1).reshape(-1, 3 * m)
-
-
-class _Search:
-    """Matching pursuit of the cluster centres (see the module docstring)."""
 
     def __init__(self, data, thr, pad, device=None):
         x = np.asarray(data.array.x, float)
@@ -673,39 +287,9 @@ class _Search:
         # data's squared singular values (the echoes take the larger ones)
         sv2 = np.sort(np.sum(np.abs(self.model.sc) ** 2, axis=0))
         self.noise = float(np.mean(sv2[: max(1, self.n // 2)]))
-        # the focused map on every few gates (it varies slowly along R)
-        step = max(1, round(self.res_r / 64 / self.dr))
-        gdet = self.gates[::step]
-        self.s_det, self.r_det = sig[:, gdet], data.range[gdet]
-        self._rows, self._step, self._axis = gdet, step, data.range
-        dk = 2 * np.pi / (pad * self.n * data.array.dx)
-        nk = int(np.floor(2 * self.k0 * U_MAX / dk))
-        self._check_size(data, 2 * nk + 1)
-        self.u_det = np.arange(-nk, nk + 1) * dk / (2 * self.k0)
-        self.w = np.hanning(self.n + 2)[1:-1]
-        self._tables = {}
         self._memo = {}
         self._units = {}
-        self.nms = [
-            2 * int(np.ceil(self.du * 2 * self.k0 / dk)) + 1,
-            2 * int(np.ceil(0.5 * self.res_r / (step * self.dr))) + 1,
-        ]
-        self.gmax = float(self.focus_map(self.s_det).max())
-
-    def _check_size(self, data, n_dirs: int) -> None:
-        """InputError when one focused map of ``n_dirs`` directions exceeds
-        MAP_TERMS_MAX terms (checked before the directions are allocated)."""
-        terms = n_dirs * self.n * self.r_det.size
-        if terms > MAP_TERMS_MAX:
-            raise InputError(
-                f"the near-field search of this sparse array is too large: a focused map of "
-                f"{terms:.3g} terms ({n_dirs} directions x {self.n} antennas x "
-                f"{self.r_det.size} range samples; at most {MAP_TERMS_MAX:.3g}), as the "
-                f"{self.aperture:g} m aperture spans {self.aperture / data.waveform.wavelength:.0f}"
-                f" wavelengths and {self.gates.size} range gates hold echoes; crop the range "
-                f"axis to the scene, or use the plane-wave decomposition (near_field = false, "
-                f"--near-field false)"
-            )
+        self._init_map(data, pad)
 
     @property
     def spent(self) -> bool:
@@ -735,273 +319,6 @@ class _Search:
     def dof(self, r):
         """Depth of focus at range r: the range change that bends the edge phase by pi."""
         return min(4 * np.pi * r * r / (self.k0 * self.aperture**2), 0.5 * self.res_r)
-
-    def focus_map(self, s):
-        """|sum_X w(X) s(X, R) conj(a_p(X))| over (u_det, r_det), in chunks of gates.
-
-        The focusing phases are kept as complex64 (the map only ranks
-        candidate centres: float32's 1e-7 is far below any peak difference
-        that matters), laid out (gate, direction, antenna) so that each gate
-        is one matrix-vector product."""
-        out = np.empty((self.u_det.size, self.r_det.size))
-        table = self._table()
-        if table is not None:  # the whole axis's table, kept: runs of gates a step apart
-            rows, step = self._rows, self._step
-            cuts = np.flatnonzero(np.diff(rows) != step) + 1
-            for a, b in zip(np.r_[0, cuts], np.r_[cuts, rows.size]):
-                sg = np.ascontiguousarray(s[:, a:b].T, dtype=np.complex64)[:, :, None]
-                tab = table[rows[a] : rows[b - 1] + 1 : step]
-                out[:, a:b] = np.abs(np.matmul(tab, sg)[..., 0]).T
-            return out
-        chunk = max(1, int(MAP_TABLE_BYTES // (8 * self.u_det.size * self.n)))
-        cache = self.u_det.size * self.n * self.r_det.size * 8 <= MAP_TABLE_BYTES
-        for g0 in range(0, self.r_det.size, chunk):
-            tab = self._tables.get(g0)
-            if tab is None:
-                tab = self._phases(self.r_det[g0 : g0 + chunk])
-                if cache:
-                    self._tables[g0] = tab
-            sg = np.ascontiguousarray(s[:, g0 : g0 + chunk].T, dtype=np.complex64)[:, :, None]
-            out[:, g0 : g0 + chunk] = np.abs(np.matmul(tab, sg)[..., 0]).T
-        return out
-
-    def _phases(self, r):
-        """Weighted focusing phases (len(r), directions, antennas), complex64."""
-        x, u, r = self.x[None, None, :], self.u_det[None, :, None], np.asarray(r)[:, None, None]
-        d = np.sqrt(np.maximum(x * x - 2 * x * r * u + r * r, 0.0))
-        phase = (2 * self.k0 * (d - r)).astype(np.float32)
-        tab = np.empty(phase.shape, np.complex64)
-        np.cos(phase, out=tab.real)
-        np.sin(phase, out=tab.imag)
-        tab *= self.w.astype(np.float32)
-        return tab
-
-    def _table(self):
-        """The focusing table of every gate of the range axis, kept across
-        calls for the same geometry (antennas, frequency, directions, range
-        axis; least recently used first out, TABLE_CACHE_BYTES in all), its
-        rows filled as gates are asked for (the memory of a row is touched
-        only then); None where one table would take more than
-        TABLE_CACHE_BYTES / 2 (then :meth:`focus_map` builds the searched
-        gates' rows, once per search)."""
-        nrows = self._axis.size
-        size = nrows * self.u_det.size * self.n * 8
-        if size > TABLE_CACHE_BYTES // 2:
-            return None
-        key = (
-            self.x.tobytes(),
-            self.k0,
-            self.u_det.size,
-            float(self.u_det[-1]),
-            float(self._axis[0]),
-            float(self._axis[-1]),
-            nrows,
-        )
-        with _TABLES_LOCK:
-            return self._kept_table(key, nrows, size)
-
-    def _kept_table(self, key, nrows, size):
-        entry = _TABLES.pop(key, None)
-        if entry is None:
-            while _TABLES and sum(t.nbytes for t, _ in _TABLES.values()) + size > TABLE_CACHE_BYTES:
-                _TABLES.pop(next(iter(_TABLES)))
-            entry = (
-                np.empty((nrows, self.u_det.size, self.n), np.complex64),
-                np.zeros(nrows, bool),
-            )
-        _TABLES[key] = entry  # most recently used last
-        table, built = entry
-        need = self._rows[~built[self._rows]]
-        if need.size:
-            table[need] = self._phases(self._axis[need])
-            built[need] = True
-        return table
-
-    def _grid(self, centre, shape, half=None):
-        """Grid of ``shape`` points over +-``half`` (sin theta, m) around
-        ``centre``; default half widths: a resolution cell, 1.5 depths of focus."""
-        u0, r0 = centre
-        hu, hr = (self.du, 1.5 * self.dof(r0)) if half is None else half
-        unit = self._units.get(shape)
-        if unit is None:
-            unit = self._units[shape] = [
-                g.ravel()
-                for g in np.meshgrid(
-                    np.linspace(-1, 1, shape[0]), np.linspace(-1, 1, shape[1]), indexing="ij"
-                )
-            ]
-        return np.clip(u0 + hu * unit[0], -U_MAX, U_MAX), np.maximum(r0 + hr * unit[1], self.dr)
-
-    def moved(self, a, b) -> bool:
-        """True when centre ``a`` lies more than MOVE_TOLERANCE of a cell from ``b``."""
-        return abs(a[0] - b[0]) > MOVE_TOLERANCE * self.du or abs(
-            a[1] - b[1]
-        ) > MOVE_TOLERANCE * self.dof(b[1])
-
-    def same(self, a, b) -> bool:
-        """True when the centre sets ``a`` and ``b`` match one to one within
-        MOVE_TOLERANCE (the same solution placed a little differently)."""
-        left = list(b)
-        for c in a:
-            k = next((i for i, d in enumerate(left) if not self.moved(c, d)), None)
-            if k is None:
-                return False
-            left.pop(k)
-        return not left
-
-    def place_one(self, others, centre):
-        """Best place of one centre near ``centre``, ``others`` fixed: the
-        EACH_GRID scan, then REFINE_STAGES scans of REFINE_GRID over +-half a
-        step of the grid before (stopping where the budget is spent)."""
-        half = np.array([self.du, 1.5 * self.dof(centre[1])])
-        shape, best = EACH_GRID, list(centre)
-        for stage in range(1 + REFINE_STAGES):
-            if stage and self.spent:
-                break
-            uu, rr = self._grid(best, shape, half)
-            i = int(np.argmin(self.model.scan(others, uu, rr)))
-            best = [float(uu[i]), float(rr[i])]
-            half = half / (np.asarray(shape) - 1)  # half a step of this grid
-            shape = REFINE_GRID
-        return best
-
-    def place_each(self, centres, sweeps=3):
-        """Re-place each centre in turn on a local grid, the others fixed.
-
-        In list order: the new centre last, the others first (placing the new
-        one first, from its map peak, lost 3 points of RPM <= 50 mm on random
-        layouts).  A centre is not placed again while no other one has moved
-        since it was placed (it would stay where it is)."""
-        centres = [list(c) for c in centres]
-        step, placed, last_move = 0, [-1] * len(centres), [0] * len(centres)
-        for _ in range(sweeps):
-            moved = False
-            for m in range(len(centres)):
-                step += 1
-                if placed[m] >= 0 and all(
-                    last_move[k] < placed[m] for k in range(len(centres)) if k != m
-                ):
-                    continue
-                u0, r0 = centres[m]
-                if self.spent:
-                    return centres
-                best = self.place_one(centres[:m] + centres[m + 1 :], (u0, r0))
-                placed[m] = step
-                if self.moved(best, (u0, r0)):
-                    moved, last_move[m] = True, step
-                centres[m] = best
-            if not moved:
-                break
-        return centres
-
-    def place_two(self, rest, cm, ck):
-        """Joint place of two centres near ``cm`` and ``ck`` on PAIR_GRID,
-        ``rest`` fixed; (None, None) where the pair stays (the grids' middle)."""
-        um, rm = self._grid(cm, PAIR_GRID)
-        uk, rk = self._grid(ck, PAIR_GRID)
-        c = self.model.scan_pair(rest, um, rm, uk, rk)
-        i, j = np.unravel_index(int(np.argmin(c)), c.shape)
-        if i == c.shape[0] // 2 and j == c.shape[1] // 2:
-            return None, None
-        return [float(um[i]), float(rm[i])], [float(uk[j]), float(rk[j])]
-
-    def place_pairs(self, centres):
-        """Re-place pairs of centres with correlated waves jointly (aliases)."""
-        for _ in range(2):
-            changed = False
-            for m in range(len(centres)):
-                for k in range(m + 1, len(centres)):
-                    am = _steer(self.x, centres[m][0], centres[m][1], self.k0)[:, 0]
-                    ak = _steer(self.x, centres[k][0], centres[k][1], self.k0)[:, 0]
-                    if abs(np.vdot(am, ak)) / self.n < PAIR_CORRELATION:
-                        continue
-                    if self.spent:
-                        return centres
-                    rest = [c for i, c in enumerate(centres) if i not in (m, k)]
-                    pm, pk = self.place_two(rest, centres[m], centres[k])
-                    if pm is not None:
-                        changed = True
-                        centres[m], centres[k] = pm, pk
-            if not changed:
-                break
-            centres = self.place_each(centres)
-        return centres
-
-    def candidates(self, fixed):
-        """Strongest peaks (u, r, value) of the focused map of what ``fixed`` leaves."""
-        s = self.s_det
-        if fixed:
-            q, _ = np.linalg.qr(self.model.columns(fixed))
-            s = s - q @ (q.conj().T @ s)
-        fmap = self.focus_map(s)
-        return [
-            (float(self.u_det[i]), float(self.r_det[j]), float(fmap[i, j]))
-            for i, j in _peaks(fmap, self.nms, self.thr * self.gmax, CANDIDATES)
-        ]
-
-    def best_with(self, fixed, exclude=None):
-        """Best candidate added to ``fixed``, all centres re-placed:
-        (centres, cost, peak), or None without candidates.  Candidates
-        within a resolution cell and a depth of focus of ``exclude`` are not
-        tried (re-seating: the centre taken out, whose solution is known).
-        Remembered per question (the re-seat cycles ask some again)."""
-        key = (tuple(tuple(c) for c in fixed), None if exclude is None else tuple(exclude))
-        if key not in self._memo:
-            self._memo[key] = self._best_with(fixed, exclude)
-        best = self._memo[key]
-        return None if best is None else ([list(c) for c in best[0]], best[1], best[2])
-
-    def _best_with(self, fixed, exclude):
-        best = None
-        for u0, r0, value in self.candidates(fixed):
-            if self.spent:
-                break
-            if exclude is not None and (
-                abs(u0 - exclude[0]) <= self.du and abs(r0 - exclude[1]) <= self.dof(exclude[1])
-            ):
-                continue
-            trial = self.place_each(fixed + [[u0, r0]])
-            if len(trial) > 1:
-                trial = self.place_pairs(trial)
-            c = self.model.cost(trial)
-            if best is None or c < best[1]:
-                best = (trial, c, value)
-        return best
-
-    def run(self):
-        """Centres [(u, r)] and their map peaks."""
-        centres, peaks = [], []
-        cost = self.model.energy
-        for _ in range(self.max_centres()):
-            if self.spent:
-                break
-            best = self.best_with(centres)
-            if best is None:
-                break
-            if centres and 10 * np.log10(cost / max(best[1], 1e-300)) < MIN_GAIN_DB:
-                break
-            centres, cost = best[0], best[1]
-            peaks.append(best[2])
-            # re-seat: a centre chosen before the others were known may sit
-            # between targets; take each out in turn and search its place again
-            # (not once the residual is down to the noise: nothing is left
-            # that another placement could explain)
-            cycles = RESEAT_CYCLES if len(centres) > 1 and cost > self.floor(len(centres)) else 0
-            for _ in range(cycles):
-                changed = False
-                for m in range(len(centres)):
-                    if self.spent:
-                        break
-                    alt = self.best_with(centres[:m] + centres[m + 1 :], exclude=centres[m])
-                    if alt is not None and alt[1] < cost * (1 - 1e-3):
-                        # a better placement of the same centres is kept; only
-                        # a different solution asks for another cycle
-                        changed |= not self.same(alt[0], centres)
-                        centres, cost = alt[0], alt[1]
-                        peaks = peaks[:m] + peaks[m + 1 :] + [alt[2]]
-                if not changed:
-                    break
-        return centres, peaks
 
 
 def decompose_near_field(data, params, spectrum, env=None):
@@ -1045,9 +362,21 @@ def _decompose_near_field(data, params, spectrum, env):
     centres, peaks = search.run()
     if not centres:
         return Decomposition(k_axes, mag, ())
+    th = _polished(search, data, centres)
+    return Decomposition(k_axes, mag, _clusters(data, params, search, th, peaks), near_field=True)
+
+
+def _polished(search, data, centres):
+    """The centres' (u, r) and one phase each, polished with the
+    real-amplitude model (:class:`_Polish`, ``least_squares``).
+
+    Returns
+    -------
+    ndarray, shape (M, 3)
+        Rows (u, r, psi): sin(theta), m, rad.
+    """
     x, k0, n, du = search.x, search.k0, search.n, search.du
     sig = data.signal
-
     # polish (u, r) and one phase per centre with the real-amplitude model
     t = SEARCH_TERMS
     coef, *_ = np.linalg.lstsq(search.model.columns(centres), search.model.sc, rcond=None)
@@ -1069,29 +398,4 @@ def _decompose_near_field(data, params, spectrum, env):
         max_nfev=POLISH_MAX_NFEV,
     )
     th = sol.x.reshape(-1, 3)
-
-    # the decomposition: the joint fit over every gate, one term per cluster
-    d, coef, _ = _real_fit(x, k0, th, ENVELOPE_TERMS, sig)
-    t = ENVELOPE_TERMS
-    rng, dr = data.range, data.dr
-    gate = params.range_gate or search.res_r
-    clusters = []
-    for m, (u, r, _) in enumerate(th):
-        s_m = d[:, m * t : (m + 1) * t] @ coef[m * t : (m + 1) * t]
-        ir = int(np.clip(np.round((r - rng[0]) / dr), 0, rng.size - 1))
-        lo = max(0, int(np.floor(ir - gate / dr)))
-        hi = min(rng.size, int(np.ceil(ir + gate / dr)) + 1)
-        # not aligned (offset 0): the envelope terms follow the range walk
-        clusters.append(
-            Cluster(
-                np.array([2 * k0 * u]),
-                float(r),
-                slice(lo, hi),
-                s_m[:, lo:hi],
-                peaks[m],
-                np.zeros(n),
-                np.zeros(1),
-            )
-        )
-    order = np.argsort([-c.peak for c in clusters], kind="stable")
-    return Decomposition(k_axes, mag, tuple(clusters[i] for i in order), near_field=True)
+    return th

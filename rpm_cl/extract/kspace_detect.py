@@ -1,0 +1,94 @@
+"""Detection of the k-space decomposition's cluster centres
+(:mod:`rpm_cl.extract.kspace`, step 2): local maxima of the detection map
+over (k, R), and the runs and regimes of range gates it is computed on.
+
+The steps named in the docstrings below ("module notes, step N") are those
+of the notes of :mod:`rpm_cl.extract.kspace`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..io.data import RadarData
+from ..lazy import lazy
+
+ndimage = lazy("scipy.ndimage")
+
+
+def _runs(mask: np.ndarray):
+    """Contiguous runs of True in a 1-D mask, as (start, stop) pairs."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.nonzero(d == 1)[0], np.nonzero(d == -1)[0]))
+
+
+def _regimes(dechirp, nr: int) -> list:
+    """The gates whose detection maxima are compared with each other: all of
+    them, or the dechirped and the plain ones apart (dechirping raises a
+    focused target's peak, by 9 dB on the tapered map of a 64 x 64 array, so
+    one relative threshold over both would drop targets at plain gates).
+    Boolean masks over the range gates, none empty."""
+    if dechirp is None:
+        return [np.ones(nr, bool)]
+    return [m for m in (np.asarray(dechirp, bool), ~np.asarray(dechirp, bool)) if m.any()]
+
+
+def _centres(det: np.ndarray, size: list, n_k: int, threshold, g0: int, nr: int):
+    """Local maxima of ``det`` (one run of range gates starting at gate g0)
+    at or above ``threshold`` (a scalar, or one value per gate of the run):
+    (indices with global gates, values)."""
+    mode = ["wrap"] * n_k + ["nearest"]
+    # a window wider than its axis sees the whole axis, as the axis's own
+    # length (wrapped) or twice it (edges repeated) does: the same maxima,
+    # at a cost bounded by the data, not by the resolution
+    size = [min(int(s), n if m == "wrap" else 2 * n + 1) for s, n, m in zip(size, det.shape, mode)]
+    local = det == ndimage.maximum_filter(det, size=size, mode=mode)
+    # a strict maximum along R (a flat run of equal values, e.g. a constant
+    # signal, is not a peak: every gate of it would pass the test above)
+    strict = np.zeros_like(local)
+    strict[..., 1:-1] = (det[..., 1:-1] > det[..., :-2]) & (det[..., 1:-1] >= det[..., 2:])
+    local &= strict & (det >= threshold) & (det > 0)
+    idx = np.argwhere(local)
+    vals = det[tuple(idx.T)]
+    idx[:, -1] += g0
+    # a peak on the first or last range gate is the edge of the axis, not a maximum
+    keep = (idx[:, -1] > 0) & (idx[:, -1] < nr - 1)
+    return idx[keep], vals[keep]
+
+
+def _nms_size(data: RadarData, periods, k_axes):
+    """The non-maximum suppression neighbourhood of the centres (module
+    notes, step 2): a quarter window period in k, half a range resolution
+    in R.
+
+    Returns
+    -------
+    size : list of int
+        Points per k axis, then range gates (odd).
+    half_r : int
+        Half its length along R, range gates.
+    """
+    n_k = data.array.dim - 1
+    dr = data.dr
+    # non-maximum suppression neighbourhood: a quarter window period in k,
+    # half a range resolution in R; k axes periodic, R not.
+    size = [
+        2 * int(np.ceil(0.25 * periods[a] / abs(k_axes[a][1] - k_axes[a][0]))) + 1
+        for a in range(n_k)
+    ]
+    size = [min(s_, len(k)) for s_, k in zip(size, k_axes)]
+    half_r = int(np.ceil(0.5 * data.waveform.range_resolution / dr))
+    size.append(2 * half_r + 1)
+    return size, half_r
+
+
+def _ranked_centres(found, size, n_k: int, threshold, nr: int) -> np.ndarray:
+    """The centres of every run of gates searched (:func:`_centres`), largest
+    first: indices (k indices, gate), shape (n_centres, n_k + 1).
+
+    ``found`` holds (detection map of the run, its first gate) pairs;
+    ``threshold`` is one value per range gate."""
+    peaks = [_centres(d, size, n_k, threshold[g0 : g0 + d.shape[-1]], g0, nr) for d, g0 in found]
+    idx = np.concatenate([p[0] for p in peaks])
+    vals = np.concatenate([p[1] for p in peaks])
+    return idx[np.argsort(-vals, kind="stable")]
