@@ -20,7 +20,7 @@
  *
  * Work-item mapping: a 2-D range (nj, ni), one work-item per pair (j, i);
  * out (ni, nj) row-major; straight-line code, no loops.
- * NumPy reference: rpm_cl.extract.nearfield._pair_algebra.
+ * NumPy reference: rpm_cl.extract.nearfield_model._pair_algebra.
  */
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 

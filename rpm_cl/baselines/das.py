@@ -53,6 +53,11 @@ __all__ = [
     "write_image",
 ]
 
+#: The DAS kernel evaluates the phasor between two range gates by a Taylor
+#: polynomial (-DPOLY) where k_c times the gate spacing is at most this, rad
+#: (its truncation error there is below 1e-7, under float32 rounding), else
+#: by sincos (kernels/das.cl).
+POLY_KC_DR_MAX = 1.1
 #: Default bound on the memory a DAS run may hold (temporaries, tables), bytes.
 MEMORY_BUDGET_DEFAULT = 2_000_000_000
 
@@ -410,7 +415,7 @@ class DeviceDAS:
             check_float32_range(data)
         sig = self._buf(self.phased_pairs(data), self.cplx)
         kc_dr = 2 * np.pi * data.waveform.fc / C0 * data.dr
-        kernel = self._kernel(poly=kc_dr <= 1.1)
+        kernel = self._kernel(poly=kc_dr <= POLY_KC_DR_MAX)
         ax, az = self._buf(ant[:, 0] - o[0], self.real), self._buf(ant[:, 2] - o[2], self.real)
         gx = self._buf(grid.x - o[0], self.real)
         gy = self._buf(grid.y, self.real)

@@ -16,6 +16,11 @@ from ..lazy import lazy
 ndimage = lazy("scipy.ndimage")
 
 
+#: Non-maximum suppression of the centre search: a quarter of the window
+#: period in k (two centres closer share most of one window).
+NMS_K_PERIODS = 0.25
+
+
 def _runs(mask: np.ndarray):
     """Contiguous runs of True in a 1-D mask, as (start, stop) pairs."""
     d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
@@ -73,7 +78,7 @@ def _nms_size(data: RadarData, periods, k_axes):
     # non-maximum suppression neighbourhood: a quarter window period in k,
     # half a range resolution in R; k axes periodic, R not.
     size = [
-        2 * int(np.ceil(0.25 * periods[a] / abs(k_axes[a][1] - k_axes[a][0]))) + 1
+        2 * int(np.ceil(NMS_K_PERIODS * periods[a] / abs(k_axes[a][1] - k_axes[a][0]))) + 1
         for a in range(n_k)
     ]
     size = [min(s_, len(k)) for s_, k in zip(size, k_axes)]

@@ -97,10 +97,17 @@ def _focused_gates(data: RadarData, params: KSpaceParams) -> np.ndarray:
     return _max_curvature(_array_axes(data.array), data.waveform.kc, data.range) > np.pi
 
 
+#: The range-walk alignment is on by default where the aperture spans at
+#: least this many range resolutions (a target's walk across it can then be
+#: a sizeable part of the resolution; below it, interpolation and leakage
+#: cost more than the alignment gains: KSpaceParams.align).
+ALIGN_MIN_APERTURE = 0.25
+
+
 def _align_on(data: RadarData, params: KSpaceParams) -> bool:
     """Whether clusters get the range-walk alignment (step 4): ``align``, or by
     default where the aperture spans a quarter range resolution."""
     if params.align is not None:
         return bool(params.align)
     extent = max(float(ax[-1] - ax[0]) for ax in _array_axes(data.array))
-    return extent >= 0.25 * data.waveform.range_resolution
+    return extent >= ALIGN_MIN_APERTURE * data.waveform.range_resolution

@@ -21,7 +21,7 @@ __all__ = ["DEGENERATE_DET", "NearFieldDevice", "device_for"]
 #: noise as large as the data's energy; 1e-24 (both angles under ~1e-6 rad)
 #: sits a millionfold above that, and a pair degenerate in one direction
 #: only keeps det ~1e-12 through the regularisation.  The NumPy reference
-#: (:func:`rpm_cl.extract.nearfield._pair_algebra`) and the kernel share it.
+#: (:func:`rpm_cl.extract.nearfield_model._pair_algebra`) and the kernel share it.
 DEGENERATE_DET = 1e-24
 
 
@@ -53,7 +53,7 @@ class NearFieldDevice:
     def pair_algebra(self, c, x, pm, pn, em):
         """Joint explained energy of every pair, shape (ni, nj): the
         ``pair_energy`` kernel; arguments and result as
-        :func:`rpm_cl.extract.nearfield._pair_algebra` (its float64 reference).
+        :func:`rpm_cl.extract.nearfield_model._pair_algebra` (its float64 reference).
 
         The arrays are handed to the device in place (``USE_HOST_PTR``) and
         the result is mapped back: on PoCL's CPU device no copy is made

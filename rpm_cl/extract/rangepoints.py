@@ -147,7 +147,7 @@ def _carrier(data: RadarData, c, row, pos) -> np.ndarray:
     g1 = np.minimum(g0 + 1, sig.shape[1] - 1)
     z = (1.0 - t) * sig[row, g0] + t * sig[row, g1]
     if c.focus is not None:
-        from .kspace import _array_axes, _centred_grids
+        from .kspace_geometry import _array_axes, _centred_grids
 
         grids = _centred_grids(_array_axes(data.array))
         q = np.ravel(c.offset - sum(c.direction[a] * grids[a] for a in range(len(grids))))

@@ -77,6 +77,9 @@ def _frequency_axis(values) -> np.ndarray:
 #: so, mirrored, in the first quarter of the conjugate's): noise alone puts a
 #: quarter there, a scene in the near part of the range almost none.
 CONJUGATE_FAR_SHARE = 0.5
+#: Where the conjugation check looks: beyond this fraction of the
+#: unambiguous range (its last quarter).
+CONJUGATE_FAR_FROM = 0.75
 #: An echo (a local maximum of the compressed power summed over the
 #: antennas, at least WRAP_LEVEL of the largest and WRAP_ABOVE_MEDIAN times
 #: the median over the axis, so not noise) in the last WRAP_EDGE of the
@@ -100,11 +103,11 @@ def _check_conjugated(signal, rng) -> None:
         return
     power = np.sum((mag / top) ** 2, axis=0)
     r_u = float(rng[-1] + (rng[1] - rng[0]))
-    share = float(power[rng >= 0.75 * r_u].sum() / power.sum())
+    share = float(power[rng >= CONJUGATE_FAR_FROM * r_u].sum() / power.sum())
     if share >= CONJUGATE_FAR_SHARE:
         warnings.warn(
             f"the spectrum looks conjugated: {share:.0%} of the compressed power "
-            f"lies beyond {0.75 * r_u:.3g} m, in the last quarter of the unambiguous "
+            f"lies beyond {CONJUGATE_FAR_FROM * r_u:.3g} m, in the last quarter of the unambiguous "
             f"range {r_u:.3g} m (an echo recorded as exp(+j 4 pi f R / c) lands at "
             f"{r_u:.3g} m - R); if so, load it with conjugate=True (--conjugate)",
             DataWarning,

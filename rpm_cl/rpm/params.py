@@ -42,6 +42,12 @@ WINDOW_PLANAR_DEFAULT = 60.0
 #: at k_c, 70-94 % over windows of 60-84 rad/m; `python
 #: benchmarks/gprmax_image.py`).
 WINDOW_LINEAR_PER_KC = 1.0
+#: sigma_x of planar arrays in antenna spacings (the paper: "two or three
+#: times of sensor separations"), and the least sigma_x of a linear one.
+SIGMA_X_SPACINGS = 2.5
+#: Range error of an accurate RP behind the derived sigma_r, m: the paper's
+#: Err_range criterion (10 mm).
+SIGMA_R_RANGE_ERROR = 0.01
 #: RPs below this level relative to their cluster's maximum are dropped, dB.
 RP_THRESHOLD_DB_DEFAULT = -10.0
 
@@ -53,7 +59,9 @@ __all__ = [
     "REACH_DEG_DEFAULT",
     "RP_THRESHOLD_DB_DEFAULT",
     "SIGMA_R_DEFAULT",
+    "SIGMA_R_RANGE_ERROR",
     "SIGMA_X_PER_RANGE",
+    "SIGMA_X_SPACINGS",
     "WINDOW_LINEAR_PER_KC",
     "WINDOW_PLANAR_DEFAULT",
     "ImagingParams",
@@ -301,11 +309,11 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     seen = seen_data(data, medium)  # what the decomposition and RPM see
     r_echo = _strongest_range(seen)
     if arr.planar:
-        sigma_x = 2.5 * max(arr.dx, arr.dz)
+        sigma_x = SIGMA_X_SPACINGS * max(arr.dx, arr.dz)
     else:
         sigma_x = float(arr.x[-1] - arr.x[0])
         if r_echo is not None:  # no wider than the echo's reach
-            sigma_x = min(sigma_x, max(SIGMA_X_PER_RANGE * r_echo, 2.5 * arr.dx))
+            sigma_x = min(sigma_x, max(SIGMA_X_PER_RANGE * r_echo, SIGMA_X_SPACINGS * arr.dx))
     rpm_kw = {"sigma_x": sigma_x, "sigma_r": _derived_sigma_r(seen, r_echo)}
     derived = {k for k in ("sigma_x", "sigma_r") if k not in ov}
     rpm_kw.update({k: v for k, v in ov.items() if k in rpm_names})
@@ -361,7 +369,9 @@ def _strongest_range(data: RadarData) -> float | None:
     return abs(float(data.range[int(np.argmax(pick))]))
 
 
-def _derived_sigma_r(data: RadarData, r: float | None, range_error: float = 0.01) -> float:
+def _derived_sigma_r(
+    data: RadarData, r: float | None, range_error: float = SIGMA_R_RANGE_ERROR
+) -> float:
     """sigma_r = range_error * R / L (see :func:`default_params`), m, for
     the range R of the strongest echo (:func:`_strongest_range`) and the
     aperture L; :data:`SIGMA_R_DEFAULT` where there is none.  For narrow
