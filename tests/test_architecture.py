@@ -12,9 +12,10 @@ ROOT = Path(rpm_cl.__file__).parent
 
 #: Floors, lowest first: a module may import its own floor's and lower
 #: floors' modules.  Keys are the first name under rpm_cl (a package or a
-#: top-level module); "" is the package itself (__init__: version, names).
+#: top-level module); "" is the package itself (__init__: version, names);
+#: "kernels" the OpenCL sources (a package of data once installed).
 FLOORS = [
-    {"", "lazy", "progress", "cl"},
+    {"", "lazy", "progress", "cl", "kernels"},
     {"io"},
     {"extract", "simulate", "metrics"},
     {"result"},
