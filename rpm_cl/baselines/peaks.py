@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..filters import maximum_filter
 from ..io.data import InputError
 
 __all__ = ["image_peaks"]
@@ -50,8 +51,6 @@ def image_peaks(
     level_db : ndarray, shape (K,)
         ``20 log10(|I| / max |I|)`` at each, dB (<= 0).
     """
-    from scipy.ndimage import maximum_filter
-
     a = np.abs(np.asarray(image))
     dim = a.ndim
     if len(axes) != dim or any(np.size(ax) != n for ax, n in zip(axes, a.shape)):
@@ -69,9 +68,7 @@ def image_peaks(
         return np.zeros((0, dim)), np.zeros(0)
     # 'nearest' pads with border values already in the neighbourhood: the
     # border compares with its real neighbours only
-    local = (a == maximum_filter(a, size=size, mode="nearest")) & (
-        a >= top * 10.0 ** (threshold_db / 20.0)
-    )
+    local = (a == maximum_filter(a, size, "nearest")) & (a >= top * 10.0 ** (threshold_db / 20.0))
     idx = np.nonzero(local)
     order = np.argsort(-a[idx], kind="stable")
     pts = np.stack([np.asarray(axes[k], np.float64)[idx[k]] for k in range(dim)], axis=1)[order]

@@ -78,7 +78,7 @@ def _medium(args):
 
 
 def _accuracy_line(s: dict) -> str:
-    from .reproduce import pct
+    from ..metrics import pct
 
     rp = (
         "unavailable (no truth_rp_*)"

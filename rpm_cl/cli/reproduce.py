@@ -19,7 +19,7 @@ import numpy as np
 from ..baselines.peaks import image_peaks
 from ..imaging import RPM_METHODS, timed_run
 from ..io.data import InputError
-from ..metrics import summary
+from ..metrics import pct, summary
 from ..rpm.params import default_params
 from ..simulate.synth import simulate_preset
 
@@ -342,11 +342,6 @@ def reproduce(
                 rows += _rma_rows(case, preset_name, snr, datasets, progress)
     pbar.close()
     return rows
-
-
-def pct(n: int, d: int) -> str:
-    """``"95.2% (60/63)"``, or ``"-"`` when ``d`` is 0."""
-    return f"{100.0 * n / d:.1f}% ({n}/{d})" if d else "-"
 
 
 def format_table(rows: list[ReproRow]) -> str:

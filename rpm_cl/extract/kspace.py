@@ -105,6 +105,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..filters import binary_dilation
 from ..io.data import InputError, RadarData
 from ..lazy import lazy
 from .blas import one_blas_thread
@@ -126,7 +127,6 @@ from .kspace_focus import _autofocus, _focus_range  # noqa: F401
 from .kspace_geometry import _array_axes, _centred_grids, _curvature  # noqa: F401
 
 sfft = lazy("scipy.fft")
-ndimage = lazy("scipy.ndimage")
 
 __all__ = ["Cluster", "Decomposition", "KSpaceParams", "decompose", "kspace_spectrum"]
 
@@ -305,7 +305,7 @@ def _search_gates(
             np.abs(kspace_spectrum(data, pad, taper, slice(top, top + 1), dechirp)[0]).max()
         )
         active[m] = bound[m] >= max(rel * lower, floor)
-    return ndimage.binary_dilation(active, iterations=margin) if margin > 0 else active
+    return binary_dilation(active, margin) if margin > 0 else active
 
 
 def decompose(
@@ -422,7 +422,7 @@ def _detection(data: RadarData, params: KSpaceParams, k_axes, margin: int, dechi
     # neighbourhood) are searched and get the untapered spectrum
     hot = (gate_max >= threshold) & (gate_max > 0)
     if params.skip_gates:
-        need = ndimage.binary_dilation(hot, iterations=margin) & need
+        need = binary_dilation(hot, margin) & need
     return det, threshold, need
 
 

@@ -10,11 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..filters import maximum_filter
 from ..io.data import RadarData
-from ..lazy import lazy
-
-ndimage = lazy("scipy.ndimage")
-
 
 #: Non-maximum suppression of the centre search: a quarter of the window
 #: period in k (two centres closer share most of one window).
@@ -47,7 +44,7 @@ def _centres(det: np.ndarray, size: list, n_k: int, threshold, g0: int, nr: int)
     # length (wrapped) or twice it (edges repeated) does: the same maxima,
     # at a cost bounded by the data, not by the resolution
     size = [min(int(s), n if m == "wrap" else 2 * n + 1) for s, n, m in zip(size, det.shape, mode)]
-    local = det == ndimage.maximum_filter(det, size=size, mode=mode)
+    local = det == maximum_filter(det, size, mode)
     # a strict maximum along R (a flat run of equal values, e.g. a constant
     # signal, is not a peak: every gate of it would pass the test above)
     strict = np.zeros_like(local)
