@@ -23,8 +23,10 @@ from .checks import (
 )
 from .model import C0, Waveform
 from .radar import BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN
+from .windows import window
 
-#: Range windows of :func:`range_compress` -> scipy.signal.windows names.
+#: Range windows of :func:`range_compress` -> their names in
+#: :func:`rpm_cl.io.windows.window` (SciPy's).
 RANGE_WINDOWS = {
     "rect": "boxcar",
     "hann": "hann",
@@ -37,6 +39,22 @@ RANGE_WINDOWS = {
 RANGE_OVERSAMPLE = 16
 
 
+def next_fast_len(n: int) -> int:
+    """The smallest 11-smooth number >= ``n`` (``scipy.fft.next_fast_len(n)``
+    for complex transforms: the lengths pocketfft transforms fastest).
+    NumPy's FFT (pocketfft, as SciPy's) gives the complex transforms here
+    bit for bit equal to SciPy's, without its import."""
+    m = max(int(n), 1)
+    while True:
+        k = m
+        for p in (2, 3, 5, 7, 11):
+            while k % p == 0:
+                k //= p
+        if k == 1:
+            return m
+        m += 1
+
+
 def _window_name(name) -> str:
     if name not in RANGE_WINDOWS:
         raise InputError(f"unknown range window {name!r}; choose from {', '.join(RANGE_WINDOWS)}")
@@ -44,9 +62,7 @@ def _window_name(name) -> str:
 
 
 def _window(name: str, n: int) -> np.ndarray:
-    from scipy.signal import windows
-
-    w = np.asarray(windows.get_window(_window_name(name), n, fftbins=False), np.float64)
+    w = window(_window_name(name), n)
     if not np.any(w > 0):  # hann, blackman ... over 1 or 2 samples: zero at both ends
         raise InputError(
             f"the {name} range window over {n} frequency samples is all zero; "
@@ -183,14 +199,12 @@ def range_sidelobe_db(frequency, window: str, bandwidth: float) -> float | None:
     float or None
         dB (< 0); None where no sidelobe lies beyond that distance.
     """
-    from scipy import fft
-
     f = np.asarray(frequency, np.float64)
     nf = f.size
     df = float(f[1] - f[0])
-    n = fft.next_fast_len(RANGE_OVERSAMPLE * nf)
+    n = next_fast_len(RANGE_OVERSAMPLE * nf)
     w = _window(window, nf)
-    resp = np.abs(fft.ifft(w, n=n)) * n / w.sum()
+    resp = np.abs(np.fft.ifft(w, n=n)) * n / w.sum()
     dr = C0 / (2.0 * df * n)
     half = int(np.ceil(0.5 * C0 / (2.0 * bandwidth) / dr))
     lag = np.minimum(np.arange(n), n - np.arange(n))  # circular distance to the peak, gates
@@ -228,21 +242,19 @@ def range_compress(spectrum, frequency, fc: float, window: str = "hann"):
     range_axis : ndarray, shape (N,)
         m, from 0 to just below the unambiguous range ``c / (2 df)``.
     """
-    from scipy import fft
-
     y = np.asarray(spectrum)
     f = _frequency_axis(frequency)
     nf = f.size
     if y.shape[-1] != nf:
         raise InputError(f"spectrum's last axis ({y.shape[-1]}) must match frequency ({nf})")
     df = float(f[1] - f[0])
-    n = fft.next_fast_len(RANGE_OVERSAMPLE * nf)
+    n = next_fast_len(RANGE_OVERSAMPLE * nf)
     w = _window(window, nf)
     rng = np.arange(n) * (C0 / (2.0 * df * n))
     out_dtype = np.complex64 if y.dtype == np.complex64 else np.complex128
     # sum_n (w_n Y_n) exp(+j 2 pi n m / N) = N ifft(w Y)[m]; the band's offset
     # from fc is one phase ramp in R
-    s = fft.ifft(y * (w / w.sum()), n=n, axis=-1) * n
+    s = np.fft.ifft(y * (w / w.sum()), n=n, axis=-1) * n
     s *= np.exp(4j * np.pi * (f[0] - fc) * rng / C0)
     return s.astype(out_dtype, copy=False), rng
 

@@ -65,20 +65,27 @@ class DeviceRPM(_Circles, _Spheres, _Scoring, _MeanShift, _DeviceBuffers):
         base = {"REAL": "float" if precision == "float32" else "double"}
         if precision == "float64":
             base["REAL_IS_DOUBLE"] = 1
-        self._k = dict(get_kernels(env, "circles.cl", ["intersect_circles"], base))
-        self._k.update(get_kernels(env, "spheres.cl", ["intersect_spheres"], base))
-        self._k.update(
-            get_kernels(
-                env,
-                "meanshift.cl",
-                ["meanshift_spheres", "density_spheres"],
-                {
-                    **base,
-                    "MS_NEAR_K": MS_NEAR_K,
-                    "MS_DENSITY_T": MS_DENSITY_T,
-                    "MS_NEWTON_PIVOT": MS_NEWTON_PIVOT,
+        ms = {
+            **base,
+            "MS_NEAR_K": MS_NEAR_K,
+            "MS_DENSITY_T": MS_DENSITY_T,
+            "MS_NEWTON_PIVOT": MS_NEWTON_PIVOT,
+        }
+        # each program is built on its first use: a 2-D image needs two of
+        # the five (a build from PoCL's cache takes about 40 ms)
+        self._k = _Kernels(
+            env,
+            {
+                "intersect_circles": ("circles.cl", "intersect_circles", base),
+                "intersect_spheres": ("spheres.cl", "intersect_spheres", base),
+                "meanshift_spheres": ("meanshift.cl", "meanshift_spheres", ms),
+                "density_spheres": ("meanshift.cl", "density_spheres", ms),
+                **{
+                    f"{role}{dim}": ("score.cl", f"{role}_candidates", {**base, "DIM": dim})
+                    for dim in (2, 3)
+                    for role in ("score", "argmax")
                 },
-            )
+            },
         )
         self._pairs = {}  # kmax -> device pair table
         # device buffers by role, reused from call to call (a batch of frames
@@ -86,9 +93,15 @@ class DeviceRPM(_Circles, _Spheres, _Scoring, _MeanShift, _DeviceBuffers):
         # queue is in order and every call reads its results back before it
         # returns, so a later call never overwrites what an earlier one uses
         self._pool = {}
-        for dim in (2, 3):
-            ks = get_kernels(
-                env, "score.cl", ["score_candidates", "argmax_candidates"], {**base, "DIM": dim}
-            )
-            self._k[f"score{dim}"] = ks["score_candidates"]
-            self._k[f"argmax{dim}"] = ks["argmax_candidates"]
+
+
+class _Kernels:
+    """The engine's kernels by role, each program built on first use
+    (:func:`rpm_cl.cl.get_kernels`: once per context and options)."""
+
+    def __init__(self, env: CLEnv, spec: dict):
+        self._env, self._spec = env, spec
+
+    def __getitem__(self, role: str):
+        filename, name, defines = self._spec[role]
+        return get_kernels(self._env, filename, [name], defines)[name]
