@@ -9,7 +9,7 @@ import logging
 from dataclasses import asdict
 
 from .. import __version__
-from .common import _medium
+from .common import _load_input, _medium
 from .errors import CLIError
 
 log = logging.getLogger("rpm_cl")
@@ -18,17 +18,10 @@ log = logging.getLogger("rpm_cl")
 def cmd_das(args) -> int:
     from ..baselines.das import parse_grid
     from ..extract.hyperbola import check_medium
-    from ..io.formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
+    from ..io.formats import VOLUME_EXTENSIONS, check_output, write_volume
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = load_data(
-        args.input,
-        frame=args.frame,
-        range_window=args.range_window,
-        conjugate=args.conjugate,
-        max_memory=args.max_memory,
-        with_truth=False,
-    )
+    data = _load_input(args, with_truth=False)
     grid = parse_grid(args.grid)
     if grid.dim != data.array.dim:
         raise CLIError(
@@ -120,17 +113,10 @@ def cmd_rma(args) -> int:
     from ..baselines.das import Grid
     from ..baselines.rma import rma_image
     from ..extract.hyperbola import check_medium
-    from ..io.formats import VOLUME_EXTENSIONS, check_output, load_data, write_volume
+    from ..io.formats import VOLUME_EXTENSIONS, check_output, write_volume
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = load_data(
-        args.input,
-        frame=args.frame,
-        range_window=args.range_window,
-        conjugate=args.conjugate,
-        max_memory=args.max_memory,
-        with_truth=False,
-    )
+    data = _load_input(args, with_truth=False)
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
     medium = _medium(args)

@@ -9,7 +9,7 @@ import logging
 from dataclasses import asdict
 
 from .. import __version__
-from .common import _accuracy_line, _engine, _params
+from .common import _accuracy_line, _engine, _load_input, _params
 
 log = logging.getLogger("rpm_cl")
 
@@ -19,17 +19,11 @@ def cmd_image(args) -> int:
 
     from ..extract.preprocess import shift_truth
     from ..imaging import run_method
-    from ..io.formats import RESULT_EXTENSIONS, check_output, load_data, save_result
+    from ..io.formats import RESULT_EXTENSIONS, check_output, save_result
     from ..metrics import summary
 
     check_output(args.output, RESULT_EXTENSIONS, "result")
-    data = load_data(
-        args.input,
-        frame=args.frame,
-        range_window=args.range_window,
-        conjugate=args.conjugate,
-        max_memory=args.max_memory,
-    )
+    data = _load_input(args)
     params = _params(args, data)
     engine, env = _engine(args)
     verbose = log.isEnabledFor(logging.INFO) and hasattr(engine, "kernel_times")
@@ -76,17 +70,10 @@ def cmd_image(args) -> int:
 
 def cmd_params(args) -> int:
     from ..io.data import atomic_write_text
-    from ..io.formats import load_data
     from .config import dump_toml
     from .constants import constants, format_constants
 
-    data = load_data(
-        args.input,
-        frame=args.frame,
-        range_window=args.range_window,
-        conjugate=args.conjugate,
-        max_memory=args.max_memory,
-    )
+    data = _load_input(args)
     params = _params(args, data)
     text = dump_toml(
         params,

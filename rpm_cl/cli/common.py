@@ -90,3 +90,19 @@ def _accuracy_line(s: dict) -> str:
         f"Err_RPM<=50mm {pct(s['rpm_within_50mm'], s['rpm_total'])}, "
         f"<=100mm {pct(s['rpm_within_100mm'], s['rpm_total'])}"
     )
+
+
+def _load_input(args, **kw):
+    """``args.input`` as the input options say (frame, range window,
+    conjugation, memory limit); ``kw`` as for
+    :func:`rpm_cl.io.formats.load_data`."""
+    from ..io.formats import load_data
+
+    return load_data(
+        args.input,
+        frame=args.frame,
+        range_window=args.range_window,
+        conjugate=args.conjugate,
+        max_memory=args.max_memory,
+        **kw,
+    )
