@@ -99,3 +99,28 @@ def test_cli_image_method_das(tmp_path, capsys, p2):
     with np.load(out) as z:
         assert z["points"].shape[1] == 2 and z["rp_range"].size == 0
         assert json.loads(str(z["meta"]))["method"] == "das"
+
+
+def test_coherent_imagers_above_a_halfspace(dev32):
+    """Rods under 80 mm of air in eps_r 6 (synthetic, Fermat's paths): das
+    and rma through the registry image the material only and put their
+    three strongest peaks on the three rods: within one pixel of das's
+    default grid (a quarter wavelength in the material, 15 mm), within 5 mm
+    for rma (pixels a quarter of the pitch)."""
+    from test_medium import TARGETS, H, _ranges, _spectrum_data
+
+    tg = TARGETS[:3]
+    data = _spectrum_data(_ranges(tg))
+    params = default_params(data, eps_r=6.0, antenna_height=H)
+    step = float(np.diff(default_grid(data, params.medium).x[:2])[0])
+    for name, tol in (("das", step), ("rma", 0.005)):
+        pts = run_method(name, data, params, dev32).image.points
+        assert np.all(pts[:, 1] >= H - 1e-9), name
+        d = np.linalg.norm(pts[:3, None] - tg[None], axis=2)
+        assert np.all(d.min(axis=0) <= tol) and np.all(d.min(axis=1) <= tol), (name, pts[:3])
+
+
+def test_default_grid_stays_under_its_cap():
+    data = simulate_preset("human-body", None, 0)[0]
+    g = default_grid(data)
+    assert 0.5 * 4_000_000 < g.size <= 4_000_000

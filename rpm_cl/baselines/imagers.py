@@ -21,11 +21,14 @@ from ..result import Image, ImageResult
 from .peaks import image_peaks
 
 __all__ = [
+    "ECHO_SPAN_DB",
     "GRID_PIXELS_MAX",
     "PEAK_SIZE",
     "PEAK_THRESHOLD_DB",
     "das_method",
     "default_grid",
+    "echo_span",
+    "in_reach",
     "rma_method",
 ]
 
@@ -99,11 +102,13 @@ def default_grid(data: RadarData, medium: Medium | None = None) -> Grid:
     if data.array.planar:
         spans.append((float(pos[:, 2].min()) - y_hi, float(pos[:, 2].max()) + y_hi))
     dim = len(spans)
-    count = np.prod([(hi - lo) / step + 1 for lo, hi in spans])
-    if count > GRID_PIXELS_MAX[dim]:
-        step *= (count / GRID_PIXELS_MAX[dim]) ** (1 / dim)
-    axes = [lo + step * np.arange(int(np.floor((hi - lo) / step)) + 1) for lo, hi in spans]
-    return Grid(*axes)
+
+    def counts(step):
+        return [int(np.floor((hi - lo) / step)) + 1 for lo, hi in spans]
+
+    while np.prod(counts(step), dtype=float) > GRID_PIXELS_MAX[dim]:
+        step *= max(1.01, (np.prod(counts(step), dtype=float) / GRID_PIXELS_MAX[dim]) ** (1 / dim))
+    return Grid(*(lo + step * np.arange(n) for (lo, _), n in zip(spans, counts(step))))
 
 
 def _no_rps(data: RadarData) -> RangePoints:
@@ -136,7 +141,8 @@ def _result(name, data: RadarData, img, axes, reach_deg: float, t0: float, t1: f
     t2 = time.perf_counter()
     pts, lev = pts[keep], lev[keep]
     k = len(pts)
-    image = Image(pts, np.arange(k), 10.0 ** (lev / 20.0), np.full(k, -1))
+    # one cluster: the peaks of one image
+    image = Image(pts, np.zeros(k, int), 10.0 ** (lev / 20.0), np.full(k, -1))
     timings = {"image": t1 - t0, "peaks": t2 - t1, "total": t2 - t0}
     return ImageResult(name, _no_rps(data), image, timings, {"reach": int(np.sum(~keep))})
 
@@ -171,12 +177,14 @@ def rma_method(data: RadarData, params, engine) -> ImageResult:
         raise InputError("rma images linear arrays only; this array is planar (use das)")
     medium = params.medium
     r_lo, r_hi = echo_span(data)
+    surface = medium.antenna_height if medium.half_space else 0.0
     t0 = time.perf_counter()
     img, x, y = rma_image(
         data,
         upsample_x=4,
         medium=medium,
-        y_min=_depth(medium, max(r_lo, 0.0)),
-        y_max=_depth(medium, r_hi),
+        # above a half-space RMA images the material only (y >= h)
+        y_min=max(_depth(medium, max(r_lo, 0.0)), surface),
+        y_max=max(_depth(medium, r_hi), surface + 1e-3),
     )
     return _result("rma", data, img, (x, y), params.reach_deg, t0, time.perf_counter())

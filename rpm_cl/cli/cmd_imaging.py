@@ -18,7 +18,7 @@ def cmd_image(args) -> int:
     import time
 
     from ..extract.preprocess import shift_truth
-    from ..imaging import run_method
+    from ..imaging import METHODS, run_method
     from ..io.formats import RESULT_EXTENSIONS, check_output, save_result
     from ..metrics import summary
 
@@ -56,9 +56,13 @@ def cmd_image(args) -> int:
         )
         if n
     )
+    source = (
+        f"{len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} clusters"
+        if METHODS[args.method].family == "rpm"
+        else "the image's peaks"
+    )
     print(
-        f"{args.method}: {len(result.rps)} RPs in {len(set(result.rps.cluster.tolist()))} "
-        f"clusters -> {len(result.image.points)} points{dropped}, "
+        f"{args.method}: {source} -> {len(result.image.points)} points{dropped}, "
         f"{1e3 * result.timings['total']:.1f} ms; wrote {args.output}"
     )
     truth = shift_truth(data.truth, params.time_zero)  # as the method measured ranges
