@@ -350,7 +350,7 @@ __kernel void density_spheres(
         s[0] += wg;
         for (int u = 1; u < nt; ++u) {
             /* the select (wg is 0 where not ok) keeps the product and the sum
-             * unfused: the rounding the session's figures were measured with */
+             * unfused: the rounding of the figures in docs/ */
             const REALV e = exp_series6(dx * ex[u] + dy * ey[u] + dz * ez[u] + e0[u]);
             s[u] += ok ? wg * e : (REALV)((REAL)0);
         })

@@ -5,6 +5,8 @@ SciPy's ``ndimage`` takes about half a second to import (it pulls in its
 array-API layer and ``numpy.f2py``), more than imaging a small scene; these
 are exact (a maximum is a comparison, no rounding) and
 ``tests/test_filters.py`` checks them against SciPy on random inputs.
+They take finite inputs (NumPy's maximum propagates NaN, SciPy's filter
+skips it); every caller passes finite maps.
 """
 
 from __future__ import annotations

@@ -3,9 +3,10 @@
 An :class:`Imager` maps ``RadarData`` to an :class:`rpm_cl.result.ImageResult`
 (image points, the RPs they came from, stage timings); :func:`run_method`
 runs one by name after the steps every method shares (preprocessing, the
-data checks).  ``rpm-cl image --method``, ``batch`` and ``bench`` list
-:data:`METHODS`; ``reproduce`` and the robustness benchmark iterate over the
-RPM family (:data:`RPM_METHODS`) and add their own DAS and RMA rows.
+data checks).  ``rpm-cl image --method`` and ``batch --method`` take any of
+:data:`METHODS`; ``bench``, ``reproduce`` and the robustness benchmark
+iterate over the RPM family (:data:`RPM_METHODS`) and add DAS and RMA rows
+on grids of their own.
 
 - ``kspace-rpm``: k-space decomposition -> clustered RPs -> RPM per cluster
   (the paper's method, eq. 2-6).

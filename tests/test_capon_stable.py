@@ -1,9 +1,9 @@
 """The Capon comparator's band-limited fit is deterministic and well posed.
 
 ``frequency_samples`` on a short range window (paper-2d) fits the band
-through a matrix of condition ~1e14.  ``numpy.linalg.lstsq`` kept components
-down to 1.3e-13 of the largest and ran threaded BLAS, so the RPs changed with
-``OPENBLAS_NUM_THREADS`` (18 RPs with 1 thread, 20 with 2).  The fit is now a
+through a matrix of condition ~1e14.  ``numpy.linalg.lstsq`` keeps components
+down to 1.3e-13 of the largest and runs threaded BLAS, so its RPs change with
+``OPENBLAS_NUM_THREADS`` (18 RPs with 1 thread, 20 with 2).  The fit is a
 truncated-SVD pseudo-inverse (cutoff ``FIT_RCOND``) computed without threaded
 BLAS; these tests hold it to that.
 """
@@ -56,9 +56,9 @@ def _rps_with_threads(n: int):
 
 
 def test_rps_identical_with_1_and_2_blas_threads():
-    """Noise-free paper-2d gave 18 RPs with one BLAS thread and 20 with two
-    under lstsq; now the RPs (antennas, ranges and amplitudes, bit for bit)
-    must be the same.  The noise-free case must still have RPs (at least 12,
+    """The RPs (antennas, ranges and amplitudes, bit for bit) must not depend
+    on the number of BLAS threads (a plain lstsq gives noise-free paper-2d
+    18 RPs with one thread and 20 with two).  The noise-free case must still have RPs (at least 12,
     as tests/test_capon.py asks), or the comparison would prove nothing."""
     one, two = _rps_with_threads(1), _rps_with_threads(2)
     assert len(one[0]["range"]) >= 12
@@ -105,8 +105,8 @@ def test_lone_echo_fit_error_over_the_window():
 
 def test_complex64_data_keep_their_rps():
     """complex64 data are rounded to 6e-8; the cutoff rises to 1.2e-7 for
-    them.  With lstsq their rounding, amplified up to 1e13 times, swamped
-    the fit: no RP at all on noise-free paper-2d.  Measured now: 3 of 4
+    them.  At lstsq's cutoff their rounding, amplified up to 1e13 times,
+    swamps the fit: no RP at all on noise-free paper-2d.  Measured: 3 of 4
     within 10 mm; asked at least 2 (not 0, the failure mode)."""
     import dataclasses
 

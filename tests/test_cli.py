@@ -326,7 +326,7 @@ def test_all_zero_input_is_valid_and_empty(method, planar, tmp_path, capsys):
 
 
 def test_bad_values_one_line_exit_2(sim_file, tmp_path, capsys):
-    """Review findings: each of these once ended in a traceback."""
+    """Each of these inputs is one error line and exit 2, never a traceback."""
     from rpm_cl.io.data import InputError, load_npz
 
     with np.load(sim_file) as f:

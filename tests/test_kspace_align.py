@@ -2,10 +2,10 @@
 
 ``kspace.shift_rows`` evaluates a cubic B-spline along R per row.  Its
 reference is SciPy's ``map_coordinates`` applied to one row at a time (1-D,
-so nothing can leak between rows).  The alignment used to call
-``map_coordinates`` on the 2-D (antenna, gate) coefficient array, which also
-spreads the spline across rows: every aligned profile was 1/6, 2/3, 1/6 of
-three neighbouring antennas.  The tests below fail on that.
+so nothing can leak between rows).  ``map_coordinates`` on the 2-D
+(antenna, gate) coefficient array would also spread the spline across rows,
+making every aligned profile 1/6, 2/3, 1/6 of three neighbouring antennas;
+the tests below fail on that.
 """
 
 import numpy as np

@@ -1,7 +1,7 @@
 """Bounds of the near-field search on input without targets in it.
 
-Pure noise, a one-sample spike and 3 range samples ran the matching pursuit
-to 8 centres and 10-26 s.  The search is now bounded (rpm_cl.extract.nearfield:
+Pure noise, a one-sample spike and 3 range samples would run an unbounded
+matching pursuit to 8 centres and 10-26 s.  The search is bounded (rpm_cl.extract.nearfield:
 MIN_SEARCH_GATES, the centre cap N // (2 SEARCH_TERMS), FIT_BUDGET,
 POLISH_MAX_NFEV).  Time is not asserted (shared machines); what bounds it is:
 the number of clusters, of candidate fits and of polish evaluations.
@@ -68,8 +68,8 @@ def test_single_sample_spike_gives_no_cluster(sparse, monkeypatch):
 
 def test_pure_noise_search_is_bounded(sparse, monkeypatch):
     """White noise on the paper's sparse array (21 antennas, 600 gates), as
-    the reviewer's sp_noise.npz: before, 8 centres and 4820 + 1732 scans
-    (~28 M candidate fits).  Now at most 5 centres (21 // 4), at most
+    the reviewer's sp_noise.npz (unbounded: 8 centres and 4820 + 1732 scans,
+    ~28 M candidate fits): at most 5 centres (21 // 4), at most
     FIT_BUDGET candidate fits plus one pair scan (the check precedes each
     scan) and at most POLISH_MAX_NFEV polish evaluations.  Measured: 5
     clusters, 3.0 M fits, 100 evaluations (the same after the search was
@@ -109,7 +109,7 @@ def test_centre_cap_follows_the_antennas(sparse, n, cap):
 
 def test_four_antennas_keep_one_centre(sparse):
     """4 antennas and 2 centres of 2 terms fit every gate exactly, whatever
-    the centres (the reviewer's sp_4ant.npz gave 2 clusters): one now."""
+    the centres (the reviewer's sp_4ant.npz): one cluster, not two."""
     data = _like(sparse, sparse.signal[:4], x=sparse.array.x[:4])
     assert len(decompose(data, KSpaceParams(near_field=True)).clusters) == 1
 

@@ -21,8 +21,8 @@ def _one_error(capsys, argv):
 @pytest.mark.parametrize(
     "text, words",
     [
-        (b"\xff\xfe[rpm]\n", "not UTF-8"),  # was UnicodeDecodeError traceback
-        (b"rpm = 3\n", "must be a section [rpm]"),  # was AttributeError traceback
+        (b"\xff\xfe[rpm]\n", "not UTF-8"),  # not a UnicodeDecodeError traceback
+        (b"rpm = 3\n", "must be a section [rpm]"),  # not an AttributeError traceback
     ],
 )
 def test_config_not_utf8_or_section_as_value(tmp_path, capsys, p2, text, words):
@@ -43,7 +43,7 @@ def _spectrum_file(tmp_path, fc):
 
 def test_spectrum_fc_outside_band_refused(tmp_path, capsys):
     # fc = 1e15 Hz with a 20 GHz band ran the near-field focus map for minutes
-    # (refused now as above 10 THz); 1 THz lies below that bound
+    # (refused as above 10 THz); 1 THz lies below that bound
     path = _spectrum_file(tmp_path, 1e12)
     line = _one_error(capsys, ["image", str(path), "-o", str(tmp_path / "o.npz")])
     assert "within the frequency band" in line
@@ -122,8 +122,8 @@ def empty_stacks(p2, tmp_path_factory):
     ],
 )
 def test_empty_stack_is_one_clear_line(empty_stacks, tmp_path, capsys, argv, ext):
-    # was "signal is a stack of 0 frames; choose one with frame= (--frame N, 0..-1)",
-    # and batch wrote a summary of 0 frames with exit code 0
+    # not "signal is a stack of 0 frames; choose one with frame= (--frame N,
+    # 0..-1)", and no batch summary of 0 frames with exit code 0
     argv = [a.format(src=empty_stacks[ext], tmp=tmp_path) for a in argv]
     line = _one_error(capsys, argv)
     assert "holds no frames" in line and str(empty_stacks[ext]) in line
@@ -134,8 +134,8 @@ def test_empty_stack_is_one_clear_line(empty_stacks, tmp_path, capsys, argv, ext
 @pytest.mark.parametrize("shift", [0.5, 0.0])
 @pytest.mark.parametrize("ext", [".npz", ".h5"])
 def test_float_truth_rp_antenna_refused(p2, tmp_path, capsys, shift, ext):
-    # float indices were cast silently: 3.5 became 3, and the RP accuracy of
-    # `image` was scored against the wrong antennas.  Indices are integers by
+    # float indices cast silently would make 3.5 into 3 and score the RP
+    # accuracy of `image` against the wrong antennas.  Indices are integers by
     # type, like frame= and a result's cluster: an integral float is refused too.
     d = dict(np.load(str(p2)))
     d["truth_rp_antenna"] = d["truth_rp_antenna"].astype(np.float64) + shift
@@ -166,8 +166,8 @@ def _pixels(png):
 
 
 def test_view_reads_a_das_h5_image_as_the_npz_one(p2, tmp_path, capsys, monkeypatch):
-    # `view IMAGE.h5` of `das -o IMAGE.h5` said "not an rpm-cl image result
-    # (missing 'points')": only np.load was tried
+    # `view IMAGE.h5` of `das -o IMAGE.h5` must read the HDF5 image, not
+    # say "not an rpm-cl image result (missing 'points')"
     pytest.importorskip("matplotlib")
     monkeypatch.setenv("MPLBACKEND", "Agg")
     grid = "--grid=-0.3:0.3:0.005,0.2:0.6:0.005"
@@ -266,8 +266,8 @@ def test_view_odd_h5_image_is_one_line(tmp_path, capsys):
 
 
 def test_rma_writes_what_its_extension_says(p2, tmp_path, capsys):
-    # `rma -o X.h5` wrote an .npz archive named X.h5 (and -o X.txt one named
-    # X.txt); it now writes by extension as `das` does, and refuses others
+    # `rma -o X.h5` writes HDF5, not an .npz archive named X.h5, by
+    # extension as `das` does, and refuses other extensions
     import h5py
 
     argv = ["rma", str(p2), "--y-min", "0.3", "--y-max", "0.6", "-o"]
@@ -312,7 +312,7 @@ def test_figure_uses_config_and_flags_like_image(p2, tmp_path, capsys, monkeypat
         assert len(drawn[-1].centres) == want, extra
         assert main(["figure", "rps", str(p2), "--png", png, "-q", *extra]) == 0
         assert np.unique(drawn[-1].cluster).size == want, extra
-    # a bad value in the file is now read, and refused like `image` refuses it
+    # a bad value in the file is read, and refused like `image` refuses it
     cfg.write_text("[kspace]\nwindow_x = -1.0\n")
     line = _one_error(capsys, ["figure", "kspace", str(p2), "--png", png, "--config", str(cfg)])
     assert "window_x" in line
@@ -339,11 +339,11 @@ def wide_sparse(tmp_path_factory):
 
 
 def test_huge_near_field_search_is_refused_at_once(wide_sparse, tmp_path, capsys, monkeypatch):
-    # ran for minutes: its focused map has 22079 directions x 21 antennas x
-    # ~800 range samples (4e8 terms, 16 s each, recomputed 15-35 times).  Now
-    # refused before the first map, in one line that says why and what to do.
-    # (Its 20 m aperture is 27 range resolutions long, so by default it now
-    # takes the plane-wave path, nearfield.near_field_wanted; asked for, the
+    # unbounded it runs for minutes: its focused map has 22079 directions x
+    # 21 antennas x ~800 range samples (4e8 terms, 16 s each, recomputed
+    # 15-35 times).  It is refused before the first map, in one line that
+    # says why and what to do.  (Its 20 m aperture is 27 range resolutions
+    # long, so by default it takes the plane-wave path, nearfield.near_field_wanted; asked for, the
     # near-field search is refused.)
     from rpm_cl.extract import nearfield
 

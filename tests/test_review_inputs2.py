@@ -64,9 +64,9 @@ def test_pad_bounded(tmp_path, capsys, p2):
 
 
 def test_complex64_extreme_amplitudes_match_complex128(p2):
-    """complex64 x 1e19 squared left float32's range (warnings, sigma_r 45 -> 2.5
-    mm, points 52 mm off); such data are now held as complex128, so the
-    result is that of the same data in complex128."""
+    """complex64 x 1e19 squared leaves float32's range (warnings, sigma_r 45
+    -> 2.5 mm, points 52 mm off); such data are held as complex128, so the
+    result must be that of the same data in complex128."""
     from rpm_cl.imaging import run_method
     from rpm_cl.io.formats import load_data
     from rpm_cl.rpm import reference
@@ -95,9 +95,9 @@ def test_complex64_extreme_amplitudes_match_complex128(p2):
 
 
 def test_das_float32_range_and_rma_complex64(tmp_path, capsys, p2):
-    """A float32 DAS image of amplitudes 1e40 was all NaN (1e-50: all zero),
-    exit 0; now refused, pointing to float64.  RMA of complex64 data at 1e37
-    was all non-finite: such data are now held as complex128 (RadarData)."""
+    """A float32 DAS image of amplitudes 1e40 would be all NaN (1e-50: all
+    zero): it is refused, pointing to float64.  RMA of complex64 data at
+    1e37 would be non-finite: such data are held as complex128 (RadarData)."""
     d = dict(np.load(p2))
     for scale in (1e40, 1e-50):
         src = _edited(tmp_path, p2, "s.npz", signal=d["signal"] * scale)
@@ -175,8 +175,8 @@ def test_error_is_one_line_whatever_the_message(capsys, monkeypatch):
 
 
 def test_vtk_write_failure_is_an_oserror(tmp_path):
-    """VTK printed a failed write and carried on (exit 0, a truncated .vti),
-    or crashed on a full disk (a point cloud): its error code now raises, and
+    """VTK prints a failed write and carries on (exit 0, a truncated .vti),
+    or crashes on a full disk (a point cloud): its error code must raise, and
     a point cloud is written by Python from VTK's string."""
     pv = pytest.importorskip("pyvista")
     from rpm_cl.io.formats import _vtk_write
@@ -206,9 +206,8 @@ def test_zero_image_view_has_no_warnings(tmp_path, capsys, p2):
 
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 def test_sigterm_cleans_up(tmp_path):
-    """SIGTERM during a DAS run left a 255 MB .tmp-*.npy and an empty
-    .tmp-*.npz behind (SIGINT did not): it now cleans up like Ctrl-C and
-    exits 143."""
+    """SIGTERM during a DAS run must clean up like Ctrl-C (no .tmp-*.npy of
+    255 MB, no empty .tmp-*.npz left behind) and exit 143."""
     src = tmp_path / "p.npz"
     assert main(["simulate", "paper-2d", "-o", str(src), "-q"]) == 0
     out = tmp_path / "o.npz"
@@ -276,10 +275,10 @@ def test_absurd_pitch_is_refused_quickly(tmp_path, capsys, p2):
 
 
 def test_extreme_amplitudes_image_or_are_refused(tmp_path, capsys, p2):
-    """A signal x 1e300 imaged to nothing at exit 0 with overflow warnings:
-    the derived sigma_r and the noise floor squared the samples.  They now
-    work on amplitudes relative to the largest, so 1e-290 .. 1e300 give the
-    unscaled image (the contract asks for 1e-6 .. 1e6); beyond what a sum of all
+    """A signal x 1e300 must not image to nothing with overflow warnings
+    (squaring the samples in the derived sigma_r or the noise floor would):
+    they work on amplitudes relative to the largest, so 1e-290 .. 1e300 give
+    the unscaled image (the contract asks for 1e-6 .. 1e6); beyond what a sum of all
     samples or a product with a small weight holds in float64, one line."""
     d = dict(np.load(p2))
     base = tmp_path / "base.npz"

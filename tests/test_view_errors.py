@@ -232,7 +232,7 @@ def test_view_refuses_vtk_outputs_with_a_plain_line(tmp_path, capsys, ext):
 
 def test_render_then_opencl_build_in_one_process(tmp_path):
     # VTK's off-screen (EGL) renderer and PoCL both bring an LLVM; loaded in
-    # that order the next OpenCL program build used to abort the process
+    # that order the next OpenCL program build can abort the process
     # ("LLVM ERROR: inconsistency in registered CommandLine options").  A
     # fresh process renders a 3-D result, then builds and runs a kernel.
     pytest.importorskip("pyvista")

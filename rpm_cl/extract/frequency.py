@@ -206,10 +206,10 @@ def frequency_samples(
       components, the nearest singular values (1.1e-10 and 5.8e-12) 4 and 5
       times from the cutoff;
     - is raised to twice the unit roundoff (1.2e-7) for complex64 data,
-      which hold 7 significant digits: with ``lstsq`` their rounding,
-      amplified up to 1e13 times, left nothing to fit (0 RPs on noise-free
-      paper-2d); now 3 of 4 RPs are within 10 mm and a lone echo is fitted
-      to 1.2e-1, what 7 digits allow for this extrapolation.
+      which hold 7 significant digits: at ``lstsq``'s cutoff their rounding,
+      amplified up to 1e13 times, leaves nothing to fit (0 RPs on noise-free
+      paper-2d); at this one 3 of 4 RPs are within 10 mm and a lone echo is
+      fitted to 1.2e-1, what 7 digits allow for this extrapolation.
 
     The operator is computed once per call by a Householder QR in NumPy
     reductions and an SVD of the small triangular factor, and applied with
