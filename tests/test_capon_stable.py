@@ -121,9 +121,9 @@ def test_complex64_data_keep_their_rps():
 
 def test_rps_do_not_depend_on_the_signal_scale():
     """The fit is linear and the loading relative, so paper-2d scaled by
-    1e-30 must give the same RPs (lstsq gave 16 instead of 20 with two BLAS
-    threads, 12 instead of 18 with one: the components it kept near its
-    cutoff moved with the rounding).  Not bit for
+    1e-30 must give the same RPs (lstsq gives 16 instead of 20 with two BLAS
+    threads, 12 instead of 18 with one: the components it keeps near its
+    cutoff move with the rounding).  Not bit for
     bit: the scaled data round differently (1e-16), and Capon with loading
     1e-9 amplifies that by its covariance's condition (~1e9) -- measured
     6e-5 m and 0.4 % apart.  Asked: the same antennas, ranges within 1 mm
@@ -142,7 +142,7 @@ def test_short_window_fits_with_fewer_gates_than_frequencies():
     """3 range gates against 19 fitted frequencies: the minimum-norm fit (the
     pseudo-inverse of the wide matrix, through its conjugate transpose) --
     no error, and a constant profile gives no RP (lstsq's rounding ripples
-    gave one per antenna on a constant full-length profile)."""
+    give one per antenna on a constant full-length profile)."""
     data = simulate_preset("paper-2d")[0]
     short = RadarData(data.signal[:, 180:183], data.array, data.range[180:183], data.waveform)
     f, y = capon.frequency_samples(short)

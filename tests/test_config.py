@@ -370,7 +370,8 @@ def test_derived_sigma_r_of_a_narrow_band_scene_inside_half_a_resolution():
     0.45 m, closer than half a resolution: sigma_r still comes from the
     target, 10 mm x R / L = 14 mm for the 0.32 m aperture, raised to the gate
     spacing (c / (2 df N) = 37 mm, the floor default_params
-    documents), not from whatever lies beyond 0.6 m (it was the 1 m clip)."""
+    documents), not from whatever lies beyond 0.6 m (which gives the 1 m
+    clip)."""
     from rpm_cl.io.data import C0, Array, RadarData, Waveform
     from rpm_cl.io.formats import range_compress
     from rpm_cl.rpm.params import default_params

@@ -266,7 +266,7 @@ def test_garbled_npy_header_named_as_such(tmp_path, arrays):
 
 def test_bandwidth_in_wrong_units_refused(tmp_path, arrays):
     """200 Hz (a number meant as MHz): a resolution of 750 km over a 1.5 m
-    range axis ran for minutes in gigabytes; refused with the fix."""
+    range axis takes minutes and gigabytes to image; refused with the fix."""
     path = tmp_path / "bw.npz"
     np.savez(path, **dict(arrays, bandwidth=np.float64(200.0)))
     _refused(path, "bandwidth = 200 Hz gives a range resolution .* give fc and bandwidth in Hz")

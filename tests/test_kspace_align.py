@@ -75,12 +75,12 @@ def test_shift_rows_past_the_axis_is_finite_and_edge_valued():
 def test_large_array_takes_the_true_alias_for_every_body_part():
     """The human body seen by a 64 x 64 array at 7.5 mm (lambda / 2): every
     cluster's range slope u = dR/dX must be a body part's (fitted to its
-    true echo ranges), not an alias of it, which is 1 away in u_x or u_z.  With this noise (seed 0, the one
-    ``benchmarks/pareto.py`` uses) the whole-aperture focused ranking took
-    u_x = -0.89 and +0.89 for the two lower legs (seeds 1 and 2 happened to
-    pass); the sub-aperture ranking takes u_x = -+0.11, with a sub-aperture
-    peak 2.5 times the wrong alias's (56 against 23; whole-aperture it was
-    4.8 against 7.9)."""
+    true echo ranges), not an alias of it, which is 1 away in u_x or u_z.
+    With this noise (seed 0, the one ``benchmarks/pareto.py`` uses) a
+    whole-aperture focused ranking takes u_x = -0.89 and +0.89 for the two
+    lower legs (seeds 1 and 2 pass with it); the sub-aperture ranking takes
+    u_x = -+0.11, with a sub-aperture peak 2.5 times the wrong alias's (56
+    against 23; whole-aperture: 4.8 against 7.9)."""
     import sys
     from pathlib import Path
 
@@ -123,9 +123,9 @@ def _body(n, snr=None, seed=0):
 
 def test_focused_detection_finds_one_cluster_per_body_part():
     """32 x 32 array, noise-free: the 11 body parts are 11 clusters.  On the
-    plain spectrum the wavefront curvature spread the two thighs (k_x = +-72
-    rad/m) over each other and raised a twelfth maximum at k_x = 0 between
-    them, whose points were 46 % more than 50 mm off; the Fresnel-dechirped
+    plain spectrum the wavefront curvature spreads the two thighs (k_x = +-72
+    rad/m) over each other and raises a twelfth maximum at k_x = 0 between
+    them, whose points are 46 % more than 50 mm off; the Fresnel-dechirped
     detection has no such maximum."""
     from rpm_cl.extract import kspace
 
@@ -161,8 +161,8 @@ def test_near_target_at_plain_gates_is_kept_beside_a_dechirped_one():
     """64 x 64 array: a point at 1.0 m (gates dechirped) and one at 0.8 m with
     half its echo amplitude (gates kept plain: the quartic term is over a
     quarter cycle there).  Dechirping raises the far point's detection peak;
-    with one relative threshold over all gates the near point fell under
-    -20 dB of it and was lost (1 cluster)."""
+    with one relative threshold over all gates the near point falls under
+    -20 dB of it and is lost (1 cluster)."""
     from rpm_cl.extract import kspace
     from rpm_cl.io.data import Array, Waveform
     from rpm_cl.rpm.params import default_params

@@ -9,8 +9,8 @@ cluster on the edge of the k axis (a target 48 degrees off broadside: its
 k = -2 k_c sin(48 deg) = -623 rad/m lies at the wrapped edge -pi/d = -628
 rad/m of a 5 mm array), where only the right wrap keeps its window whole.
 
-Mutations of ``_window`` these tests were run against (each made a test
-here fail): the period halved or doubled, the wrap removed, the wrap over
+Mutations of ``_window`` that these tests catch (each makes a test here
+fail): the period halved or doubled, the wrap removed, the wrap over
 twice the k period, ``k + k0`` for ``k - k0``, the support ``|dk| < T``,
 ``1 - cos`` for ``1 + cos``.
 """

@@ -112,9 +112,9 @@ def test_wideband_half_wavelength_array_images_a_steep_target(dev32, deg):
     35 or 55 degrees off broadside at 0.8 m.  The k axis aliases it (|u| >
     0.5), the alignment picks the alias by the range walk, and every antenna
     gives an RP within 10 mm and an image point within 50 mm of it.  Through
-    the near-field path (the default for any pitch over lambda/2 before)
-    the same scene gave 6 and 19 RPs and no point within 50 mm
-    (benchmarks/path_choice.py)."""
+    the near-field path, which a pitch over lambda/2 alone does not choose
+    (this aperture is 4.7 range resolutions long), the same scene gives 6
+    and 19 RPs and no point within 50 mm (benchmarks/path_choice.py)."""
     arr = Array((np.arange(32) - 15.5) * 7.5e-3)
     th = np.radians(deg)
     data = simulate(

@@ -46,8 +46,8 @@ def _record(monkeypatch):
 
 def test_three_range_samples_give_no_cluster(sparse, monkeypatch):
     """3 samples across the strongest echo leave one gate inside the axis,
-    fewer than MIN_SEARCH_GATES: no cluster, and no search is run (it ran
-    to 6 centres before)."""
+    fewer than MIN_SEARCH_GATES: no cluster, and no search is run (one
+    would run to 6 centres)."""
     seen = _record(monkeypatch)
     g = int(np.argmax(np.abs(sparse.signal).max(axis=0)))
     short = _like(sparse, sparse.signal[:, g - 1 : g + 2], sparse.range[g - 1 : g + 2])
@@ -57,8 +57,8 @@ def test_three_range_samples_give_no_cluster(sparse, monkeypatch):
 
 
 def test_single_sample_spike_gives_no_cluster(sparse, monkeypatch):
-    """One non-zero sample is one gate above the threshold: no cluster (it ran
-    to 7 centres before)."""
+    """One non-zero sample is one gate above the threshold: no cluster, and
+    no search is run (one would run to 7 centres)."""
     seen = _record(monkeypatch)
     spike = np.zeros_like(sparse.signal)
     spike[10, 300] = 1.0
@@ -67,13 +67,12 @@ def test_single_sample_spike_gives_no_cluster(sparse, monkeypatch):
 
 
 def test_pure_noise_search_is_bounded(sparse, monkeypatch):
-    """White noise on the paper's sparse array (21 antennas, 600 gates), as
-    the reviewer's sp_noise.npz (unbounded: 8 centres and 4820 + 1732 scans,
-    ~28 M candidate fits): at most 5 centres (21 // 4), at most
-    FIT_BUDGET candidate fits plus one pair scan (the check precedes each
-    scan) and at most POLISH_MAX_NFEV polish evaluations.  Measured: 5
-    clusters, 3.0 M fits, 100 evaluations (the same after the search was
-    made faster: the budget, not the time per fit, bounds it)."""
+    """White noise on the paper's sparse array (21 antennas, 600 gates), on
+    which an unbounded search takes 8 centres and 4820 + 1732 scans (~28 M
+    candidate fits): at most 5 centres (21 // 4), at most FIT_BUDGET
+    candidate fits plus one pair scan (the check precedes each scan) and at
+    most POLISH_MAX_NFEV polish evaluations.  Measured: 5 clusters, 3.0 M
+    fits, 100 evaluations (the budget, not the time per fit, bounds it)."""
     seen = _record(monkeypatch)
     rng = np.random.default_rng(7)
     noise = rng.standard_normal(sparse.signal.shape) + 1j * rng.standard_normal(sparse.signal.shape)
@@ -109,16 +108,15 @@ def test_centre_cap_follows_the_antennas(sparse, n, cap):
 
 def test_four_antennas_keep_one_centre(sparse):
     """4 antennas and 2 centres of 2 terms fit every gate exactly, whatever
-    the centres (the reviewer's sp_4ant.npz): one cluster, not two."""
+    the centres: one cluster, not two."""
     data = _like(sparse, sparse.signal[:4], x=sparse.array.x[:4])
     assert len(decompose(data, KSpaceParams(near_field=True)).clusters) == 1
 
 
 def test_paper_sparse_case_is_inside_the_bounds(sparse, monkeypatch):
     """The bounds must not touch the paper's case: 3 clusters found well
-    inside the budget (measured 0.27 M of 3 M fits, 0.64 M before the search
-    was made faster; asked: under half) and a polish that converges before
-    its cap (measured 8 of 100)."""
+    inside the budget (measured 0.27 M of 3 M fits; asked: under half) and
+    a polish that converges before its cap (measured 8 of 100)."""
     seen = _record(monkeypatch)
     dec = decompose(sparse, KSpaceParams())
     assert len(dec.clusters) == 3

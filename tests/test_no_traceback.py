@@ -77,8 +77,8 @@ def _one_line_error(argv, capsys) -> str:
     ids=["time-fc", "freq-fc", "freq-axis"],
 )
 def test_carrier_above_10_thz_is_refused(tmp_path, capsys, arrays):
-    """fc = 1e30 Hz once sized the near-field search at 1e22 directions
-    ("Maximum allowed size exceeded", a traceback)."""
+    """fc = 1e30 Hz would size the near-field search at 1e22 directions
+    ("Maximum allowed size exceeded", a traceback): one error line instead."""
     src = _save(tmp_path / "in.npz", arrays)
     err = _one_line_error(["image", src, "-o", str(tmp_path / "out.npz")], capsys)
     assert "above 1e+13 Hz" in err and ("fc" in err or "frequency" in err), err
@@ -249,7 +249,8 @@ def test_ctrl_c_during_start_up(tmp_path, delay):
     """SIGINT ``delay`` s after Python's own start-up (site, measured from
     the child's 'up' line; before it nothing of rpm-cl runs): exit 130 and
     one line, or a finished run; never a traceback nor a partial file.  The
-    imports behind `rpm-cl` took 0.8 s before main() ran."""
+    delays span the imports behind `rpm-cl` (measured: 0.8 s before main()
+    runs)."""
     out = tmp_path / "hb.npz"
     p = subprocess.Popen(
         [sys.executable, "-c", _CHILD, "simulate", "human-body", "-o", str(out)],
@@ -324,8 +325,8 @@ def _bandwidth_only(domain, k):
 @pytest.mark.parametrize("domain", ["time", "freq"])
 @pytest.mark.parametrize("unit,k", [("MHz", 1e6), ("GHz", 1e9)])
 def test_bandwidth_alone_in_mhz_or_ghz_numbers_refused(tmp_path, capsys, domain, unit, k):
-    """Refused naming the unit in both domains (the time domain's MHz case
-    ran out of memory)."""
+    """Refused naming the unit in both domains (unrefused, the time domain's
+    MHz case runs out of memory)."""
     src = _save(tmp_path / "in.npz", _bandwidth_only(domain, k))
     with pytest.raises(
         InputError,

@@ -145,9 +145,9 @@ def test_chunked_rpm_equals_one_chunk(body, dev32):
 def test_near_field_focusing_keeps_a_large_aperture_whole():
     """32 x 32 antennas at 7.5 mm (0.23 m) see a point 0.6 m away with ~19 rad
     of wavefront curvature at the corners: without focusing the planar
-    window (60 rad/m; 100 when this was written, with the same outcome)
-    cuts the aperture's edges (fewer RPs, worse ranges); with it (the
-    default there) nearly every antenna gives an accurate RP."""
+    window (60 rad/m; 100 rad/m gives the same outcome) cuts the aperture's
+    edges (fewer RPs, worse ranges); with it (the default there) nearly
+    every antenna gives an accurate RP."""
     from dataclasses import replace
 
     arr = Array((np.arange(32) - 15.5) * 7.5e-3, (np.arange(32) - 15.5) * 7.5e-3)
@@ -174,12 +174,12 @@ def test_near_field_focusing_keeps_a_large_aperture_whole():
 def test_alias_ranking_survives_point_focusing_of_elongated_surfaces():
     """The human body's two thighs (0.42 m tall ellipsoids 1.1 m away) seen
     by 64 x 64 antennas at 7.5 mm: focused on a point, their clusters at
-    kx = +-32.7 rad/m lose coherence and the u_x = +-0.96 alias won (in the
-    whole body's scene: coherent peak 2.4 focused and 14.1 plain at the
-    true u_x = -+0.04, 7.3 focused at the alias); here 86 % of the RPs were
-    within 10 mm.  Ranked by the better of the focused and the plain
-    alignment every cluster points at the thighs, which lie within
-    |u_x| < 0.2 of the array's centre."""
+    kx = +-32.7 rad/m lose coherence, and ranked by the focused alignment
+    alone the u_x = +-0.96 alias wins (in the whole body's scene: coherent
+    peak 2.4 focused and 14.1 plain at the true u_x = -+0.04, 7.3 focused at
+    the alias; here it leaves 86 % of the RPs within 10 mm).  Ranked by the
+    better of the focused and the plain alignment every cluster points at
+    the thighs, which lie within |u_x| < 0.2 of the array's centre."""
     from rpm_cl.simulate.scene import HUMAN_BODY_ARRAY_Z
 
     n = 64

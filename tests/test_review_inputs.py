@@ -1,5 +1,5 @@
-"""Regression tests of an adversarial review of the CLI's input checks: each
-malformed input is one line ``rpm-cl: error: ...`` and exit code 2."""
+"""Adversarial inputs to the CLI's input checks: each malformed input is
+one line ``rpm-cl: error: ...`` and exit code 2."""
 
 import numpy as np
 import pytest
@@ -42,7 +42,7 @@ def _spectrum_file(tmp_path, fc):
 
 
 def test_spectrum_fc_outside_band_refused(tmp_path, capsys):
-    # fc = 1e15 Hz with a 20 GHz band ran the near-field focus map for minutes
+    # fc = 1e15 Hz with a 20 GHz band runs the near-field focus map for minutes
     # (refused as above 10 THz); 1 THz lies below that bound
     path = _spectrum_file(tmp_path, 1e12)
     line = _one_error(capsys, ["image", str(path), "-o", str(tmp_path / "o.npz")])
@@ -54,7 +54,7 @@ def test_spectrum_fc_outside_band_refused(tmp_path, capsys):
 
 
 def test_figure_takes_frame_it_asks_for(tmp_path, capsys, monkeypatch):
-    # a stack refused by `figure` said "--frame N", which `figure` did not accept
+    # a stack refused by `figure` asks for "--frame N", which `figure` accepts
     monkeypatch.setenv("MPLBACKEND", "Agg")
     d = dict(np.load(str(_spectrum_file(tmp_path, 20e9))))
     d["spectrum"] = np.stack([d["spectrum"]] * 3)
@@ -279,7 +279,7 @@ def test_rma_writes_what_its_extension_says(p2, tmp_path, capsys):
             assert np.array_equal(a[k], b[k][()]), k
         assert str(a["meta"]) and b["meta"][()]
         img, x, y = a["image"], a["x"], a["y"]
-    # both hold the image of rma_image, as the .npz always did
+    # both hold the image of rma_image
     from rpm_cl.baselines.rma import rma_image
 
     want = rma_image(load_data(p2), y_min=0.3, y_max=0.6)
@@ -291,12 +291,13 @@ def test_rma_writes_what_its_extension_says(p2, tmp_path, capsys):
 
 
 def test_figure_uses_config_and_flags_like_image(p2, tmp_path, capsys, monkeypatch):
-    """`figure kspace|rps --config` was ignored (the figure used the defaults).
-    The paper-2d targets lie at k = 2 k0 sin(theta) = -393, +44 and +354
-    rad/m; the centres are local maxima within a quarter window period in k,
-    so window_x = 417 (the default, the paper's) keeps 3 centres, 1300
-    (+-325 rad/m) merges +44 and +354 (310 apart) into 2, and 2000 (+-500)
-    leaves 1."""
+    """`figure kspace|rps --config` applies the file's parameters, not the
+    defaults, and flags override the file as for `image`.  The paper-2d
+    targets lie at k = 2 k0 sin(theta) = -393, +44 and +354 rad/m; the
+    centres are local maxima within a quarter window period in k, so
+    window_x = 417 (the default, the paper's) keeps 3 centres, 1300 (+-325
+    rad/m) merges +44 and +354 (310 apart) into 2, and 2000 (+-500) leaves
+    1."""
     from rpm_cl.viz import figures
 
     monkeypatch.setenv("MPLBACKEND", "Agg")
@@ -320,8 +321,8 @@ def test_figure_uses_config_and_flags_like_image(p2, tmp_path, capsys, monkeypat
 
 @pytest.fixture(scope="module")
 def wide_sparse(tmp_path_factory):
-    """The review's extreme linear array: 21 antennas at 1 m pitch (a 20 m
-    aperture, 1334 wavelengths at 20 GHz), two point targets, 12 m of range."""
+    """An extreme linear array: 21 antennas at 1 m pitch (a 20 m aperture,
+    1334 wavelengths at 20 GHz), two point targets, 12 m of range."""
     from rpm_cl.io.data import Array, Waveform
     from rpm_cl.io.formats import save_data
     from rpm_cl.simulate import simulate

@@ -1,7 +1,6 @@
-"""Regression tests of an adversarial review of the CLI: each case would
-break the contract (a traceback, a crash, a silent wrong result, a file left
-behind) and must be one line ``rpm-cl: error: ...`` and exit code 2, or a
-correct result."""
+"""Adversarial inputs to the CLI: each case could break the contract (a
+traceback, a crash, a silent wrong result, a file left behind) and must be
+one line ``rpm-cl: error: ...`` and exit code 2, or a correct result."""
 
 import os
 import signal
@@ -39,10 +38,10 @@ def _edited(tmp_path, p2, name, **changes):
 @pytest.mark.parametrize(
     "key, value, words",
     [
-        ("fc", np.array(True), "fc must be a real number"),  # was read as 1 Hz
-        ("fc", np.array("20e9"), "fc must be a real number"),  # a string was accepted
+        ("fc", np.array(True), "fc must be a real number"),  # not 1 Hz
+        ("fc", np.array("20e9"), "fc must be a real number"),  # a string is not a number
         ("x", (np.arange(21) * 5).astype("timedelta64[ms]"), "x must be real numbers"),
-        ("truth_boundary", None, "truth_boundary or truth_rp_range contains NaN"),  # traceback
+        ("truth_boundary", None, "truth_boundary or truth_rp_range contains NaN"),  # no traceback
     ],
 )
 def test_wrong_kinds_and_non_finite_truth(tmp_path, capsys, p2, key, value, words):
@@ -56,7 +55,8 @@ def test_wrong_kinds_and_non_finite_truth(tmp_path, capsys, p2, key, value, word
 
 
 def test_pad_bounded(tmp_path, capsys, p2):
-    """A zero-padding factor of 1e20 was a traceback (the FFT's size)."""
+    """A zero-padding factor of 1e20 is one error line, not a traceback (the
+    FFT's size)."""
     line = _one_error(
         capsys, ["image", str(p2), "-o", str(tmp_path / "o.npz"), "--pad", "99999999999999999999"]
     )
@@ -114,8 +114,8 @@ def test_das_float32_range_and_rma_complex64(tmp_path, capsys, p2):
 
 
 def test_rma_crop_outside_the_range_axis(tmp_path, capsys, p2):
-    """y 100-200 m of a 1.5 m range axis showed the target's periodic copy at
-    108.28 m as a target."""
+    """y 100-200 m of a 1.5 m range axis is refused: the image there would
+    show the target's periodic copy at 108.28 m as a target."""
     for lo, hi in (("100", "200"), ("-5", "-1")):
         line = _one_error(
             capsys,
@@ -125,8 +125,8 @@ def test_rma_crop_outside_the_range_axis(tmp_path, capsys, p2):
 
 
 def test_two_sample_spectrum_window(tmp_path, capsys):
-    """A Hann window over 2 frequency samples is all zero: it was reported as
-    'signal contains NaN or Inf'."""
+    """A Hann window over 2 frequency samples is all zero: the error says so
+    (not 'signal contains NaN or Inf'), and a rect window images."""
     src = tmp_path / "s.npz"
     np.savez(
         src,
@@ -143,9 +143,11 @@ def test_two_sample_spectrum_window(tmp_path, capsys):
 
 
 def test_messages_name_the_problem(tmp_path, capsys, p2):
-    """view on a TOML file spoke of pickles, on an input file of 'points is
-    not a file in the archive'; chunk_slots 0 got a two-condition message; a
-    sigma_x the array gave (x in the wrong unit) blamed sigma_x alone."""
+    """view on a TOML file says it is no zip archive (not a word of pickles),
+    on an input file 'image it first' (not 'points is not a file in the
+    archive'); chunk_slots 0 names its own condition alone; a sigma_x derived
+    from the array (x in the wrong unit) points at the units of x, not at
+    sigma_x alone."""
     toml = tmp_path / "c.toml"
     toml.write_text("[kspace]\npad = 2\n")
     assert "not a zip archive" in _one_error(
@@ -164,7 +166,7 @@ def test_messages_name_the_problem(tmp_path, capsys, p2):
 
 
 def test_error_is_one_line_whatever_the_message(capsys, monkeypatch):
-    """A library message with newlines (h5py's) was printed on two lines."""
+    """A library message with newlines (h5py's) is printed on one line."""
     from rpm_cl.cli import commands as cli
 
     def boom(args):
@@ -195,7 +197,7 @@ def test_vtk_write_failure_is_an_oserror(tmp_path):
 
 
 def test_zero_image_view_has_no_warnings(tmp_path, capsys, p2):
-    """A target-free DAS image (all zero) printed RuntimeWarnings in view."""
+    """A target-free DAS image (all zero) shows in view without RuntimeWarnings."""
     src = _edited(tmp_path, p2, "z.npz", signal=np.zeros_like(np.load(p2)["signal"]))
     out = tmp_path / "d.npz"
     assert main(["das", str(src), "-o", str(out), "--grid=-0.1:0.1:0.01,0.3:0.5:0.01", "-q"]) == 0
@@ -247,9 +249,9 @@ def test_sigterm_cleans_up(tmp_path):
 
 
 def test_absurd_pitch_is_refused_quickly(tmp_path, capsys, p2):
-    """x in mm read as m (5 km pitch) with sigma_x given ran 5 minutes: the
-    range-walk alignment tried 1.3 M alias directions.  Now one line naming
-    the pitch, and ``--align false`` images it."""
+    """x in mm read as m (5 km pitch) with sigma_x given: the range-walk
+    alignment would try 1.3 M alias directions for 5 minutes, so it is one
+    line naming the pitch, and ``--align false`` images it."""
     src = _edited(tmp_path, p2, "xbig.npz", x=np.load(p2)["x"] * 1e6)
     t0 = time.perf_counter()
     line = _warned_error(
@@ -297,8 +299,8 @@ def test_extreme_amplitudes_image_or_are_refused(tmp_path, capsys, p2):
 
 
 def test_numbers_and_pad_edge_values():
-    """A Fraction or Decimal fc (numbers.Real) is a number; pad = inf was an
-    OverflowError from int()."""
+    """A Fraction or Decimal fc (numbers.Real) is a number; pad = inf is
+    refused like any bad pad, not an OverflowError from int()."""
     from decimal import Decimal
     from fractions import Fraction
 

@@ -203,8 +203,8 @@ def test_round_trip_recovers_scatterer(px, py, pz, dx, dz, ang):
 
 def test_device_refuses_chunks_outside_the_arrays(dev32, rng):
     """The kernels have no bounds checks; the host must refuse what the
-    reference would index out of range (a device read past the end once
-    crashed the process)."""
+    reference would index out of range (a device read past the end can
+    crash the process)."""
     from rpm_cl.io.data import InputError
 
     x, z, r, amp, ant, st_, ct = planar_cluster(rng, [10])
@@ -333,10 +333,10 @@ def test_off_grid_antennas_take_the_float_ranking(rng):
 def test_clusters_smaller_than_the_list(off_grid, near):
     """A cluster of fewer RPs than the list is long (a weak part seen by a
     few antennas) gives each RP the other RPs of its cluster, and only those.
-    With ``near`` > 0 this raised a broadcast error before (the ranking has
-    one column per RP of the cluster, the list ``kmax``), and off the grid
-    with an unbounded radius the float ranking counted the RP itself as
-    within (inf <= inf), so it was its own sub-RP."""
+    With ``near`` > 0 the ranking has one column per RP of the cluster and
+    the list ``kmax`` (the two must not be broadcast together), and off the
+    grid with an unbounded radius the float ranking must not count the RP
+    itself as within (inf <= inf), which would make it its own sub-RP."""
     x = np.array([0.0, 7.5e-3, 15e-3, 0.0, 7.5e-3, 30e-3])
     z = np.array([0.0, 0.0, 0.0, 7.5e-3, 7.5e-3, 0.0])
     if off_grid:
