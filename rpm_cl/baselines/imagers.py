@@ -17,6 +17,7 @@ from ..extract.rangepoints import RangePoints
 from ..io.data import InputError, RadarData
 from ..io.images import Grid
 from ..io.medium import Medium
+from ..io.radar import profile_power
 from ..result import Image, ImageResult
 from .peaks import image_peaks
 
@@ -58,7 +59,7 @@ def echo_span(data: RadarData, floor_db: float = ECHO_SPAN_DB) -> tuple[float, f
     """The air-equivalent ranges (first, last) where the profile power
     summed over the antennas reaches ``floor_db`` of its peak, widened by
     one range resolution each way and clipped to the range axis, m."""
-    power = np.sum(np.abs(data.signal.reshape(-1, data.range.size)) ** 2, axis=0)
+    power = profile_power(data.signal, data.range.size)
     if not power.max() > 0:
         return float(data.range[0]), float(data.range[-1])
     on = np.nonzero(power >= power.max() * 10.0 ** (floor_db / 10.0))[0]

@@ -22,7 +22,7 @@ from .checks import (
     unit_hint,
 )
 from .model import C0, Waveform
-from .radar import BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN
+from .radar import BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN, profile_power
 from .windows import window
 
 #: Range windows of :func:`range_compress` -> their names in
@@ -113,11 +113,9 @@ def _check_conjugated(signal, rng) -> None:
     quarter)."""
     import warnings
 
-    mag = np.abs(np.asarray(signal)).reshape(-1, rng.size)
-    top = float(mag.max()) if mag.size else 0.0
-    if not top > 0:
+    power = profile_power(signal, rng.size)
+    if not power.max() > 0:
         return
-    power = np.sum((mag / top) ** 2, axis=0)
     r_u = float(rng[-1] + (rng[1] - rng[0]))
     share = float(power[rng >= CONJUGATE_FAR_FROM * r_u].sum() / power.sum())
     if share >= CONJUGATE_FAR_SHARE:

@@ -41,6 +41,16 @@ def _bandwidth_line(bw: float, span: float, ratio: float) -> str:
     )
 
 
+def profile_power(signal, nr: int) -> np.ndarray:
+    """The profile power summed over the antennas, relative to the largest
+    sample's: ``sum |s / max|s||^2`` per range gate, shape (nr,); zeros for a
+    zero signal.  Relative, so that data at any scale (1e-300 .. 1e300) stay
+    within float64's range when squared."""
+    mag = np.abs(np.asarray(signal)).reshape(-1, nr)
+    top = float(mag.max()) if mag.size else 0.0
+    return np.sum((mag / top) ** 2, axis=0) if top > 0 else np.zeros(nr)
+
+
 @dataclass(frozen=True)
 class RadarData:
     """Range-compressed radar data, validated at construction.

@@ -15,6 +15,7 @@ from ..extract.preprocess import check as check_preprocess
 from ..extract.preprocess import preprocess
 from ..io.data import InputError, RadarData
 from ..io.medium import Medium, seen_data
+from ..io.radar import profile_power
 
 #: The paper's sigma_r for 2-D (Section V-A2), m.
 SIGMA_R_DEFAULT = 0.05
@@ -355,11 +356,7 @@ def _strongest_range(data: RadarData) -> float | None:
     """
     pos = data.array.positions()
     aperture = float(np.max(np.ptp(pos, axis=0))) if len(pos) > 1 else 0.0
-    mag = np.abs(data.signal.reshape(-1, data.range.size))
-    top = float(mag.max()) if mag.size else 0.0
-    # relative powers: the argmax is all that counts, and squares of the
-    # data's own scale would leave float64's range beyond 1e154
-    power = np.sum((mag / top) ** 2, axis=0) if top > 0 else np.zeros(data.range.size)
+    power = profile_power(data.signal, data.range.size)
     far = np.abs(data.range) >= min(0.5 * data.waveform.range_resolution, aperture)
     if aperture <= 0 or not np.any(power[far] > 0):
         return None
