@@ -353,17 +353,7 @@ def format_table(rows: list[ReproRow]) -> str:
     lines = [head, "-" * len(head)]
     for r in rows:
         snr = "inf" if r.snr_db is None else f"{r.snr_db:g}"
-        ref = PAPER.get((r.case, r.method, r.snr_db))
-        ref_s = (
-            ""
-            if ref is None
-            else " / ".join(
-                (f"{100 * ref[k]:.0f}%" + (f" ({ref[k + '_n']})" if k + "_n" in ref else ""))
-                if k in ref
-                else "-"
-                for k in ("rp10", "rpm50", "rpm100")
-            )
-        )
+        ref_s = _paper_cell(r)
         lines.append(
             f"{r.case:12s} {r.method:11s} {snr:>5s} {pct(r.rp_within_10mm, r.rp_total):>20s} "
             f"{pct(r.rpm_within_50mm, r.rpm_total):>20s} "
@@ -378,7 +368,7 @@ def _paper_cell(r: ReproRow) -> str:
     if ref is None:
         return ""
     return " / ".join(
-        (f"{100 * ref[k]:.0f} %" + (f" ({ref[k + '_n']})" if k + "_n" in ref else ""))
+        (f"{100 * ref[k]:.0f}%" + (f" ({ref[k + '_n']})" if k + "_n" in ref else ""))
         if k in ref
         else "-"
         for k in ("rp10", "rpm50", "rpm100")

@@ -100,8 +100,10 @@ class _Kernels:
     (:func:`rpm_cl.cl.get_kernels`: once per context and options)."""
 
     def __init__(self, env: CLEnv, spec: dict):
-        self._env, self._spec = env, spec
+        self._env, self._spec, self._got = env, spec, {}
 
     def __getitem__(self, role: str):
-        filename, name, defines = self._spec[role]
-        return get_kernels(self._env, filename, [name], defines)[name]
+        if role not in self._got:  # once: not on every launch
+            filename, name, defines = self._spec[role]
+            self._got[role] = get_kernels(self._env, filename, [name], defines)[name]
+        return self._got[role]
