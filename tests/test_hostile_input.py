@@ -419,3 +419,18 @@ def test_fortran_ordered_stack_refused_frame_by_frame(tmp_path, arrays):
     path = tmp_path / "fort.npz"
     np.savez(path, **dict(arrays, signal=stack))
     _refused(path, "Fortran-ordered stack", frame=1)
+
+
+def test_check_members_budgets_only_the_members_held_at_once(tmp_path):
+    """One opening checks every member; ``budget`` names those that count
+    against memory (a viewer reads the image slab by slab)."""
+    from rpm_cl.io.guard import RUN_BASE_BYTES
+
+    path = tmp_path / "img.npz"
+    np.savez(path, image=np.zeros((512, 512)), x=np.zeros(512), meta=np.array("{}"))
+    limit = RUN_BASE_BYTES + 2**20  # the axes fit, the 2 MiB image does not
+    found = check_members(path, ("image", "x", "meta"), budget=("x", "meta"), max_memory=limit)
+    assert found["image"] == ((512, 512), np.dtype(np.float64))
+    with pytest.raises(InputError, match="memory"):
+        check_members(path, ("image", "x", "meta"), max_memory=limit)
+    check_members(path, ("image", "x"), budget=False, max_memory=1)

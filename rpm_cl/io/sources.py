@@ -199,14 +199,15 @@ def _open(path) -> tuple[str, object]:
     return path, src
 
 
-def check_members(path, keys=None, *, budget: bool = True, max_memory=None) -> dict:
+def check_members(path, keys=None, *, budget=True, max_memory=None) -> dict:
     """Check the members ``keys`` of an ``.npz`` or HDF5 file from their
     headers, before a reader of that file reads them.
 
     Each present member's header must fit what the file stores for it (no
     truncation, no compression bomb, for HDF5 no data outside the file:
-    :mod:`rpm_cl.io.guard`); with ``budget`` their bytes together must fit
-    ``max_memory`` (:func:`rpm_cl.io.guard.memory_limit`).
+    :mod:`rpm_cl.io.guard`); the bytes of those ``budget`` names together
+    must fit ``max_memory`` (:func:`rpm_cl.io.guard.memory_limit`).  One
+    opening of the file checks them all.
 
     Parameters
     ----------
@@ -216,6 +217,9 @@ def check_members(path, keys=None, *, budget: bool = True, max_memory=None) -> d
     keys : iterable of str, optional
         The members the reader uses; absent ones are skipped.  None: every
         member.
+    budget : bool or iterable of str, optional
+        Which of them the reader holds in memory at once: True (default)
+        all, False none (members read slab by slab), or their names.
 
     Returns
     -------
@@ -244,8 +248,9 @@ def check_members(path, keys=None, *, budget: bool = True, max_memory=None) -> d
         )
     finally:
         src.close()
-    if budget:
-        total = sum(_nbytes(*sd) for sd in found.values())
+    held = found if budget is True else {} if budget is False else set(budget)
+    if held:
+        total = sum(_nbytes(*sd) for k, sd in found.items() if k in held)
         _guarded(
             path, lambda: check_budget(run_bytes(0, total), memory_limit(max_memory), "reading it")
         )

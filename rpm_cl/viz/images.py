@@ -149,8 +149,8 @@ def load_das_image(path) -> DASImage:
     from ..io.formats import check_members
 
     path = os.fspath(path)
-    check_members(path, ("x", "y", "z", "meta"))
-    check_members(path, ("image",), budget=False)  # read slab by slab
+    # the image is read slab by slab: only the axes and meta count against memory
+    check_members(path, ("x", "y", "z", "meta", "image"), budget=("x", "y", "z", "meta"))
     try:
         if os.path.splitext(path)[1].lower() in (".h5", ".hdf5"):
             axes, meta, img = _h5_image_parts(path)
