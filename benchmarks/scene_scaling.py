@@ -1,6 +1,8 @@
 """Cost against what the scene holds and against the array's size.
 
     python benchmarks/scene_scaling.py [--sizes 15 45] [--repeats 5] [--method kspace-rpm]
+    python benchmarks/scene_scaling.py --write 128 /tmp/spheres128.npz
+
 
 The robustness benchmark's 3-D scene (three spheres, 20 GHz / 3 GHz, 96
 frequencies, 7.5 mm pitch; ``rpm_cl.cli.robustness.GEOMETRY_3D``) on n x n
@@ -8,7 +10,9 @@ planar arrays, with all three spheres and with the first alone, noise-free.
 Prints the median, least and largest engine time (``ImageResult.timings``,
 after one warm-up run) and the decomposition's share, then the ratios the
 speed targets name: one sphere against three on the same array, and the
-largest array against the smallest.
+largest array against the smallest.  ``--write N FILE`` saves the
+three-sphere scene on an N x N array instead, for an end-to-end run of
+``/usr/bin/time -v rpm-cl image FILE`` (wall time and peak memory).
 """
 
 from __future__ import annotations
@@ -41,7 +45,17 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", type=int, nargs="+", default=[15, 45])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--method", default="kspace-rpm")
+    ap.add_argument("--write", nargs=2, metavar=("N", "FILE"))
     args = ap.parse_args(argv)
+    if args.write:
+        from rpm_cl.io.formats import save_data
+
+        n = int(args.write[0])
+        g = replace(R.GEOMETRY_3D, x=(n, R.GEOMETRY_3D.x[1]), z=(n, R.GEOMETRY_3D.z[1]))
+        spec, f, _ = R.synthesize(g, None, 0)
+        save_data(args.write[1], R.radar_data(g, spec, f))
+        print(f"wrote {args.write[1]}: three spheres, {n} x {n} array, noise-free")
+        return 0
     engine = DeviceRPM(create_env(), "float32")
     med = {}
     for n in args.sizes:

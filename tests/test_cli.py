@@ -395,7 +395,9 @@ def test_bench_table_and_kernel_profile(capsys, dev32):
     from rpm_cl.rpm.params import default_params
     from rpm_cl.simulate import simulate_preset
 
-    assert main(["bench", "--scene", "points-5mm", "--repeats", "1", "--no-das"]) == 0
+    assert (
+        main(["bench", "--scene", "points-5mm", "--repeats", "1", "--no-das", "--no-roofline"]) == 0
+    )
     out = capsys.readouterr().out
     for method in RPM_METHODS:
         assert sum(f" {method} " in line for line in out.splitlines()) == 2, method
@@ -472,3 +474,21 @@ def test_boundary_only_truth_round_trips_and_summary(tmp_path):
     assert summary(rps, img, data.truth)["rp_within_10mm"] is not None
     with pytest.raises(InputError, match="no true RPs"):
         echoes_found(rps.antenna, rps.range, bare.truth)
+
+
+def test_bench_roofline_and_equal_accuracy(capsys):
+    """``rpm-cl bench`` with DAS: the measured limits, a roofline row per
+    stage of the default method and for DAS, and one equal-accuracy line per
+    tolerance and S/N whose times are those of points that reach it."""
+    from rpm_cl.imaging import DEFAULT_METHOD
+
+    assert main(["bench", "--scene", "points-5mm", "--repeats", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "machine limits" in out and "GFLOP/s" in out
+    lines = out.splitlines()
+    for stage in ("decompose", "rpm", "intersect", "score"):
+        assert sum(f" {DEFAULT_METHOD} " in ln and f" {stage} " in ln for ln in lines) == 2, stage
+    das = [ln for ln in lines if ln.split()[2:4] == ["das", "das"]]
+    assert len(das) == 2 and all(float(ln.split()[9]) > 0 for ln in das)  # % of peak
+    equal = [ln for ln in lines if " mm  both reach " in ln]
+    assert len(equal) == 4 and all("RPM / DAS = " in ln for ln in equal)

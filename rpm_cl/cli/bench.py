@@ -13,10 +13,11 @@ import time
 
 import numpy as np
 
-from ..imaging import RPM_METHODS, timed_run
-from ..metrics import summary
+from ..imaging import DEFAULT_METHOD, RPM_METHODS, timed_run
+from ..metrics import err_rpm, summary
 from ..rpm.params import default_params
 from ..simulate.synth import simulate_preset
+from .bench_roofline import TOLERANCES
 
 __all__ = ["bench_case", "run_bench"]
 
@@ -37,22 +38,27 @@ def bench_case(engine, preset: str, snr, method: str, repeats: int = 20, seed: i
     -------
     dict
         ``total_ms`` and ``<stage>_ms`` (medians), ``rp10``, ``rpm50``,
-        ``rpm100`` (fractions), ``points``, ``rps``, ``pairs_per_s`` (circle
-        pairs intersected per second in the RPM step), ``kernel_evals_per_s``
-        (Gaussian kernel evaluations per second in the RPM step).
+        ``rpm100`` (fractions), ``within`` (``{tolerance m: fraction}`` of
+        the points, for :data:`rpm_cl.cli.bench_roofline.TOLERANCES`),
+        ``points``, ``rps``, ``clusters``, ``samples`` (complex input
+        samples), ``dim``, and :func:`kernel_profile`'s keys.
     """
     data, pre = simulate_preset(preset, snr, seed, noise="receiver")
     params = default_params(data, **pre.defaults)
     res, _, stages = timed_run(method, data, params, engine, repeats)
     s = summary(res.rps, res.image, data.truth)
+    e = err_rpm(res.image.points, data.truth)
     out = {f"{k}_ms": 1e3 * v for k, v in stages.items()}
     out.update(
         rp10=s["rp_within_10mm"] / max(1, s["rp_total"]),
         rpm50=s["rpm_within_50mm"] / max(1, s["rpm_total"]),
         rpm100=s["rpm_within_100mm"] / max(1, s["rpm_total"]),
+        within={t: float(np.count_nonzero(e <= t)) / max(1, len(e)) for t in TOLERANCES},
         rps=len(res.rps),
         points=s["rpm_total"],
         clusters=len(set(res.rps.cluster.tolist())),
+        samples=int(data.signal.size),
+        dim=data.array.dim,
     )
     out.update(kernel_profile(engine, method, data, params))
     return out
@@ -72,6 +78,7 @@ def kernel_profile(engine, method, data, params, runs: int = PROFILE_RUNS) -> di
     (``intersect``, ``score``, ``argmax``, ``meanshift``, ``density``),
     ``kernel_evals`` and ``kernel_evals_per_s`` (Gaussian kernel evaluations
     the scoring kernel performs in one run, per second of its median time),
+    ``kernel_work`` (the engine's ``kernel_work`` of one run),
     or ``{}`` for the NumPy reference.  The engine is left with its timing
     switch as it was and the last run's ``kernel_times``.
     """
@@ -88,6 +95,7 @@ def kernel_profile(engine, method, data, params, runs: int = PROFILE_RUNS) -> di
         for _ in range(runs):
             engine.kernel_times = dict.fromkeys(engine.kernel_times, 0.0)
             engine.kernel_evals = 0
+            engine.kernel_work = dict.fromkeys(engine.kernel_work, 0)
             run_method(method, data, params, engine)
             times.append(dict(engine.kernel_times))
     finally:
@@ -95,6 +103,7 @@ def kernel_profile(engine, method, data, params, runs: int = PROFILE_RUNS) -> di
     kt = {k: float(np.median([t[k] for t in times])) for k in times[0]}
     out = {f"{k}_ms": 1e3 * v for k, v in kt.items()}
     out["kernel_evals"] = engine.kernel_evals  # the same every run
+    out["kernel_work"] = dict(engine.kernel_work)
     out["kernel_evals_per_s"] = (
         engine.kernel_evals / kt["score"] if kt["score"] > 0 else float("nan")
     )
@@ -106,7 +115,8 @@ def bench_das(das, preset: str, snr, repeats: int = 3, seed: int = 0, volume: bo
     :data:`rpm_cl.cli.reproduce.DAS_GRIDS` (the volume only with ``volume``).
 
     Each dict: ``label``, ``total_ms`` (median of ``repeats``; the volume runs
-    once), ``bp_per_s`` (back-projections, voxels x antennas, per second),
+    once), ``bp`` and ``bp_per_s`` (back-projections, voxels x antennas, and
+    per second), ``dim`` (the grid's),
     ``rpm50``, ``rpm100`` (fractions of the image's points within 50 / 100 mm
     of the true boundary), ``points``.
     """
@@ -133,6 +143,8 @@ def bench_das(das, preset: str, snr, repeats: int = 3, seed: int = 0, volume: bo
                 "total_ms": 1e3 * sec,
                 "points": len(e),
                 "bp_per_s": grid.size * data.array.n / sec,
+                "bp": grid.size * data.array.n,
+                "dim": grid.dim,
                 "rpm50": cumulative(e, 0.05)[0] / n,
                 "rpm100": cumulative(e, 0.10)[0] / n,
             }
@@ -173,6 +185,7 @@ def run_bench(
     das=None,
     volume: bool = False,
     bar: bool | None = False,
+    limits=None,
 ) -> str:
     """All methods on :data:`SCENES` (or the labels in ``scenes``); the table as text.
 
@@ -181,8 +194,19 @@ def run_bench(
     human body's full 2 m x 2 m x 2 m volume at 3 mm (minutes).  ``bar``: a
     progress bar over scenes x methods on stderr (False none, the default;
     None on a terminal; True always; :func:`rpm_cl.progress.progress`).
+    With ``limits`` (:func:`rpm_cl.cli.limits.measure_limits`), the roofline
+    table of the default method's stages and DAS follows, and with ``das``
+    too, RPM against DAS at equal accuracy
+    (:mod:`rpm_cl.cli.bench_roofline`).
     """
     from ..progress import progress
+    from .bench_roofline import (
+        das_sweep,
+        equal_accuracy,
+        equal_accuracy_lines,
+        roofline_rows,
+        roofline_table,
+    )
 
     chosen = [sc for sc in SCENES if scenes is None or sc[0] in scenes]
     pbar = progress(
@@ -203,12 +227,18 @@ def run_bench(
             f"{'RPM<=50':>8s} {'RPM<=100':>9s} {'kernel evals/s':>15s}"
         ),
     ]
+    roof, equal = [], []
     t0 = time.perf_counter()
     for label, preset, snr in chosen:
+        case = f"{label} {'inf' if snr is None else f'{snr:g}'}"
+        rpm_ops = []
         for method in RPM_METHODS:
             pbar.set_postfix_str(f"{label} {method}")
             b = bench_case(engine, preset, snr, method, repeats)
             pbar.update()
+            rpm_ops.append({"label": method, "ms": b["total_ms"], "within": b["within"]})
+            if limits is not None and method == DEFAULT_METHOD:
+                roof.append((case, method, roofline_rows(_stages(b), limits, b["dim"])))
             lines.append(
                 f"{label:12s} {'inf' if snr is None else f'{snr:g}':>4s} {method:11s} "
                 f"{b['total_ms']:8.2f} {b.get('decompose_ms', 0.0):7.2f} "
@@ -230,6 +260,14 @@ def run_bench(
             pbar.set_postfix_str(f"{label} das")
             rows_das = bench_das(das, preset, snr, max(1, min(repeats, 5)), volume=volume)
             pbar.update()
+            if limits is not None and rows_das:
+                d = rows_das[0]
+                sec = d["bp"] / d["bp_per_s"]
+                roof.append(
+                    (case, "das", roofline_rows({"das": (sec, d["bp"], "bp")}, limits, d["dim"]))
+                )
+                ops = das_sweep(das, preset, snr, max(1, min(repeats, 3)))
+                equal += equal_accuracy_lines(case, equal_accuracy(rpm_ops, ops))
             for b in rows_das:
                 lines.append(
                     f"{label:12s} {'inf' if snr is None else f'{snr:g}':>4s} {'das':11s} "
@@ -246,4 +284,41 @@ def run_bench(
         "kernel per second of it; das rows: back-projections (voxels x antennas) per "
         "second, points = the image's peaks, or its -6 dB pixels for a section)"
     )
+    if roof:
+        lines += ["", *roofline_table(roof, limits)]
+        lines.append(
+            "(stage times are medians (kernels: waited for, as isect and score above); "
+            "FLOP and bytes per unit: rpm_cl.cli.bench_roofline.stage_models; '-': no "
+            "model, the rate in its unit only)"
+        )
+    if equal:
+        lines += [
+            "",
+            (
+                "RPM against DAS at equal accuracy (fraction of points within the tolerance "
+                "of the true boundary; each side's least time reaching the fraction both reach; "
+                f"RPM: {', '.join(RPM_METHODS)}; DAS: its grids of "
+                "rpm_cl.cli.bench_roofline.DAS_COARSENING, back-projection and point picking; "
+                "the fraction says how many points are right, not how much of the boundary "
+                "they cover):"
+            ),
+            *equal,
+        ]
     return "\n".join(lines)
+
+
+def _stages(b: dict) -> dict:
+    """``{stage: (seconds, work, unit)}`` of one :func:`bench_case` result."""
+    work = b.get("kernel_work", {})
+    out = {
+        "decompose": (b.get("decompose_ms", 0.0) / 1e3, b["samples"], "sample"),
+        "range_pts": (b.get("range_points_ms", 0.0) / 1e3, b["rps"], "RP"),
+        "rpm": (b["rpm_ms"] / 1e3, b["rps"], "RP"),
+    }
+    if "intersect_ms" in b:
+        out["intersect"] = (b["intersect_ms"] / 1e3, work.get("intersect", 0), "slot")
+        out["score"] = (b["score_ms"] / 1e3, b["kernel_evals"], "evaluation")
+        for k in ("meanshift", "density"):
+            if work.get(k):
+                out[k] = (b[f"{k}_ms"] / 1e3, work[k], "main RP")
+    return {k: v for k, v in out.items() if v[0] > 0}

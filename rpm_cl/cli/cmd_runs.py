@@ -172,6 +172,11 @@ def cmd_bench(args) -> int:
         geos = GEOMETRIES_2D if args.robustness == "quick" else (*GEOMETRIES_2D, GEOMETRY_3D)
         print(table(run(engine, das, geos, SNRS, (0,))))
         return 0
+    limits = None
+    if not args.no_roofline:
+        from .limits import measure_limits
+
+        limits = measure_limits(env, args.precision)
     print(
         run_bench(
             engine,
@@ -181,6 +186,7 @@ def cmd_bench(args) -> int:
             das=das,
             volume=args.das_volume,
             bar=None,
+            limits=limits,
         )
     )
     return 0

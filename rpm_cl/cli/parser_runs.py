@@ -71,6 +71,12 @@ def add_bench(sub) -> argparse.ArgumentParser:
     )
     sp.add_argument("--no-das", action="store_true", help="leave out the DAS rows")
     sp.add_argument(
+        "--no-roofline",
+        action="store_true",
+        help="leave out the machine's measured limits, the roofline table and the "
+        "equal-accuracy comparison with DAS",
+    )
+    sp.add_argument(
         "--das-volume",
         action="store_true",
         help="add the human body's full 2 m x 2 m x 2 m DAS volume at 3 mm (minutes)",

@@ -40,9 +40,11 @@ class DeviceRPM(_Circles, _Spheres, _Scoring, _MeanShift, _DeviceBuffers):
         Kernel arithmetic; float64 needs a device with ``double_fp_config``.
     timing : bool
         Wait for each kernel and add its wall time (s) to ``kernel_times``
-        (``intersect``, ``score``, ``argmax``, ``meanshift``), and the Gaussian kernel
-        evaluations the scoring kernel performed to ``kernel_evals``.  For
-        benchmarks: the waits serialise host and device.
+        (``intersect``, ``score``, ``argmax``, ``meanshift``, ``density``), the
+        Gaussian kernel evaluations the scoring kernel performed to
+        ``kernel_evals`` and each one-dimensional launch's work-items
+        (candidate slots of ``intersect``, main RPs of the others) to
+        ``kernel_work``.  For benchmarks: the waits serialise host and device.
     """
 
     def __init__(self, env: CLEnv, precision: str = "float32", timing: bool = False):
@@ -61,6 +63,7 @@ class DeviceRPM(_Circles, _Spheres, _Scoring, _MeanShift, _DeviceBuffers):
             "density": 0.0,
         }
         self.kernel_evals = 0
+        self.kernel_work = dict.fromkeys(self.kernel_times, 0)
         self.dtype = np.dtype(np.float32 if precision == "float32" else np.float64)
         base = {"REAL": "float" if precision == "float32" else "double"}
         if precision == "float64":

@@ -103,6 +103,8 @@ class _DeviceBuffers:
         self.kernel_times[stage] += time.perf_counter() - t0
 
     def _run(self, kernel, nitems, *args, stage="intersect"):
+        if self.timing:
+            self.kernel_work[stage] += int(nitems)
         if nitems > 0:
             self._timed(stage, lambda: kernel(self.env.queue, (_round_up(nitems),), None, *args))
 
