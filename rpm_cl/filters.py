@@ -20,14 +20,25 @@ _PAD = {"wrap": "wrap", "nearest": "edge", "reflect": "symmetric", "constant": "
 
 
 def _max1d(a: np.ndarray, size: int, axis: int, mode: str) -> np.ndarray:
+    """Moving maximum of ``size`` samples along ``axis`` by doubling: the
+    maxima of runs of 1, 2, 4, ... w <= size samples, each from two of the
+    last, then every window as two overlapping runs of w.  About log2(size)
+    whole-array comparisons, where comparing each window's samples costs
+    ``size``."""
     if size <= 1:
         return a
+    n = a.shape[axis]
     left = size // 2
     pad = [(0, 0)] * a.ndim
     pad[axis] = (left, size - 1 - left)
-    p = np.pad(a, pad, mode=_PAD[mode]) if mode != "constant" else np.pad(a, pad)
-    win = np.lib.stride_tricks.sliding_window_view(p, size, axis=axis)
-    return win.max(axis=-1)
+    m = np.pad(a, pad, mode=_PAD[mode]) if mode != "constant" else np.pad(a, pad)
+    # the filtered axis first: each comparison below is then one contiguous run
+    m = np.ascontiguousarray(np.moveaxis(m, axis, 0))
+    w = 1
+    while 2 * w <= size:  # m[i] = max of the padded samples i .. i + w - 1
+        m = np.maximum(m[: m.shape[0] - w], m[w:])
+        w *= 2
+    return np.moveaxis(np.maximum(m[:n], m[size - w : size - w + n]), 0, axis)
 
 
 def maximum_filter(a, size, mode="reflect") -> np.ndarray:
