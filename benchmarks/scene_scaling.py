@@ -46,7 +46,17 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--method", default="kspace-rpm")
     ap.add_argument("--write", nargs=2, metavar=("N", "FILE"))
+    ap.add_argument(
+        "--default-malloc",
+        action="store_true",
+        help="leave glibc's malloc as it is (default: rpm_cl.heap.keep_freed_memory, "
+        "as rpm-cl bench)",
+    )
     args = ap.parse_args(argv)
+    if not args.default_malloc:
+        from rpm_cl.heap import keep_freed_memory
+
+        keep_freed_memory()
     if args.write:
         from rpm_cl.io.formats import save_data
 

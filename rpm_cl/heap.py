@@ -6,16 +6,20 @@ glibc serves every block above its mmap threshold (128 kB, raised
 dynamically up to 32 MB) with its own mapping and unmaps it when it is
 freed, so the next temporary faults its pages in again, and the kernel
 zeroes each one; with NumPy's transparent-huge-page hint the faults can
-also stall on memory compaction.  That costs a 45 x 45 array's
-decomposition 0.2-2.8 s of system time on top of its 0.7-1.3 s of
-arithmetic and makes it vary 2x from run to run (docs/decisions.md).
+also stall on memory compaction.  Repeated in one process, a 45 x 45 array's
+decomposition spends 0.2-0.7 s of system time on them beside its 0.7-0.9 s
+of arithmetic and varies 0.9-1.6 s from run to run (docs/decisions.md).
 
 :func:`keep_freed_memory` moves the mmap threshold to :data:`HEAP_ALLOC_MAX`
 and the trim threshold to :data:`HEAP_TRIM_MIN`: blocks come from the heap,
-and freed ones stay there for the next.  The process's resident memory then
-stays at its peak until it exits, which suits a command that images one
-input and ends; ``rpm-cl batch`` leaves its long-lived workers as they are
-(Dask watches their resident memory).  Elsewhere than glibc it does nothing.
+and freed ones stay there for the next, so repeated runs in one process
+(``rpm-cl bench``, a script imaging many inputs) fault nothing in after
+the first and take steady times.  The process's resident memory then stays
+at its peak until it exits, so it is for the caller to choose: ``rpm-cl
+bench`` calls it; one-input commands gain nothing measurable (their one
+decomposition faults its pages in once either way) and ``rpm-cl batch``
+leaves its workers as they are (Dask watches their resident memory).
+Elsewhere than glibc it does nothing.
 """
 
 from __future__ import annotations

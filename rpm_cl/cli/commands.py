@@ -114,10 +114,6 @@ def main(argv=None) -> int:
         log.setLevel(
             logging.ERROR if args.quiet else logging.INFO if args.verbose else logging.WARNING
         )
-        if not argv_given and getattr(args, "func", None) is not cmd_batch:
-            from ..heap import keep_freed_memory
-
-            keep_freed_memory()  # one input, then exit (rpm_cl.heap)
         return _run(args)
     except KeyboardInterrupt:
         return _end_interrupted(argv_given)
