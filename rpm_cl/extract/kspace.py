@@ -395,7 +395,8 @@ def _detection(data: RadarData, params: KSpaceParams, k_axes, margin: int, dechi
         a centre, 0 elsewhere.
     threshold : ndarray, shape (nr,)
         Per gate: ``peak_threshold_db`` below the strongest peak of its
-        regime (:func:`_regimes`), and no less than the noise floor.
+        regime (:func:`_regimes`), no less than the strongest regime's less
+        :data:`REGIME_GAIN_DB`, and no less than the noise floor.
     need : ndarray of bool, shape (nr,)
         The gates searched: those whose map reaches the threshold, dilated
         by ``margin`` (every gate without ``skip_gates``).
