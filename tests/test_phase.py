@@ -278,3 +278,43 @@ def test_coherent_level_removes_the_envelope_bias_of_a_shared_range_cell():
     rms = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in errs.items()}
     assert len(errs[True]) >= 10
     assert rms[True] < 0.8 * rms[False]
+
+
+def test_links_and_tracks_match_the_pairwise_definition(rng):
+    """The vectorised links (RPs one antenna step apart along x or z whose
+    envelope ranges fit the slope within the gap) and track components
+    equal a plain double loop and union-find on random clusters with
+    several RPs per antenna (a wrong neighbour key, slope sign or axis
+    changes the sets)."""
+    from rpm_cl.extract.phase import _links, tracks
+
+    for _ in range(5):
+        k = int(rng.integers(1, 80))
+        grid = np.stack([rng.integers(0, 6, k), rng.integers(0, 4, k)], axis=1)
+        r_env = 0.5 + 0.01 * rng.standard_normal(k)
+        slope = rng.uniform(-0.5, 0.5, 2)
+        steps, gap = (0.004, 0.005), 0.006
+        want = {
+            (i, j)
+            for i in range(k)
+            for j in range(k)
+            for a, d in enumerate(((1, 0), (0, 1)))
+            if tuple(grid[j] - grid[i]) == d
+            and abs(r_env[j] - r_env[i] - slope[a] * steps[a]) < gap
+        }
+        got = {tuple(p) for p in _links(grid, r_env, slope, steps, gap).tolist()}
+        assert got == want
+        parent = list(range(k))
+
+        def find(i, parent=parent):
+            while parent[i] != i:
+                i = parent[i]
+            return i
+
+        for i, j in want:
+            ri, rj = find(i), find(j)
+            parent[max(ri, rj)] = min(ri, rj)
+        roots = [find(i) for i in range(k)]
+        label = tracks(grid, r_env, slope, steps, gap)
+        # the same partition, numbered in the order of each track's first RP
+        assert np.array_equal(label, np.unique(roots, return_inverse=True)[1])

@@ -138,41 +138,52 @@ def tracks(grid: np.ndarray, r_env: np.ndarray, slope: np.ndarray, steps, gap: f
     ndarray of int, shape (K,)
         Track label of each RP, 0 .. n_tracks - 1.
     """
-    k = len(r_env)
-    parent = np.arange(k)
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for a, b in _links(grid, r_env, slope, steps, gap):
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-    roots = np.array([find(i) for i in range(k)], np.int64)
-    return np.unique(roots, return_inverse=True)[1].astype(np.int64)
+    return _components(len(r_env), _links(grid, r_env, slope, steps, gap))
 
 
-def _links(grid, r_env, slope, steps, gap):
-    """Pairs (i, j) of RPs at neighbouring antennas (one step along x or z)
-    whose envelope ranges fit the cluster's slope within ``gap``."""
-    key = {}
-    for i, (ix, iz) in enumerate(grid.tolist()):
-        key.setdefault((ix, iz), []).append(i)
+def _components(k: int, links: np.ndarray) -> np.ndarray:
+    """Connected components of ``k`` nodes joined by ``links`` (P, 2),
+    labelled 0 .. n - 1 in the order of their smallest node: each node
+    takes the least label among its neighbours', then its label's label,
+    until nothing changes."""
+    label = np.arange(k)
+    if len(links) == 0:
+        return label.astype(np.int64)
+    a, b = links[:, 0], links[:, 1]
+    while True:
+        new = label.copy()
+        np.minimum.at(new, a, label[b])
+        np.minimum.at(new, b, label[a])
+        new = new[new]
+        if np.array_equal(new, label):
+            break
+        label = new
+    return np.unique(label, return_inverse=True)[1].astype(np.int64)
+
+
+def _links(grid, r_env, slope, steps, gap) -> np.ndarray:
+    """Pairs (i, j), shape (P, 2), of RPs at neighbouring antennas (one step
+    along x or z, j the farther) whose envelope ranges fit the cluster's
+    slope within ``gap``."""
+    grid = np.asarray(grid, np.int64)
+    k = len(grid)
+    if k == 0:
+        return np.zeros((0, 2), np.int64)
+    width = int(grid[:, 1].max()) + 2  # a key per (ix, iz), iz + 1 included
+    key = grid[:, 0] * width + grid[:, 1]
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
     out = []
-    for (ix, iz), here in key.items():
-        for a, (dx, dz) in enumerate(((1, 0), (0, 1))):
-            there = key.get((ix + dx, iz + dz))
-            if not there:
-                continue
-            walk = slope[a] * steps[a]
-            for i in here:
-                for j in there:
-                    if abs(r_env[j] - r_env[i] - walk) < gap:
-                        out.append((i, j))
-    return out
+    for a, (dx, dz) in enumerate(((1, 0), (0, 1))):
+        target = (grid[:, 0] + dx) * width + grid[:, 1] + dz
+        lo = np.searchsorted(sorted_key, target, "left")
+        cnt = np.searchsorted(sorted_key, target, "right") - lo
+        i = np.repeat(np.arange(k), cnt)
+        j = order[np.repeat(lo - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))]
+        walk = slope[a] * steps[a]
+        keep = np.abs(r_env[j] - r_env[i] - walk) < gap
+        out.append(np.stack([i[keep], j[keep]], axis=1))
+    return np.concatenate(out)
 
 
 def _unwrap(grid, phase, amp, links, kvec, steps) -> np.ndarray:
@@ -250,14 +261,17 @@ def phase_ranges(
         kvec = (kvec + periods / 2) % periods - periods / 2
         slope = -kvec / (2 * kc)
         grid, r_env, amp = grid_all[sel], r_new[sel], amp_all[sel]
-        label = tracks(grid, r_env, slope, steps, gap)
+        links = _links(grid, r_env, slope, steps, gap)
+        label = _components(len(r_env), links)
+        place = np.zeros(len(r_env), np.int64)  # an RP's index within its track
         for t in range(int(label.max()) + 1):
             mem = np.nonzero(label == t)[0]
             if mem.size < params.min_track:
                 continue
             g, re_, a = grid[mem], r_env[mem], amp[mem]
-            links = [(i, j) for i, j in _links(g, re_, slope, steps, gap)]
-            psi = _unwrap(g, phase_all[sel][mem], a, links, kvec, steps)
+            place[mem] = np.arange(mem.size)
+            own = place[links[label[links[:, 0]] == t]].tolist()  # a link joins one track
+            psi = _unwrap(g, phase_all[sel][mem], a, own, kvec, steps)
             ok = np.isfinite(psi)
             if np.count_nonzero(ok) < params.min_track:
                 continue
