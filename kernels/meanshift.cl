@@ -36,11 +36,24 @@
  * vector (float8 / double4, simd.h) at a time: straight-line code, masks
  * instead of branches, no NaN or Inf leaves a masked lane.
  *
+ * Candidate store (use_store, where the host's chunk fits it): the first
+ * pass gathers every sub RP (no pruning) and writes each vector of
+ * intersections with its pair weights (-1 in lanes that are not a valid
+ * triplet with k > j) to the work-item's run of `store`; the later passes
+ * and a density_spheres call with `reuse` read them back instead of
+ * intersecting again (the intersections and the nearest list take two
+ * thirds of a pass on the human body), and the nearest list is made once,
+ * after the last step, from the store.  The same pairs in the same order
+ * as a sweep whose pruning drops nothing, so the same sums; where pruning
+ * would drop sub RPs their masked lanes shift the vectors, a float
+ * rounding's difference.
+ *
  * Outputs: mode (3, n) (the point after the last step), density (n,) (f at
  * the last point evaluated; 0: no candidate within cut, or iters = 0),
  * nearest (3, MS_NEAR_K, n) (the candidates within cut nearest to that
  * point, nearest first, ties in pair order; the point itself in the slots
- * beyond count), count (n,) (how many slots hold candidates).  The nearest
+ * beyond count), count (n,) (how many slots hold candidates), qcount (n,)
+ * (candidate vectors stored; -1 none).  The nearest
  * are kept in a sorted private list; a vector of candidates is looked at
  * lane by lane only when one of them beats the list's last entry (rarely,
  * once the list is full).
@@ -107,7 +120,7 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
                   __global const REAL *amp, const int lo, const int hi, const int i,
                   const REAL px, const REAL py, const REAL pz, const REAL cut,
                   const REAL far2, const REAL inv2sd2, __global REAL *gx, const long plane,
-                  int *mnear)
+                  int *mnear, const int prune)
 {
     const REAL xi = x[i], zi = z[i], ri = r[i];
     int m = 0;
@@ -117,7 +130,7 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
             const REAL n2 = ax * ax + az * az;
             if (n2 == (REAL)0 || (n2 <= far2) != (pass == 0)) continue;
             const REAL dx = px - ax, dz = pz - az;
-            if (fabs(sqrt(dx * dx + py * py + dz * dz) - r[k]) > cut) continue;
+            if (prune && fabs(sqrt(dx * dx + py * py + dz * dz) - r[k]) > cut) continue;
             gx[m] = ax;
             gx[plane + m] = az;
             gx[2 * plane + m] = TRIPLET_B(ri, r[k], n2);
@@ -138,12 +151,15 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
  * ok (valid and within cut of p) and wg = g G (0 where not ok) are in scope
  * of the statements __VA_ARGS__.  Uses the caller's gx, plane, m, mnear, ri,
  * eps_det, cut2 and l2inv2sr2. */
-#define SWEEP_PAIRS(px, py, pz, ...)                                                        \
+#define STORE_ROW(p, q) (((__global REALV *)(p))[q])
+
+#define SWEEP_PAIRS(px, py, pz, STORE, NQP, ...)                                            \
     {                                                                                       \
         __global const REAL *gz_ = gx + plane, *gb_ = gz_ + plane, *gn_ = gb_ + plane;      \
         __global const REAL *gw_ = gn_ + plane;                                             \
         const int nv_ = (m + VW - 1) / VW;                                                  \
         const REALV zero_ = (REALV)((REAL)0);                                               \
+        int q_ = 0;                                                                         \
         for (int j = 0; j < mnear; ++j) {                                                   \
             const REALV ajx = (REALV)gx[j], ajz = (REALV)gz_[j], bj = (REALV)gb_[j];        \
             const REALV ej = (REALV)(eps_det * gn_[j]), wj = (REALV)gw_[j];                 \
@@ -152,56 +168,99 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
                 INTV ok = triplet_v(ajx, ajz, bj, ej, VROW(gx, c), VROW(gz_, c),            \
                                     VROW(gb_, c), VROW(gn_, c), (REALV)ri, &cx, &cy, &cz);  \
                 ok &= (LANES + (IDX)(c * VW)) > (IDX)j;                                     \
+                const REALV g_ = wj + VROW(gw_, c);                                         \
+                if (STORE) {                                                                \
+                    STORE_ROW(STORE, q_) = cx;                                              \
+                    STORE_ROW(STORE + splane, q_) = cy;                                     \
+                    STORE_ROW(STORE + 2 * splane, q_) = cz;                                 \
+                    STORE_ROW(STORE + 3 * splane, q_) = ok ? g_ : (REALV)((REAL)-1);        \
+                    ++q_;                                                                   \
+                }                                                                           \
                 REALV dx = cx - (px), dy = cy - (py), dz = cz - (pz);                       \
                 const REALV d2 = dx * dx + dy * dy + dz * dz;                               \
                 ok &= d2 <= cut2;                                                           \
                 dx = ok ? dx : zero_;                                                       \
                 dy = ok ? dy : zero_;                                                       \
                 dz = ok ? dz : zero_;                                                       \
-                const REALV wg = ok ? (wj + VROW(gw_, c)) * vexp2_neg(-d2 * l2inv2sr2)      \
-                                    : zero_;                                                \
+                const REALV wg = ok ? g_ * vexp2_neg(-d2 * l2inv2sr2) : zero_;              \
                 __VA_ARGS__                                                                 \
             }                                                                               \
+        }                                                                                   \
+        if (STORE) *(NQP) = q_;                                                             \
+    }
+
+/* The same sweep over the candidates SWEEP_PAIRS stored (NQ vectors at
+ * STORE): the same pairs in the same order, so the same sums, without the
+ * intersections.  A stored weight below 0 marks an invalid lane. */
+#define SWEEP_STORED(px, py, pz, STORE, NQ, ...)                                            \
+    {                                                                                       \
+        const REALV zero_ = (REALV)((REAL)0);                                               \
+        for (int q_ = 0; q_ < (NQ); ++q_) {                                                 \
+            const REALV cx = STORE_ROW(STORE, q_), cy = STORE_ROW(STORE + splane, q_);      \
+            const REALV cz = STORE_ROW(STORE + 2 * splane, q_);                             \
+            const REALV g_ = STORE_ROW(STORE + 3 * splane, q_);                             \
+            INTV ok = g_ >= zero_;                                                          \
+            REALV dx = cx - (px), dy = cy - (py), dz = cz - (pz);                           \
+            const REALV d2 = dx * dx + dy * dy + dz * dz;                                   \
+            ok &= d2 <= cut2;                                                               \
+            dx = ok ? dx : zero_;                                                           \
+            dy = ok ? dy : zero_;                                                           \
+            dz = ok ? dz : zero_;                                                           \
+            const REALV wg = ok ? g_ * vexp2_neg(-d2 * l2inv2sr2) : zero_;                  \
+            __VA_ARGS__                                                                     \
         }                                                                                   \
     }
 
 /* Kernel sums at p over the gathered pairs: s = sum g G, m1 = sum g G d,
  * m2 = sum g G d d^T (xx, yy, zz, xy, xz, yz), d = c - p, and the candidates
- * nearest to p (kd, kc, *kn: see keep_nearest). */
+ * nearest to p (kd, kc, *kn: see keep_nearest).  With `stored` the pairs
+ * are the *nq candidate vectors of `store` (SWEEP_STORED); else they are
+ * intersected, and written to `store` when it is not null (their count to
+ * *nq). */
+#define SHIFT_BODY                                                                          \
+        const REALV wx = wg * dx, wy = wg * dy, wz = wg * dz;                               \
+        s += wg;                                                                            \
+        sx += wx;                                                                           \
+        sy += wy;                                                                           \
+        sz += wz;                                                                           \
+        sxx += wx * dx;                                                                     \
+        syy += wy * dy;                                                                     \
+        szz += wz * dz;                                                                     \
+        sxy += wx * dy;                                                                     \
+        sxz += wx * dz;                                                                     \
+        syz += wy * dz;                                                                     \
+        NEAREST_BODY
+
+/* The nearest-list part of a sweep's body (see keep_nearest). */
+#define NEAREST_BODY                                                                        \
+        const INTV hit = ok & (d2 < (REALV)last);                                           \
+        if (keep && VANY(hit)) {   /* rare once the list is full: lane by lane */           \
+            ilanes_t h;                                                                     \
+            lanes_t ld, ux, uy, uz;                                                         \
+            h.v = hit;                                                                      \
+            ld.v = d2;                                                                      \
+            ux.v = cx;                                                                      \
+            uy.v = cy;                                                                      \
+            uz.v = cz;                                                                      \
+            for (int q = 0; q < VW; ++q)                                                    \
+                if (h.a[q]) keep_nearest(kd, kc, kn, ld.a[q], ux.a[q], uy.a[q], uz.a[q]);   \
+            if (*kn == MS_NEAR_K) last = kd[MS_NEAR_K - 1];                                 \
+        }
+
 inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
                        const int mnear, const REAL ri, const REAL px, const REAL py,
                        const REAL pz, const REAL cut2, const REAL l2inv2sr2, const REAL eps_det,
-                       REAL *m1, REAL *m2, REAL *kd, REAL *kc, int *kn)
+                       REAL *m1, REAL *m2, REAL *kd, REAL *kc, int *kn, __global REAL *store,
+                       const long splane, const int stored, int *nq, const int keep)
 {
     REALV s = (REALV)((REAL)0), sx = s, sy = s, sz = s, sxx = s, syy = s, szz = s, sxy = s;
     REALV sxz = s, syz = s;
     REAL last = (REAL)2 * cut2;   /* a candidate nearer than this enters the list */
     *kn = 0;
-    SWEEP_PAIRS(px, py, pz,
-        const REALV wx = wg * dx, wy = wg * dy, wz = wg * dz;
-        s += wg;
-        sx += wx;
-        sy += wy;
-        sz += wz;
-        sxx += wx * dx;
-        syy += wy * dy;
-        szz += wz * dz;
-        sxy += wx * dy;
-        sxz += wx * dz;
-        syz += wy * dz;
-        const INTV hit = ok & (d2 < (REALV)last);
-        if (VANY(hit)) {   /* rare once the list is full: lane by lane */
-            ilanes_t h;
-            lanes_t ld, ux, uy, uz;
-            h.v = hit;
-            ld.v = d2;
-            ux.v = cx;
-            uy.v = cy;
-            uz.v = cz;
-            for (int q = 0; q < VW; ++q)
-                if (h.a[q]) keep_nearest(kd, kc, kn, ld.a[q], ux.a[q], uy.a[q], uz.a[q]);
-            if (*kn == MS_NEAR_K) last = kd[MS_NEAR_K - 1];
-        })
+    if (stored)
+        SWEEP_STORED(px, py, pz, store, *nq, SHIFT_BODY)
+    else
+        SWEEP_PAIRS(px, py, pz, store, nq, SHIFT_BODY)
     m1[0] = hsum(sx);
     m1[1] = hsum(sy);
     m1[2] = hsum(sz);
@@ -212,6 +271,18 @@ inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
     m2[4] = hsum(sxz);
     m2[5] = hsum(syz);
     return hsum(s);
+}
+
+/* The candidates of the store nearest to p (kd, kc, *kn), alone: the list
+ * shift_sums keeps, in the same order and with the same ties. */
+inline void nearest_stored(const REAL px, const REAL py, const REAL pz, const REAL cut2,
+                           const REAL l2inv2sr2, REAL *kd, REAL *kc, int *kn,
+                           __global REAL *store, const long splane, const int nq)
+{
+    const int keep = 1;
+    REAL last = (REAL)2 * cut2;
+    *kn = 0;
+    SWEEP_STORED(px, py, pz, store, nq, NEAREST_BODY)
 }
 
 /* The step from p given the sums at p: Newton's on log f,
@@ -253,7 +324,8 @@ __kernel void meanshift_spheres(
     const int i0, const int n, const int stride, const REAL inv2sd2, const REAL far2,
     const REAL cut, const REAL l2inv2sr2, const REAL eps_det, const int iters, const REAL tol2,
     __global const REAL *point, __global REAL *mode, __global REAL *density,
-    __global REAL *nearest, __global int *count, __global REAL *scratch)
+    __global REAL *nearest, __global int *count, __global REAL *scratch,
+    __global REAL *store, const long sstride, const int use_store, __global int *qcount)
 {
     const int il = get_global_id(0);
     if (il >= n) return;
@@ -261,20 +333,27 @@ __kernel void meanshift_spheres(
     const int lo = cstart[i], hi = lo + ccount[i];
     const long plane = (long)n * stride;
     __global REAL *gx = scratch + (long)il * stride;  /* 5 planes, see gather */
+    /* the candidate store: 4 planes of n runs of sstride (candidates are
+     * intersected once, in the first pass, and read in the others) */
+    const long splane = (long)n * sstride;
+    __global REAL *st = use_store ? store + (long)il * sstride : 0;
     const REAL ri = r[i], cut2 = cut * cut;
     REAL p[3] = {point[il], point[n + il], point[2 * n + il]};
     REAL q0[3] = {p[0], p[1], p[2]};   /* the start of the last step */
     REAL m1[3], m2[6], dp[3], kd[MS_NEAR_K], kc[3 * MS_NEAR_K];
     const REAL inv_sr2 = (REAL)2 * l2inv2sr2 * (REAL)0.69314718055994530942;  /* 1 / sigma_r^2 */
-    int kn = 0;
+    int kn = 0, nq = 0, m = 0, mnear = 0;
     REAL s = (REAL)0;
     for (int t = 0; t < iters; ++t) {
-        int mnear;
-        const int m = gather(x, z, r, amp, lo, hi, i, p[0], p[1], p[2], cut, far2, inv2sd2,
-                             gx, plane, &mnear);
+        /* with the store, every sub RP is gathered once (the pruning below
+         * is exact, but relative to the first point) */
+        if (!use_store || t == 0)
+            m = gather(x, z, r, amp, lo, hi, i, p[0], p[1], p[2], cut, far2, inv2sd2, gx, plane,
+                       &mnear, !use_store);
         for (int d = 0; d < 3; ++d) q0[d] = p[d];
+        /* with the store, the nearest list is made once, after the last step */
         s = shift_sums(gx, plane, m, mnear, ri, p[0], p[1], p[2], cut2, l2inv2sr2, eps_det, m1,
-                       m2, kd, kc, &kn);
+                       m2, kd, kc, &kn, st, splane, use_store && t > 0, &nq, !use_store);
         if (!(s > (REAL)0)) break;
         newton_step(s, m1, m2, inv_sr2, dp);
         REAL step2 = (REAL)0;
@@ -284,8 +363,11 @@ __kernel void meanshift_spheres(
         }
         if (step2 <= tol2) break;
     }
+    if (use_store && iters > 0)
+        nearest_stored(q0[0], q0[1], q0[2], cut2, l2inv2sr2, kd, kc, &kn, st, splane, nq);
     density[il] = s;
     count[il] = kn;
+    qcount[il] = use_store && iters > 0 ? nq : -1;   /* -1: nothing stored */
     for (int d = 0; d < 3; ++d) {
         mode[(long)d * n + il] = p[d];
         for (int q = 0; q < MS_NEAR_K; ++q)
@@ -320,7 +402,8 @@ __kernel void density_spheres(
     __global const REAL *amp, __global const int *cstart, __global const int *ccount,
     const int i0, const int n, const int stride, const REAL inv2sd2, const REAL far2,
     const REAL cut, const REAL l2inv2sr2, const REAL eps_det, const int nt,
-    __global const REAL *point, __global REAL *density, __global REAL *scratch)
+    __global const REAL *point, __global REAL *density, __global REAL *scratch,
+    __global REAL *store, const long sstride, const int reuse, __global const int *qcount)
 {
     const int il = get_global_id(0);
     if (il >= n) return;
@@ -328,6 +411,11 @@ __kernel void density_spheres(
     const int lo = cstart[i], hi = lo + ccount[i];
     const long plane = (long)n * stride;
     __global REAL *gx = scratch + (long)il * stride;
+    /* with `reuse`, the candidates meanshift_spheres stored for this chunk
+     * (qcount[il] vectors; -1: none stored, intersect them here) */
+    const long splane = (long)n * sstride;
+    __global REAL *st = store + (long)il * sstride;
+    int nq = reuse ? qcount[il] : -1;
     const REAL ri = r[i], cut2 = cut * cut;
     const REAL a = l2inv2sr2 * (REAL)0.69314718055994530942;   /* 1 / (2 sigma_r^2) */
     const REAL t0x = point[il], t0y = point[(long)nt * n + il], t0z = point[2L * nt * n + il];
@@ -341,18 +429,25 @@ __kernel void density_spheres(
         ez[u] = 2 * a * dz;
         e0[u] = -a * (dx * dx + dy * dy + dz * dz);
     }
-    int mnear;
-    const int m = gather(x, z, r, amp, lo, hi, i, t0x, t0y, t0z, cut, far2, inv2sd2, gx, plane,
-                         &mnear);
     REALV s[MS_DENSITY_T];
     for (int u = 0; u < MS_DENSITY_T; ++u) s[u] = (REALV)((REAL)0);
-    SWEEP_PAIRS(t0x, t0y, t0z,
-        s[0] += wg;
-        for (int u = 1; u < nt; ++u) {
-            /* the select (wg is 0 where not ok) keeps the product and the sum
-             * unfused: the rounding of the figures in docs/ */
-            const REALV e = exp_series6(dx * ex[u] + dy * ey[u] + dz * ez[u] + e0[u]);
-            s[u] += ok ? wg * e : (REALV)((REAL)0);
-        })
+    /* the select (wg is 0 where not ok) keeps the product and the sum
+     * unfused: the rounding of the figures in docs/ */
+#define DENSITY_BODY                                                                        \
+        s[0] += wg;                                                                         \
+        for (int u = 1; u < nt; ++u) {                                                      \
+            const REALV e = exp_series6(dx * ex[u] + dy * ey[u] + dz * ez[u] + e0[u]);      \
+            s[u] += ok ? wg * e : (REALV)((REAL)0);                                         \
+        }
+    if (nq >= 0) {
+        SWEEP_STORED(t0x, t0y, t0z, st, nq, DENSITY_BODY)
+    } else {
+        int mnear;
+        const int m = gather(x, z, r, amp, lo, hi, i, t0x, t0y, t0z, cut, far2, inv2sd2, gx,
+                             plane, &mnear, 1);
+        __global REAL *const no_store = 0;
+        SWEEP_PAIRS(t0x, t0y, t0z, no_store, &nq, DENSITY_BODY)
+    }
+#undef DENSITY_BODY
     for (int u = 0; u < nt; ++u) density[(long)u * n + il] = hsum(s[u]);
 }

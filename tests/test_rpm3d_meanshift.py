@@ -320,3 +320,46 @@ def test_short_list_only_where_one_rp_per_antenna(dev64, rng):
     six = rpm_image(rps, replace(base, max_neighbours=6, meanshift_neighbours=None), dev64)
     np.testing.assert_array_equal(short.points[~dup], six.points[~dup])
     assert np.any(np.linalg.norm(short.points[~dup] - long_.points[~dup], axis=1) > 1e-9)
+
+
+@pytest.mark.parametrize("store", [True, False])
+def test_candidate_store_and_recomputation_agree_with_reference(dev64, rng, monkeypatch, store):
+    """The kernel intersects each main RP's pairs once and reads them back
+    in its later passes and in the density that reuses them (the store), or,
+    where a chunk does not fit the store, intersects them in every pass:
+    both equal the float64 reference, and a density reusing the store equals
+    one that intersects again."""
+    from rpm_cl.rpm import device_meanshift as dm
+
+    if not store:
+        monkeypatch.setattr(dm, "MS_STORE_SLOTS", 0)
+    x, z, r, amp, ant, st, ct = planar_cluster(rng, [21, 9, 33], noise=3e-3)
+    _, p0 = start_points(x, z, r, amp, ant, st, ct)
+    want = ref.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, 3)
+    got = dev64.meanshift_spheres(x, z, r, amp, st, ct, p0, SD, SR, 3)
+    assert (dev64._ms_stored is not None) == store
+    np.testing.assert_allclose(got[0], want[0], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(got[1], want[1], rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(got[2], want[2], rtol=0, atol=1e-10)
+    np.testing.assert_array_equal(got[3], want[3])
+    # the density at each mode and 1 mm beside it (points sigma_r / 10 apart
+    # or less, as the imaging path asks), reusing the store or not
+    mode = np.asarray(got[0])
+    pts = np.stack([mode, mode + np.array([[1e-3], [0.0], [0.0]])], axis=1)
+    f_ref = ref.density_spheres(x, z, r, amp, st, ct, pts, SD, SR)
+    f_reuse = dev64.density_spheres(x, z, r, amp, st, ct, pts, SD, SR, reuse=True)
+    f_fresh = dev64.density_spheres(x, z, r, amp, st, ct, pts, SD, SR)
+    np.testing.assert_allclose(f_reuse, f_ref, rtol=1e-6, atol=1e-12)  # the series' error
+    np.testing.assert_allclose(f_reuse, f_fresh, rtol=1e-12, atol=1e-14)
+
+
+def test_density_reuse_needs_the_same_chunk(dev64, rng):
+    """A density call on another chunk than the last mean shift's does not
+    read that mean shift's store (it intersects its own pairs)."""
+    x, z, r, amp, ant, st, ct = planar_cluster(rng, [21, 9, 33], noise=3e-3)
+    _, p0 = start_points(x, z, r, amp, ant, st, ct)
+    dev64.meanshift_spheres(x, z, r, amp, st, ct, p0[:, :10], SD, SR, 2, 0, 10)
+    pts = np.repeat(p0[:, None, 10:20], 1, axis=1)
+    f = dev64.density_spheres(x, z, r, amp, st, ct, pts, SD, SR, 10, 10, reuse=True)
+    want = ref.density_spheres(x, z, r, amp, st, ct, pts, SD, SR, 10, 10)
+    np.testing.assert_allclose(f, want, rtol=1e-10, atol=1e-12)

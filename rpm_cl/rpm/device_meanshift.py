@@ -14,6 +14,13 @@ from ..io.data import InputError
 from .device_buffers import _check_chunk, _stride
 from .reference import EPS_DET, MS_CUTOFF, MS_DENSITY_T, MS_NEAR_K, MS_PAIR_CUTOFF, MS_TOL
 
+#: Reals of the mean shift's candidate store in one launch (4 per pair of
+#: sub RPs a main RP sweeps, at most 4 x stride^2 each; 128 MiB in float32):
+#: the kernel intersects each main RP's pairs once, in its first pass, and
+#: reads them back in the later passes and in the density that follows;
+#: :meth:`_MeanShift.meanshift_chunk` bounds the chunks so that they fit.
+MS_STORE_SLOTS = 1 << 25
+
 
 class _MeanShift:
     """Mean shift over the intersection density on the device.
@@ -65,14 +72,26 @@ class _MeanShift:
             t(EPS_DET),
         )
 
+    @staticmethod
+    def meanshift_chunk(largest: int) -> int:
+        """Most main RPs of one :meth:`meanshift_spheres` call whose
+        candidates fit the store (:data:`MS_STORE_SLOTS`), for clusters of up
+        to ``largest`` RPs."""
+        s = _stride(max(1, int(largest)))
+        return max(1, MS_STORE_SLOTS // (4 * s * s))
+
     def meanshift_spheres(
         self, x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, iters, i0=0, n=None
     ):
         """Device twin of :func:`rpm_cl.rpm.reference.meanshift_spheres`.
 
         One work-item per main RP; its scratch (5 rows of the largest cluster
-        of the chunk, padded to 8) is the only memory that grows with the
-        clusters, so chunks bound it.
+        of the chunk, padded to 8) and, where the chunk fits
+        :data:`MS_STORE_SLOTS`, its candidate store (4 x stride^2 reals) are
+        the only memory that grows with the clusters, so chunks bound it.
+        With the store the candidates are intersected once, and a
+        :meth:`density_spheres` call with ``reuse`` on the same chunk reads
+        them too.
         """
         if int(iters) < 0:
             raise InputError(f"iters must be >= 0, got {iters}")
@@ -82,7 +101,13 @@ class _MeanShift:
         dens = self._out((n,), role="ms_density")
         near = self._out((3, MS_NEAR_K, n), role="ms_nearest")
         count = self._out((n,), np.int32, role="ms_count")
-        scratch = self._out((5, n, int(args[-1])), role="ms_scratch")
+        stride = int(args[-1])
+        scratch = self._out((5, n, stride), role="ms_scratch")
+        sstride = stride * stride
+        use = 0 < int(iters) and 4 * n * sstride <= MS_STORE_SLOTS
+        store = self._out((4, n, sstride) if use else (1,), role="ms_store")
+        qcount = self._out((n,), np.int32, role="ms_qcount")
+        self._ms_stored = (int(i0), n, stride) if use else None
         self._run(
             self._k["meanshift_spheres"],
             n,
@@ -96,6 +121,10 @@ class _MeanShift:
             near,
             count,
             scratch,
+            store,
+            np.int64(sstride),
+            np.int32(use),
+            qcount,
             stage="meanshift",
         )
         return (
@@ -105,8 +134,15 @@ class _MeanShift:
             self._read(count, (n,), np.int32),
         )
 
-    def density_spheres(self, x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, i0=0, n=None):
-        """Device twin of :func:`rpm_cl.rpm.reference.density_spheres`."""
+    def density_spheres(
+        self, x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, i0=0, n=None, reuse=False
+    ):
+        """Device twin of :func:`rpm_cl.rpm.reference.density_spheres`.
+
+        ``reuse``: the last :meth:`meanshift_spheres` call ran on the same
+        RPs, widths and chunk; its stored candidates are read instead of
+        intersected again (where it stored them).
+        """
         n, args = self._cluster_args(x, z, r, amp, cstart, ccount, i0, n)
         pt = np.asarray(point, np.float64).reshape(3, -1, n)
         nt = pt.shape[1]
@@ -115,7 +151,12 @@ class _MeanShift:
                 f"density_spheres takes 1..{MS_DENSITY_T} points per main RP, got {nt}"
             )
         dens = self._out((nt, n), role="ms_density_at")
-        scratch = self._out((5, n, int(args[-1])), role="ms_scratch")
+        stride = int(args[-1])
+        scratch = self._out((5, n, stride), role="ms_scratch")
+        use = bool(reuse) and getattr(self, "_ms_stored", None) == (int(i0), n, stride)
+        sstride = stride * stride
+        store = self._out((4, n, sstride) if use else (1,), role="ms_store")
+        qcount = self._out((n,), np.int32, role="ms_qcount")
         self._run(
             self._k["density_spheres"],
             n,
@@ -125,6 +166,10 @@ class _MeanShift:
             self._buf(pt, role="ms_point"),
             dens,
             scratch,
+            store,
+            np.int64(sstride),
+            np.int32(use),
+            qcount,
             stage="density",
         )
         return self._read(dens, (nt, n))

@@ -193,8 +193,13 @@ def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
     small = np.flatnonzero(_refined(count, params))
     if small.size == 0:
         return [(best, score, local)]
-    # the scratch holds 5 rows of the largest cluster per main RP
-    width = 5 * int(count[small].max())
+    # the scratch holds 5 rows of the largest cluster per main RP; an engine
+    # may bound the chunk further (the device's candidate store)
+    largest = int(count[small].max())
+    width = 5 * largest
+    limit = getattr(engine, "meanshift_chunk", None)
+    if limit is not None:
+        width = max(width, -(-params.chunk_slots // limit(largest)))
     runs = np.split(small, np.flatnonzero(np.diff(small) > 1) + 1)
     for i0, n in (
         (int(run[0]) + a, b)
@@ -246,7 +251,7 @@ def _argmax_near(mode, near, cnt, engine, x, z, r, amp, start, count, params, i0
     targets = near[:, pick, cols]  # (3, T, n)
     f = np.asarray(
         engine.density_spheres(
-            x, z, r, amp, start, count, targets, params.sigma_x, params.sigma_r, i0, n
+            x, z, r, amp, start, count, targets, params.sigma_x, params.sigma_r, i0, n, reuse=True
         ),
         np.float64,
     )

@@ -439,7 +439,9 @@ def meanshift_spheres(x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, ite
     return mode, density, nearest, count
 
 
-def density_spheres(x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, i0=0, n=None):
+def density_spheres(
+    x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, i0=0, n=None, reuse=False
+):
     """The exhaustive density f of :func:`meanshift_spheres` at a few nearby
     points per main RP (the candidates nearest to its mode, the largest f of
     which is the exhaustive argmax).
@@ -457,6 +459,9 @@ def density_spheres(x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, i0=0,
         As :func:`meanshift_spheres`.
     point : ndarray, shape (3, nt, n)
         1 <= nt <= MS_DENSITY_T points per main RP, each main antenna's frame, m.
+    reuse : bool
+        The device engine's hint that the last mean shift ran on the same
+        chunk (its stored candidates are read); the same density either way.
 
     Returns
     -------
