@@ -38,9 +38,10 @@
  *
  * Candidate store (use_store, where the host's chunk fits it): the first
  * pass gathers every sub RP (no pruning) and writes each vector of
- * intersections with its pair weights (-1 in lanes that are not a valid
- * triplet with k > j) to the work-item's run of `store`; the later passes
- * and a density_spheres call with `reuse` read them back instead of
+ * intersections (x NaN in lanes that are not a valid triplet) to the
+ * work-item's run of `store` (3 planes); the later passes
+ * and a density_spheres call with `reuse` read them back (with the rows
+ * gathered in the scratch, which no later pass overwrites) instead of
  * intersecting again (the intersections and the nearest list take two
  * thirds of a pass on the human body), and the nearest list is made once,
  * after the last step, from the store.  The same pairs in the same order
@@ -52,8 +53,8 @@
  * the last point evaluated; 0: no candidate within cut, or iters = 0),
  * nearest (3, MS_NEAR_K, n) (the candidates within cut nearest to that
  * point, nearest first, ties in pair order; the point itself in the slots
- * beyond count), count (n,) (how many slots hold candidates), qcount (n,)
- * (candidate vectors stored; -1 none).  The nearest
+ * beyond count), count (n,) (how many slots hold candidates), qcount (2, n)
+ * (the rows gathered, -1 where nothing is stored, and the near ones).  The nearest
  * are kept in a sorted private list; a vector of candidates is looked at
  * lane by lane only when one of them beats the list's last entry (rarely,
  * once the list is full).
@@ -165,15 +166,15 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
             const REALV ej = (REALV)(eps_det * gn_[j]), wj = (REALV)gw_[j];                 \
             for (int c = (j + 1) / VW; c < nv_; ++c) {                                      \
                 REALV cx, cy, cz;                                                           \
-                INTV ok = triplet_v(ajx, ajz, bj, ej, VROW(gx, c), VROW(gz_, c),            \
-                                    VROW(gb_, c), VROW(gn_, c), (REALV)ri, &cx, &cy, &cz);  \
-                ok &= (LANES + (IDX)(c * VW)) > (IDX)j;                                     \
+                const INTV tri_ = triplet_v(ajx, ajz, bj, ej, VROW(gx, c), VROW(gz_, c),    \
+                                            VROW(gb_, c), VROW(gn_, c), (REALV)ri, &cx, &cy, \
+                                            &cz);                                           \
+                INTV ok = tri_ & ((LANES + (IDX)(c * VW)) > (IDX)j);                        \
                 const REALV g_ = wj + VROW(gw_, c);                                         \
-                if (STORE) {                                                                \
-                    STORE_ROW(STORE, q_) = cx;                                              \
+                if (STORE) {   /* NaN: no valid triplet (d2 <= cut2 then fails) */          \
+                    STORE_ROW(STORE, q_) = tri_ ? cx : (REALV)((REAL)NAN);                  \
                     STORE_ROW(STORE + splane, q_) = cy;                                     \
                     STORE_ROW(STORE + 2 * splane, q_) = cz;                                 \
-                    STORE_ROW(STORE + 3 * splane, q_) = ok ? g_ : (REALV)((REAL)-1);        \
                     ++q_;                                                                   \
                 }                                                                           \
                 REALV dx = cx - (px), dy = cy - (py), dz = cz - (pz);                       \
@@ -189,25 +190,32 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
         if (STORE) *(NQP) = q_;                                                             \
     }
 
-/* The same sweep over the candidates SWEEP_PAIRS stored (NQ vectors at
- * STORE): the same pairs in the same order, so the same sums, without the
- * intersections.  A stored weight below 0 marks an invalid lane. */
-#define SWEEP_STORED(px, py, pz, STORE, NQ, ...)                                            \
+/* The same sweep over the candidates SWEEP_PAIRS stored at STORE: the
+ * same pairs (j, c) of the gathered rows in the same order, so the same
+ * sums, with the intersections read back (NaN x: not a valid triplet) and
+ * the pair weights and the k > j lanes formed again from the rows. */
+#define SWEEP_STORED(px, py, pz, STORE, ...)                                                \
     {                                                                                       \
+        __global const REAL *gw_ = gx + 4 * plane;                                          \
+        const int nv_ = (m + VW - 1) / VW;                                                  \
         const REALV zero_ = (REALV)((REAL)0);                                               \
-        for (int q_ = 0; q_ < (NQ); ++q_) {                                                 \
-            const REALV cx = STORE_ROW(STORE, q_), cy = STORE_ROW(STORE + splane, q_);      \
-            const REALV cz = STORE_ROW(STORE + 2 * splane, q_);                             \
-            const REALV g_ = STORE_ROW(STORE + 3 * splane, q_);                             \
-            INTV ok = g_ >= zero_;                                                          \
-            REALV dx = cx - (px), dy = cy - (py), dz = cz - (pz);                           \
-            const REALV d2 = dx * dx + dy * dy + dz * dz;                                   \
-            ok &= d2 <= cut2;                                                               \
-            dx = ok ? dx : zero_;                                                           \
-            dy = ok ? dy : zero_;                                                           \
-            dz = ok ? dz : zero_;                                                           \
-            const REALV wg = ok ? g_ * vexp2_neg(-d2 * l2inv2sr2) : zero_;                  \
-            __VA_ARGS__                                                                     \
+        int q_ = 0;                                                                         \
+        for (int j = 0; j < mnear; ++j) {                                                   \
+            const REALV wj = (REALV)gw_[j];                                                 \
+            for (int c = (j + 1) / VW; c < nv_; ++c, ++q_) {                                \
+                const REALV cx = STORE_ROW(STORE, q_), cy = STORE_ROW(STORE + splane, q_);  \
+                const REALV cz = STORE_ROW(STORE + 2 * splane, q_);                         \
+                INTV ok = (LANES + (IDX)(c * VW)) > (IDX)j;                                 \
+                const REALV g_ = wj + VROW(gw_, c);                                         \
+                REALV dx = cx - (px), dy = cy - (py), dz = cz - (pz);                       \
+                const REALV d2 = dx * dx + dy * dy + dz * dz;                               \
+                ok &= d2 <= cut2;                                                           \
+                dx = ok ? dx : zero_;                                                       \
+                dy = ok ? dy : zero_;                                                       \
+                dz = ok ? dz : zero_;                                                       \
+                const REALV wg = ok ? g_ * vexp2_neg(-d2 * l2inv2sr2) : zero_;              \
+                __VA_ARGS__                                                                 \
+            }                                                                               \
         }                                                                                   \
     }
 
@@ -258,7 +266,7 @@ inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
     REAL last = (REAL)2 * cut2;   /* a candidate nearer than this enters the list */
     *kn = 0;
     if (stored)
-        SWEEP_STORED(px, py, pz, store, *nq, SHIFT_BODY)
+        SWEEP_STORED(px, py, pz, store, SHIFT_BODY)
     else
         SWEEP_PAIRS(px, py, pz, store, nq, SHIFT_BODY)
     m1[0] = hsum(sx);
@@ -275,14 +283,15 @@ inline REAL shift_sums(__global const REAL *gx, const long plane, const int m,
 
 /* The candidates of the store nearest to p (kd, kc, *kn), alone: the list
  * shift_sums keeps, in the same order and with the same ties. */
-inline void nearest_stored(const REAL px, const REAL py, const REAL pz, const REAL cut2,
-                           const REAL l2inv2sr2, REAL *kd, REAL *kc, int *kn,
-                           __global REAL *store, const long splane, const int nq)
+inline void nearest_stored(__global const REAL *gx, const long plane, const int m,
+                           const int mnear, const REAL px, const REAL py, const REAL pz,
+                           const REAL cut2, const REAL l2inv2sr2, REAL *kd, REAL *kc, int *kn,
+                           __global REAL *store, const long splane)
 {
     const int keep = 1;
     REAL last = (REAL)2 * cut2;
     *kn = 0;
-    SWEEP_STORED(px, py, pz, store, nq, NEAREST_BODY)
+    SWEEP_STORED(px, py, pz, store, NEAREST_BODY)
 }
 
 /* The step from p given the sums at p: Newton's on log f,
@@ -364,10 +373,12 @@ __kernel void meanshift_spheres(
         if (step2 <= tol2) break;
     }
     if (use_store && iters > 0)
-        nearest_stored(q0[0], q0[1], q0[2], cut2, l2inv2sr2, kd, kc, &kn, st, splane, nq);
+        nearest_stored(gx, plane, m, mnear, q0[0], q0[1], q0[2], cut2, l2inv2sr2, kd, kc, &kn,
+                       st, splane);
     density[il] = s;
     count[il] = kn;
-    qcount[il] = use_store && iters > 0 ? nq : -1;   /* -1: nothing stored */
+    qcount[il] = use_store && iters > 0 ? m : -1;   /* the rows gathered; -1: nothing stored */
+    qcount[n + il] = mnear;
     for (int d = 0; d < 3; ++d) {
         mode[(long)d * n + il] = p[d];
         for (int q = 0; q < MS_NEAR_K; ++q)
@@ -411,11 +422,11 @@ __kernel void density_spheres(
     const int lo = cstart[i], hi = lo + ccount[i];
     const long plane = (long)n * stride;
     __global REAL *gx = scratch + (long)il * stride;
-    /* with `reuse`, the candidates meanshift_spheres stored for this chunk
-     * (qcount[il] vectors; -1: none stored, intersect them here) */
+    /* with `reuse`, the rows and candidates meanshift_spheres left for this
+     * chunk (qcount: rows gathered, -1 where none are stored, and near rows) */
     const long splane = (long)n * sstride;
     __global REAL *st = store + (long)il * sstride;
-    int nq = reuse ? qcount[il] : -1;
+    const int mst = reuse ? qcount[il] : -1, mnst = reuse ? qcount[n + il] : 0;
     const REAL ri = r[i], cut2 = cut * cut;
     const REAL a = l2inv2sr2 * (REAL)0.69314718055994530942;   /* 1 / (2 sigma_r^2) */
     const REAL t0x = point[il], t0y = point[(long)nt * n + il], t0z = point[2L * nt * n + il];
@@ -439,13 +450,15 @@ __kernel void density_spheres(
             const REALV e = exp_series6(dx * ex[u] + dy * ey[u] + dz * ez[u] + e0[u]);      \
             s[u] += ok ? wg * e : (REALV)((REAL)0);                                         \
         }
-    if (nq >= 0) {
-        SWEEP_STORED(t0x, t0y, t0z, st, nq, DENSITY_BODY)
+    if (mst >= 0) {   /* the rows and candidates the mean shift left */
+        const int m = mst, mnear = mnst;
+        SWEEP_STORED(t0x, t0y, t0z, st, DENSITY_BODY)
     } else {
         int mnear;
         const int m = gather(x, z, r, amp, lo, hi, i, t0x, t0y, t0z, cut, far2, inv2sd2, gx,
                              plane, &mnear, 1);
         __global REAL *const no_store = 0;
+        int nq;
         SWEEP_PAIRS(t0x, t0y, t0z, no_store, &nq, DENSITY_BODY)
     }
 #undef DENSITY_BODY

@@ -14,8 +14,8 @@ from ..io.data import InputError
 from .device_buffers import _check_chunk, _stride
 from .reference import EPS_DET, MS_CUTOFF, MS_DENSITY_T, MS_NEAR_K, MS_PAIR_CUTOFF, MS_TOL
 
-#: Reals of the mean shift's candidate store in one launch (4 per pair of
-#: sub RPs a main RP sweeps, at most 4 x stride^2 each; 128 MiB in float32):
+#: Reals of the mean shift's candidate store in one launch (3 per pair of
+#: sub RPs a main RP sweeps, at most 3 x stride^2 each; 128 MiB in float32):
 #: the kernel intersects each main RP's pairs once, in its first pass, and
 #: reads them back in the later passes and in the density that follows;
 #: :meth:`_MeanShift.meanshift_chunk` bounds the chunks so that they fit.
@@ -78,7 +78,7 @@ class _MeanShift:
         candidates fit the store (:data:`MS_STORE_SLOTS`), for clusters of up
         to ``largest`` RPs."""
         s = _stride(max(1, int(largest)))
-        return max(1, MS_STORE_SLOTS // (4 * s * s))
+        return max(1, MS_STORE_SLOTS // (3 * s * s))
 
     def meanshift_spheres(
         self, x, z, r, amp, cstart, ccount, point, sigma_d, sigma_r, iters, i0=0, n=None
@@ -87,7 +87,7 @@ class _MeanShift:
 
         One work-item per main RP; its scratch (5 rows of the largest cluster
         of the chunk, padded to 8) and, where the chunk fits
-        :data:`MS_STORE_SLOTS`, its candidate store (4 x stride^2 reals) are
+        :data:`MS_STORE_SLOTS`, its candidate store (3 x stride^2 reals) are
         the only memory that grows with the clusters, so chunks bound it.
         With the store the candidates are intersected once, and a
         :meth:`density_spheres` call with ``reuse`` on the same chunk reads
@@ -104,9 +104,9 @@ class _MeanShift:
         stride = int(args[-1])
         scratch = self._out((5, n, stride), role="ms_scratch")
         sstride = stride * stride
-        use = 0 < int(iters) and 4 * n * sstride <= MS_STORE_SLOTS
-        store = self._out((4, n, sstride) if use else (1,), role="ms_store")
-        qcount = self._out((n,), np.int32, role="ms_qcount")
+        use = 0 < int(iters) and 3 * n * sstride <= MS_STORE_SLOTS
+        store = self._out((3, n, sstride) if use else (1,), role="ms_store")
+        qcount = self._out((2, n), np.int32, role="ms_qcount")
         self._ms_stored = (int(i0), n, stride) if use else None
         self._run(
             self._k["meanshift_spheres"],
@@ -155,8 +155,8 @@ class _MeanShift:
         scratch = self._out((5, n, stride), role="ms_scratch")
         use = bool(reuse) and getattr(self, "_ms_stored", None) == (int(i0), n, stride)
         sstride = stride * stride
-        store = self._out((4, n, sstride) if use else (1,), role="ms_store")
-        qcount = self._out((n,), np.int32, role="ms_qcount")
+        store = self._out((3, n, sstride) if use else (1,), role="ms_store")
+        qcount = self._out((2, n), np.int32, role="ms_qcount")
         self._run(
             self._k["density_spheres"],
             n,
