@@ -154,6 +154,19 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
  * eps_det, cut2 and l2inv2sr2. */
 #define STORE_ROW(p, q) (((__global REALV *)(p))[q])
 
+/* What the sweeps below share for a vector of candidates (cx, cy, cz) with
+ * pair weights g_ and lanes ok: d = c - p, 0 in lanes that are not ok or
+ * farther than the cutoff (which may hold NaN), d2 = |d|^2, and the kernel
+ * term wg = g G. */
+#define CANDIDATE_TERMS(px, py, pz)                                                         \
+    REALV dx = cx - (px), dy = cy - (py), dz = cz - (pz);                                   \
+    const REALV d2 = dx * dx + dy * dy + dz * dz;                                           \
+    ok &= d2 <= cut2;                                                                       \
+    dx = ok ? dx : zero_;                                                                   \
+    dy = ok ? dy : zero_;                                                                   \
+    dz = ok ? dz : zero_;                                                                   \
+    const REALV wg = ok ? g_ * vexp2_neg(-d2 * l2inv2sr2) : zero_;
+
 #define SWEEP_PAIRS(px, py, pz, STORE, NQP, ...)                                            \
     {                                                                                       \
         __global const REAL *gz_ = gx + plane, *gb_ = gz_ + plane, *gn_ = gb_ + plane;      \
@@ -177,13 +190,7 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
                     STORE_ROW(STORE + 2 * splane, q_) = cz;                                 \
                     ++q_;                                                                   \
                 }                                                                           \
-                REALV dx = cx - (px), dy = cy - (py), dz = cz - (pz);                       \
-                const REALV d2 = dx * dx + dy * dy + dz * dz;                               \
-                ok &= d2 <= cut2;                                                           \
-                dx = ok ? dx : zero_;                                                       \
-                dy = ok ? dy : zero_;                                                       \
-                dz = ok ? dz : zero_;                                                       \
-                const REALV wg = ok ? g_ * vexp2_neg(-d2 * l2inv2sr2) : zero_;              \
+                CANDIDATE_TERMS(px, py, pz)                                                 \
                 __VA_ARGS__                                                                 \
             }                                                                               \
         }                                                                                   \
@@ -207,13 +214,7 @@ inline int gather(__global const REAL *x, __global const REAL *z, __global const
                 const REALV cz = STORE_ROW(STORE + 2 * splane, q_);                         \
                 INTV ok = (LANES + (IDX)(c * VW)) > (IDX)j;                                 \
                 const REALV g_ = wj + VROW(gw_, c);                                         \
-                REALV dx = cx - (px), dy = cy - (py), dz = cz - (pz);                       \
-                const REALV d2 = dx * dx + dy * dy + dz * dz;                               \
-                ok &= d2 <= cut2;                                                           \
-                dx = ok ? dx : zero_;                                                       \
-                dy = ok ? dy : zero_;                                                       \
-                dz = ok ? dz : zero_;                                                       \
-                const REALV wg = ok ? g_ * vexp2_neg(-d2 * l2inv2sr2) : zero_;              \
+                CANDIDATE_TERMS(px, py, pz)                                                 \
                 __VA_ARGS__                                                                 \
             }                                                                               \
         }                                                                                   \
