@@ -13,7 +13,7 @@ from rpm_cl.cli import main
 from rpm_cl.extract.rangepoints import RangePoints, profile_peaks
 from rpm_cl.imaging import DEFAULT_METHOD, run_method
 from rpm_cl.io import formats
-from rpm_cl.io.data import C0, InputError, load_npz
+from rpm_cl.io.data import C0, InputError, data_arrays, load_npz
 from rpm_cl.io.formats import (
     RANGE_OVERSAMPLE,
     RANGE_WINDOWS,
@@ -28,27 +28,6 @@ from rpm_cl.rpm import reference
 from rpm_cl.rpm.params import default_params
 from rpm_cl.simulate import echoes, simulate_preset
 from rpm_cl.simulate.scene import get_preset
-
-
-def _contract(data) -> dict:
-    """The input-contract arrays of a RadarData, by name."""
-    out = {
-        "signal": data.signal,
-        "x": data.array.x,
-        "range": data.range,
-        "fc": np.float64(data.waveform.fc),
-        "bandwidth": np.float64(data.waveform.bandwidth),
-    }
-    if data.array.z is not None:
-        out["z"] = data.array.z
-    if data.truth is not None:
-        out.update(
-            truth_rp_antenna=data.truth.rp_antenna,
-            truth_rp_range=data.truth.rp_range,
-            truth_boundary=data.truth.boundary,
-            truth_scene=np.array(data.truth.scene),
-        )
-    return out
 
 
 def _write_h5(path, arrays: dict) -> None:
@@ -90,7 +69,7 @@ def paper():
 # .npz and HDF5 give the same data and the same images
 def test_npz_and_h5_same_data_and_image(paper, tmp_path):
     data, preset = paper
-    arrays = _contract(data)
+    arrays = data_arrays(data)
     np.savez(tmp_path / "d.npz", **arrays)
     _write_h5(tmp_path / "d.h5", arrays)
     a, b = load_data(tmp_path / "d.npz"), load_data(tmp_path / "d.h5")
@@ -145,7 +124,7 @@ def test_planar_complex64_float32_axes(tmp_path, rng):
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory):
     frames = [simulate_preset("paper-2d", 10.0, seed=s, noise="receiver")[0] for s in (11, 12, 13)]
-    arrays = _contract(frames[0])
+    arrays = data_arrays(frames[0])
     arrays["signal"] = np.stack([f.signal for f in frames])
     folder = tmp_path_factory.mktemp("stack")
     np.savez(folder / "s.npz", **arrays)
@@ -496,7 +475,7 @@ def test_cli_das_h5_and_vti(paper, tmp_path, capsys):
 # --------------------------------------------------------------------------
 # bad input: one line, exit code 2
 def _bad_files(folder, data):
-    good = _contract(data)
+    good = data_arrays(data)
     files = {}
 
     def h5(name, **change):
