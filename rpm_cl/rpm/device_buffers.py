@@ -21,6 +21,20 @@ def _check_chunk(total: int, i0: int, n: int) -> None:
         raise InputError(f"main RPs {i0}..{i0 + n - 1} are outside the {total} RPs given")
 
 
+def _check_clusters(names: str, total: int, cstart, ccount, *per_rp) -> None:
+    """Refuse per-RP arrays (``per_rp``, ``cstart``, ``ccount``) of other
+    lengths than ``total``, or a cluster reaching outside the RPs (the
+    kernels read ``cstart[i] .. cstart[i] + ccount[i]`` unchecked); ``names``
+    lists them for the message."""
+    cs, cc = np.asarray(cstart), np.asarray(ccount)
+    if any(np.size(v) != total for v in (*per_rp, cs, cc)) or (
+        total and (cs.min() < 0 or cc.min() < 0 or (cs + cc).max() > total)
+    ):
+        raise InputError(
+            f"{names} must have one entry per RP, and every cluster must lie within the RPs"
+        )
+
+
 def _round_up(n: int, m: int = 64) -> int:
     return max(m, ((n + m - 1) // m) * m)
 

@@ -13,8 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..io.data import InputError
-from .device_buffers import _check_chunk, _stride
+from .device_buffers import _check_chunk, _check_clusters, _stride
 
 
 class _Circles:
@@ -30,14 +29,7 @@ class _Circles:
         total = int(np.size(x))
         n = total - i0 if n is None else int(n)
         _check_chunk(total, int(i0), n)
-        cs, cc = np.asarray(cstart), np.asarray(ccount)
-        if any(np.size(v) != total for v in (r, amp, cs, cc)) or (
-            total and (cs.min() < 0 or cc.min() < 0 or (cs + cc).max() > total)
-        ):
-            raise InputError(
-                "x, r, amp, cstart, ccount must have one entry per RP, and every "
-                "cluster must lie within the RPs"
-            )
+        _check_clusters("x, r, amp, cstart, ccount", total, cstart, ccount, r, amp)
         # Subtract a common origin on the host in float64 so that float32
         # kernels see small coordinates; the outputs are in each main
         # antenna's frame, so they do not depend on it.

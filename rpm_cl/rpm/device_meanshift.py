@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..io.data import InputError
-from .device_buffers import _check_chunk, _stride
+from .device_buffers import _check_chunk, _check_clusters, _stride
 from .reference import EPS_DET, MS_CUTOFF, MS_DENSITY_T, MS_NEAR_K, MS_PAIR_CUTOFF, MS_TOL
 
 #: Reals of the mean shift's candidate store in one launch (3 per pair of
@@ -38,15 +38,8 @@ class _MeanShift:
         total = x.size
         n = total - i0 if n is None else int(n)
         _check_chunk(total, int(i0), n)
-        cs, cc = np.asarray(cstart), np.asarray(ccount)
-        if any(np.size(v) != total for v in (z, r, amp, cs, cc)) or (
-            total and (cs.min() < 0 or cc.min() < 0 or (cs + cc).max() > total)
-        ):
-            raise InputError(
-                "x, z, r, amp, cstart, ccount must have one entry per RP, and every "
-                "cluster must lie within the RPs"
-            )
-        stride = _stride(int(cc[i0 : i0 + n].max()) if n else 1)
+        _check_clusters("x, z, r, amp, cstart, ccount", total, cstart, ccount, z, r, amp)
+        stride = _stride(int(np.asarray(ccount)[i0 : i0 + n].max()) if n else 1)
         x0 = float(np.mean(x)) if total else 0.0  # outputs are in the main antennas' frames
         z0 = float(np.mean(z)) if total else 0.0
         return n, (
