@@ -363,3 +363,20 @@ def test_density_reuse_needs_the_same_chunk(dev64, rng):
     f = dev64.density_spheres(x, z, r, amp, st, ct, pts, SD, SR, 10, 10, reuse=True)
     want = ref.density_spheres(x, z, r, amp, st, ct, pts, SD, SR, 10, 10)
     np.testing.assert_allclose(f, want, rtol=1e-10, atol=1e-12)
+
+
+def test_device_refuses_clusters_outside_the_rps(dev32):
+    """The kernels read a cluster's RPs unchecked: a cluster reaching past
+    the RPs, or a per-RP array of another length, is refused first."""
+    x = np.linspace(-0.05, 0.05, 6)
+    z, r, amp = np.zeros(6), np.full(6, 0.5), np.ones(6)
+    st, ct = np.zeros(6, int), np.full(6, 6)
+    p0 = np.zeros((3, 6))
+    bad = ct.copy()
+    bad[3] = 7
+    with pytest.raises(InputError, match="every cluster must lie within the RPs"):
+        dev32.meanshift_spheres(x, z, r, amp, st, bad, p0, SD, SR, 1)
+    with pytest.raises(InputError, match="one entry per RP"):
+        dev32.meanshift_spheres(x, z[:5], r, amp, st, ct, p0, SD, SR, 1)
+    with pytest.raises(InputError, match="every cluster must lie within the RPs"):
+        dev32.rpm_circles(x, r, amp, st, bad, 6, SD, SR)
