@@ -186,41 +186,37 @@ def rma_points(data, y_min: float, y_max: float):
     return image_peaks(img, (x, y), threshold_db=-10.0, size=5)[0], sec, img.shape
 
 
-def _rma_rows(case, preset_name, snr, datasets, progress):
+def _image_row(case, method, snr, datasets, label, image) -> ReproRow:
+    """One coherent imager's row: ``image(data)`` -> (points, seconds) on
+    every dataset, the points scored against the truth and pooled, the
+    median time."""
     from ..metrics import cumulative, err_rpm
 
-    if preset_name not in RMA_IMAGES:
-        return []
-    label, y0, y1 = RMA_IMAGES[preset_name]
-    if progress:
-        progress(f"{case} rma S/N={'inf' if snr is None else snr}")
     tot = dict.fromkeys(("rpm_total", "rpm_within_50mm", "rpm_within_100mm"), 0)
     times = []
     for data, _ in datasets:
-        pts, sec, _ = rma_points(data, y0, y1)
+        pts, sec = image(data)
         times.append(sec)
         e = err_rpm(pts, data.truth)
         tot["rpm_total"] += len(e)
         tot["rpm_within_50mm"] += cumulative(e, 0.05)[0]
         tot["rpm_within_100mm"] += cumulative(e, 0.10)[0]
-    return [
-        ReproRow(
-            case,
-            "rma",
-            snr,
-            len(datasets),
-            0,
-            0,
-            seconds=float(np.median(times)),
-            grid=label,
-            **tot,
-        )
-    ]
+    return ReproRow(
+        case, method, snr, len(datasets), 0, 0, seconds=float(np.median(times)), grid=label, **tot
+    )
+
+
+def _rma_rows(case, preset_name, snr, datasets, progress):
+    if preset_name not in RMA_IMAGES:
+        return []
+    label, y0, y1 = RMA_IMAGES[preset_name]
+    if progress:
+        progress(f"{case} rma S/N={'inf' if snr is None else snr}")
+    return [_image_row(case, "rma", snr, datasets, label, lambda d: rma_points(d, y0, y1)[:2])]
 
 
 def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress, bar=False):
     from ..baselines.das import parse_grid
-    from ..metrics import cumulative, err_rpm
 
     rows = []
     for label, text, kind in DAS_GRIDS.get(preset_name, []):
@@ -229,26 +225,14 @@ def _coherent_rows(case, preset_name, snr, datasets, das, skip_volume, progress,
         if progress:
             progress(f"{case} das ({label}) S/N={'inf' if snr is None else snr}")
         grid = parse_grid(text)
-        tot = dict.fromkeys(("rpm_total", "rpm_within_50mm", "rpm_within_100mm"), 0)
-        times = []
-        for data, _ in datasets:
-            pts, sec = das_points(das, data, grid, kind, bar)
-            times.append(sec)
-            e = err_rpm(pts, data.truth)
-            tot["rpm_total"] += len(e)
-            tot["rpm_within_50mm"] += cumulative(e, 0.05)[0]
-            tot["rpm_within_100mm"] += cumulative(e, 0.10)[0]
         rows.append(
-            ReproRow(
+            _image_row(
                 case,
                 "das",
                 snr,
-                len(datasets),
-                0,
-                0,
-                seconds=float(np.median(times)),
-                grid=label,
-                **tot,
+                datasets,
+                label,
+                lambda d, g=grid, k=kind: das_points(das, d, g, k, bar),
             )
         )
     return rows
