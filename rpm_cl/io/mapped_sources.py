@@ -12,6 +12,7 @@ import numpy as np
 
 from .checks import InputError
 from .guard import h5_inside
+from .sources import read_npy_header
 
 #: Input extensions.
 MAPPED_EXTENSIONS = (".mat", ".npz", ".npy", ".h5", ".hdf5")
@@ -49,13 +50,7 @@ class _NpySource:
 
     def header(self, key):
         with open(self.path, "rb") as fh:
-            version = np.lib.format.read_magic(fh)
-            read = (
-                np.lib.format.read_array_header_1_0
-                if version == (1, 0)
-                else np.lib.format.read_array_header_2_0
-            )
-            shape, _, dtype = read(fh)
+            shape, _, dtype = read_npy_header(fh)
         return tuple(shape), np.dtype(dtype)
 
     def read(self, key):

@@ -35,6 +35,31 @@ TEXT_MAX_BYTES = 1 << 20
 TEXT_MAX_ITEMS = 1
 
 
+def read_npy_header(fh):
+    """The ``.npy`` header at ``fh``'s position (shape, fortran, dtype),
+    its length checked before NumPy reads it (a v2 header may declare
+    4 GB); ``fh`` is left at the array's first byte.
+
+    Raises
+    ------
+    ValueError
+        No NumPy magic, or a header longer than :data:`NPY_HEADER_MAX`.
+    """
+    start = fh.tell()
+    magic = fh.read(8)
+    if len(magic) < 8 or magic[:6] != b"\x93NUMPY":
+        raise ValueError("not a .npy member (no NumPy magic)")
+    size = fh.read(2 if magic[6] == 1 else 4)
+    n = int.from_bytes(size, "little") if len(size) in (2, 4) else -1
+    if not 0 < n <= NPY_HEADER_MAX:
+        raise ValueError(f"header length {n} bytes, beyond {NPY_HEADER_MAX}")
+    fh.seek(start)
+    version = np.lib.format.read_magic(fh)
+    if version == (1, 0):
+        return np.lib.format.read_array_header_1_0(fh)
+    return np.lib.format.read_array_header_2_0(fh)
+
+
 class _NpzSource:
     """Members of an ``.npz``, read through their ``.npy`` headers, so that a
     frame of a stack is read without the rest, and nothing is inflated
@@ -55,28 +80,12 @@ class _NpzSource:
     def __contains__(self, key):
         return key in self.names
 
-    def _header(self, fh):
-        """The ``.npy`` header of ``fh`` (shape, fortran, dtype), its length
-        checked before NumPy reads it (a v2 header may declare 4 GB)."""
-        magic = fh.read(8)
-        if len(magic) < 8 or magic[:6] != b"\x93NUMPY":
-            raise ValueError("not a .npy member (no NumPy magic)")
-        size = fh.read(2 if magic[6] == 1 else 4)
-        n = int.from_bytes(size, "little") if len(size) in (2, 4) else -1
-        if not 0 < n <= NPY_HEADER_MAX:
-            raise ValueError(f"header length {n} bytes, beyond {NPY_HEADER_MAX}")
-        fh.seek(0)
-        version = np.lib.format.read_magic(fh)
-        if version == (1, 0):
-            return np.lib.format.read_array_header_1_0(fh)
-        return np.lib.format.read_array_header_2_0(fh)
-
     def _checked_header(self, key, fh):
         """The member's (shape, fortran, dtype) once its sizes agree: the
         header's array fits the member's declared size, which fits what the
         archive stores for it (:func:`rpm_cl.io.guard.check_declared`)."""
         try:
-            shape, fortran, dtype = self._header(fh)
+            shape, fortran, dtype = read_npy_header(fh)
         except Exception as exc:  # noqa: BLE001 - ValueError, TokenError, SyntaxError ...
             raise InputError(f"{key}: corrupt .npy header ({' '.join(str(exc).split())})") from None
         if dtype.hasobject:

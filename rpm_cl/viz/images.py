@@ -16,6 +16,7 @@ import numpy as np
 
 from ..baselines.das import GRID_COORD_MAX
 from ..io.data import InputError
+from ..io.sources import read_npy_header
 from .results import _h5_meta, _is_real, _oneline
 
 
@@ -65,13 +66,7 @@ def _stored_member(path: str, name: str):
             raise ValueError(f"bad local header of {name}")
         n_name, n_extra = struct.unpack("<HH", head[26:30])
         fh.seek(info.header_offset + 30 + n_name + n_extra)
-        version = np.lib.format.read_magic(fh)
-        reader = (
-            np.lib.format.read_array_header_1_0
-            if version == (1, 0)
-            else np.lib.format.read_array_header_2_0
-        )
-        shape, fortran, dtype = reader(fh)
+        shape, fortran, dtype = read_npy_header(fh)
         offset = fh.tell()
     if dtype.hasobject:
         raise ValueError(f"{name} holds Python objects")
