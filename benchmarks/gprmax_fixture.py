@@ -193,14 +193,13 @@ def input_file(title, targets: bool, threads: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_scan(name, targets, work, threads, python):
-    """Run the 41 traces of one scan with gprMax and merge them; returns
-    (merged path, seconds, log path)."""
+def run_gprmax(python, name, n_traces, work, threads):
+    """Run gprMax on ``work/name.in`` (``n_traces`` traces, double precision,
+    ``threads`` OpenMP threads; its output to ``work/name.log``) and merge
+    the traces; returns (merged path, seconds, log path)."""
     from gprMax.toolboxes.Utilities.outputfiles_merge import merge_files
 
     path = os.path.join(work, f"{name}.in")
-    with open(path, "w") as fh:
-        fh.write(input_file(f"rpm-cl fixture: {name}", targets, threads))
     log = os.path.join(work, f"{name}.log")
     env = dict(os.environ, OMP_NUM_THREADS=str(threads))
     t0 = time.perf_counter()
@@ -212,7 +211,7 @@ def run_scan(name, targets, work, threads, python):
                 "gprMax",
                 path,
                 "-n",
-                str(N_SCAN),
+                str(n_traces),
                 "-cpu_precision",
                 "double",
                 "--hide-progress-bars",
@@ -224,10 +223,18 @@ def run_scan(name, targets, work, threads, python):
             cwd=work,
         )
     sec = time.perf_counter() - t0
-    traces = [os.path.join(work, f"{name}{i}.h5") for i in range(1, N_SCAN + 1)]
+    traces = [os.path.join(work, f"{name}{i}.h5") for i in range(1, n_traces + 1)]
     merged = os.path.join(work, f"{name}_merged.h5")
     merge_files(traces, merged)
     return merged, sec, log
+
+
+def run_scan(name, targets, work, threads, python):
+    """Run the 41 traces of one scan with gprMax and merge them; returns
+    (merged path, seconds, log path)."""
+    with open(os.path.join(work, f"{name}.in"), "w") as fh:
+        fh.write(input_file(f"rpm-cl fixture: {name}", targets, threads))
+    return run_gprmax(python, name, N_SCAN, work, threads)
 
 
 def main():

@@ -59,12 +59,15 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
-import time
 
 import numpy as np
+from gprmax_fixture import (  # this folder: the same runs and Ricker
+    frequency_at_db,
+    ricker_db,
+    run_gprmax,
+)
 
 C0 = 299_792_458.0
 
@@ -86,21 +89,6 @@ RODS = [  # centre x (m), depth of the centre below the surface (m), radius (m)
     {"x": 0.660, "depth": 0.290, "radius": 0.008},
 ]
 BAND = (1e9, 3e9)  # the band the fixture is meant for, Hz
-
-
-def ricker_db(f, f0):
-    """Level of the Ricker spectrum f^2 exp(-f^2/f0^2) at f, dB below its peak (f0)."""
-    x = f / f0
-    return 20 * math.log10(x * x * math.exp(1 - x * x))
-
-
-def frequency_at_db(level_db, f0):
-    """Frequency above f0 where the Ricker spectrum falls to ``level_db``."""
-    lo, hi = f0, 20 * f0
-    for _ in range(100):
-        mid = (lo + hi) / 2
-        lo, hi = (mid, hi) if ricker_db(mid, f0) > level_db else (lo, mid)
-    return lo
 
 
 def refracted_range(rho, h, d, n, step=1e-4):
@@ -193,37 +181,9 @@ def input_file(title, rods: bool, threads: int, window: float) -> str:
 def run_scan(name, rods, work, threads, python, window):
     """Run the traces of one scan with gprMax and merge them; returns
     (merged path, seconds)."""
-    from gprMax.toolboxes.Utilities.outputfiles_merge import merge_files
-
-    path = os.path.join(work, f"{name}.in")
-    with open(path, "w") as fh:
+    with open(os.path.join(work, f"{name}.in"), "w") as fh:
         fh.write(input_file(f"rpm-cl half-space fixture: {name}", rods, threads, window))
-    log = os.path.join(work, f"{name}.log")
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
-    t0 = time.perf_counter()
-    with open(log, "w") as fh:
-        subprocess.run(
-            [
-                python,
-                "-m",
-                "gprMax",
-                path,
-                "-n",
-                str(N_SCAN),
-                "-cpu_precision",
-                "double",
-                "--hide-progress-bars",
-            ],
-            check=True,
-            stdout=fh,
-            stderr=subprocess.STDOUT,
-            env=env,
-            cwd=work,
-        )
-    sec = time.perf_counter() - t0
-    traces = [os.path.join(work, f"{name}{i}.h5") for i in range(1, N_SCAN + 1)]
-    merged = os.path.join(work, f"{name}_merged.h5")
-    merge_files(traces, merged)
+    merged, sec, _ = run_gprmax(python, name, N_SCAN, work, threads)
     return merged, sec
 
 
