@@ -64,6 +64,7 @@ class DeviceRPM(_Circles, _Spheres, _Scoring, _MeanShift, _DeviceBuffers):
         }
         self.kernel_evals = 0
         self.kernel_work = dict.fromkeys(self.kernel_times, 0)
+        self._ms_stored = None  # (i0, n, stride) of the last mean shift's candidate store
         self.dtype = np.dtype(np.float32 if precision == "float32" else np.float64)
         base = {"REAL": "float" if precision == "float32" else "double"}
         if precision == "float64":

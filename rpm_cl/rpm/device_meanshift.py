@@ -146,7 +146,7 @@ class _MeanShift:
         dens = self._out((nt, n), role="ms_density_at")
         stride = int(args[-1])
         scratch = self._out((5, n, stride), role="ms_scratch")
-        use = bool(reuse) and getattr(self, "_ms_stored", None) == (int(i0), n, stride)
+        use = bool(reuse) and self._ms_stored == (int(i0), n, stride)
         sstride = stride * stride
         store = self._out((3, n, sstride) if use else (1,), role="ms_store")
         qcount = self._out((2, n), np.int32, role="ms_qcount")

@@ -64,8 +64,12 @@ def pair_windows(x, start, count, cutoff: float):
     return lo, hi - lo
 
 
-def _chunks(total: int, maxc: int, chunk_slots: int):
+def _chunks(total: int, maxc: int, chunk_slots: int, most: int | None = None):
+    """(i0, n) runs of ``total`` main RPs of ``maxc`` slots each, at most
+    ``chunk_slots`` slots (and ``most`` main RPs) a run."""
     step = max(1, chunk_slots // max(1, maxc))
+    if most is not None:
+        step = max(1, min(step, most))
     return [(i0, min(step, total - i0)) for i0 in range(0, total, step)]
 
 
@@ -196,15 +200,13 @@ def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
     # the scratch holds 5 rows of the largest cluster per main RP; an engine
     # may bound the chunk further (the device's candidate store)
     largest = int(count[small].max())
-    width = 5 * largest
     limit = getattr(engine, "meanshift_chunk", None)
-    if limit is not None:
-        width = max(width, -(-params.chunk_slots // limit(largest)))
+    most = None if limit is None else limit(largest)
     runs = np.split(small, np.flatnonzero(np.diff(small) > 1) + 1)
     for i0, n in (
         (int(run[0]) + a, b)
         for run in runs
-        for a, b in _chunks(run.size, width, params.chunk_slots)
+        for a, b in _chunks(run.size, 5 * largest, params.chunk_slots, most)
     ):
         sl = slice(i0, i0 + n)
         mode, dens, near, cnt = engine.meanshift_spheres(
