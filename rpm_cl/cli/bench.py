@@ -110,9 +110,12 @@ def kernel_profile(engine, method, data, params, runs: int = PROFILE_RUNS) -> di
     return out
 
 
-def bench_das(das, preset: str, snr, repeats: int = 3, seed: int = 0, volume: bool = False):
+def bench_das(
+    das, preset: str, snr, repeats: int = 3, seed: int = 0, volume: bool = False, data=None
+):
     """DAS rows of one scene: one dict per grid of
-    :data:`rpm_cl.cli.reproduce.DAS_GRIDS` (the volume only with ``volume``).
+    :data:`rpm_cl.cli.reproduce.DAS_GRIDS` (the volume only with ``volume``),
+    on ``data`` (default: the preset simulated at ``snr`` and ``seed``).
 
     Each dict: ``label``, ``total_ms`` (median of ``repeats``; the volume runs
     once), ``bp`` and ``bp_per_s`` (back-projections, voxels x antennas, and
@@ -124,7 +127,8 @@ def bench_das(das, preset: str, snr, repeats: int = 3, seed: int = 0, volume: bo
     from ..metrics import cumulative, err_rpm
     from .reproduce import DAS_GRIDS, das_points
 
-    data, _ = simulate_preset(preset, snr, seed, noise="receiver")
+    if data is None:
+        data, _ = simulate_preset(preset, snr, seed, noise="receiver")
     out = []
     for label, text, kind in DAS_GRIDS.get(preset, []):
         if kind == "volume" and not volume:
@@ -258,7 +262,10 @@ def run_bench(
             )
         if das is not None:
             pbar.set_postfix_str(f"{label} das")
-            rows_das = bench_das(das, preset, snr, max(1, min(repeats, 5)), volume=volume)
+            data, _ = simulate_preset(preset, snr, 0, noise="receiver")
+            rows_das = bench_das(
+                das, preset, snr, max(1, min(repeats, 5)), volume=volume, data=data
+            )
             pbar.update()
             if limits is not None and rows_das:
                 d = rows_das[0]
@@ -266,7 +273,7 @@ def run_bench(
                 roof.append(
                     (case, "das", roofline_rows({"das": (sec, d["bp"], "bp")}, limits, d["dim"]))
                 )
-                ops = das_sweep(das, preset, snr, max(1, min(repeats, 3)))
+                ops = das_sweep(das, data, preset, max(1, min(repeats, 3)))
                 equal += equal_accuracy_lines(case, equal_accuracy(rpm_ops, ops))
             for b in rows_das:
                 lines.append(

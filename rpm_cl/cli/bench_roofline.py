@@ -144,9 +144,9 @@ def roofline_table(blocks, limits) -> list[str]:
     return lines
 
 
-def das_sweep(das, preset: str, snr, repeats: int = 3, seed: int = 0) -> list[dict]:
-    """DAS operating points of one scene: its DAS grid at each step of
-    :data:`DAS_COARSENING`.
+def das_sweep(das, data, preset: str, repeats: int = 3) -> list[dict]:
+    """DAS operating points of one scene (``data``, simulated from
+    ``preset``): the preset's DAS grid at each step of :data:`DAS_COARSENING`.
 
     Returns
     -------
@@ -156,10 +156,8 @@ def das_sweep(das, preset: str, snr, repeats: int = 3, seed: int = 0) -> list[di
     """
     from ..baselines.das import Grid, parse_grid
     from ..metrics import err_rpm
-    from ..simulate.synth import simulate_preset
     from .reproduce import DAS_GRIDS, das_points
 
-    data, _ = simulate_preset(preset, snr, seed, noise="receiver")
     out = []
     for label, text, kind in DAS_GRIDS.get(preset, []):
         if kind not in DAS_COARSENING:
