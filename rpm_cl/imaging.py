@@ -37,7 +37,15 @@ from .result import ImageResult
 from .rpm.methods import capon_rpm, kspace_rpm, mf_rpm, phase_rpm
 from .rpm.params import PREPROCESS_FIELDS, ImagingParams
 
-__all__ = ["DEFAULT_METHOD", "METHODS", "RPM_METHODS", "Imager", "run_method", "timed_run"]
+__all__ = [
+    "DEFAULT_METHOD",
+    "METHODS",
+    "RPM_METHODS",
+    "Imager",
+    "prepared",
+    "run_method",
+    "timed_run",
+]
 
 
 @dataclass(frozen=True)
@@ -137,7 +145,7 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
         imager = METHODS[name]
     except KeyError:
         raise InputError(f"unknown method {name!r}; choose from {', '.join(METHODS)}") from None
-    data = preprocess(data, **{k: getattr(params, k) for k in PREPROCESS_FIELDS})
+    data, params = prepared(data, params)
     if name in ("kspace-rpm", "phase-rpm"):
         _check_sidelobes(data, params.kspace.peak_threshold_db)
     medium = params.medium
@@ -154,6 +162,36 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
 
         result = replace(result, rps=to_air(result.rps, medium))
     return result
+
+
+def prepared(data: RadarData, params: ImagingParams) -> tuple[RadarData, ImagingParams]:
+    """The data after the preprocessing steps of ``params``
+    (:func:`rpm_cl.extract.preprocess.preprocess`), and the parameters the
+    methods run with.
+
+    Where the steps cut the range axis (``time_zero``, ``max_range``) and no
+    ``kspace.noise_power`` is given, the noise power is measured on the
+    whole axis first (after the background removal, as the imaged gates
+    are) and passed on as ``kspace.noise_power``: the gates a region of
+    interest keeps are those that hold the scene, too few or too full of
+    echoes for the decomposition's own estimate
+    (:func:`rpm_cl.extract.kspace.measured_noise_power`).  Not with a gain,
+    whose noise power changes along the range.
+    """
+    from dataclasses import replace
+
+    out = preprocess(data, **{k: getattr(params, k) for k in PREPROCESS_FIELDS})
+    if (
+        out.range.size < data.range.size
+        and params.kspace.noise_power is None
+        and params.gain_db_per_m == 0
+    ):
+        from .extract.kspace import measured_noise_power
+
+        power = measured_noise_power(preprocess(data, background=params.background))
+        if power is not None:
+            params = replace(params, kspace=replace(params.kspace, noise_power=power))
+    return out, params
 
 
 def _check_sidelobes(data: RadarData, threshold_db: float) -> None:

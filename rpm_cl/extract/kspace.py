@@ -128,7 +128,14 @@ from .kspace_geometry import _array_axes, _centred_grids, _curvature  # noqa: F4
 
 sfft = lazy("scipy.fft")
 
-__all__ = ["Cluster", "Decomposition", "KSpaceParams", "decompose", "kspace_spectrum"]
+__all__ = [
+    "Cluster",
+    "Decomposition",
+    "KSpaceParams",
+    "decompose",
+    "kspace_spectrum",
+    "measured_noise_power",
+]
 
 
 #: Largest array axis (antennas) transformed with DFT matrices rather than
@@ -238,13 +245,11 @@ def noise_floor(
         or for noise-free data whose echoes leave most gates empty.
     """
     scale = 1.0  # |S| units = scale * sqrt(...): squares of the data's own scale overflow
+    gates = _gate_noise(data) if noise_power is None else None
     if noise_power is not None:
         sigma2 = float(noise_power)
-    elif data.range[-1] - data.range[0] >= NOISE_ESTIMATE_CELLS * data.waveform.range_resolution:
-        axes = tuple(range(data.array.dim - 1))
-        mag = np.abs(data.signal)
-        scale = float(mag.max()) or 1.0
-        sigma2 = float(np.median(np.mean((mag / scale) ** 2, axis=axes)))
+    elif gates is not None:
+        scale, sigma2 = gates
     elif data.array.n >= NOISE_KSPACE_MIN_ANTENNAS:
         scale = float(np.abs(data.signal).max()) or 1.0
         sigma2 = _kspace_noise(data, weights, scale)
@@ -252,6 +257,37 @@ def noise_floor(
         return 0.0
     cells = data.array.n * data.range.size
     return scale * float(np.sqrt(np.sum(weights**2) * sigma2 * np.log(cells / pfa)))
+
+
+def _gate_noise(data: RadarData) -> tuple[float, float] | None:
+    """``(scale, p)``: the median over range gates of the mean power across
+    the array is ``p * scale**2`` (``scale`` the largest |s|, so that squares
+    of the data's own scale cannot overflow); None where the range axis spans
+    fewer than :data:`NOISE_ESTIMATE_CELLS` range resolutions."""
+    if data.range[-1] - data.range[0] < NOISE_ESTIMATE_CELLS * data.waveform.range_resolution:
+        return None
+    axes = tuple(range(data.array.dim - 1))
+    mag = np.abs(data.signal)
+    scale = float(mag.max()) or 1.0
+    return scale, float(np.median(np.mean((mag / scale) ** 2, axis=axes)))
+
+
+def measured_noise_power(data: RadarData) -> float | None:
+    """Noise power per sample of the range profiles, signal units squared,
+    as :func:`noise_floor` estimates it from the data (the median over range
+    gates of the mean power across the array), or None where the range axis
+    is too short for that estimate (fewer than :data:`NOISE_ESTIMATE_CELLS`
+    range resolutions) or its square leaves float64's range.
+
+    Measured on the whole axis before a region of interest cuts it
+    (:func:`rpm_cl.imaging.prepared`): the gates a user keeps are those
+    that hold the scene, whose median is no longer the noise's.
+    """
+    gates = _gate_noise(data)
+    if gates is None:
+        return None
+    power = gates[0] ** 2 * gates[1]
+    return power if np.isfinite(power) else None
 
 
 #: The noise power is estimated from the k-space map (:func:`_kspace_noise`)
