@@ -73,7 +73,9 @@ def preprocess(
     -------
     RadarData
         The same antennas; the range axis shifted by ``-time_zero`` and
-        cut to ``[0, max_range]``; the truth's RP ranges shifted alike.
+        cut to ``[0, max_range]``; the truth's RP ranges shifted alike; the
+        frequency samples (``spectrum``) kept only where nothing but
+        ``max_range`` applies.
 
     Raises
     ------
@@ -104,7 +106,16 @@ def preprocess(
         # imagers normalise amplitudes; a large gain cannot overflow)
         ref = rng[-1] if gain_db_per_m > 0 else rng[0]
         s *= (10.0 ** (gain_db_per_m * (rng - ref) / 20.0)).astype(s.real.dtype)
-    return replace(data, signal=s, range=rng, truth=shift_truth(data.truth, time_zero))
+    # the frequency samples still describe the profiles where only gates were
+    # dropped; a shifted axis, a background or a gain is not in them
+    keep_spectrum = background == "none" and time_zero == 0 and gain_db_per_m == 0
+    return replace(
+        data,
+        signal=s,
+        range=rng,
+        truth=shift_truth(data.truth, time_zero),
+        spectrum=data.spectrum if keep_spectrum else None,
+    )
 
 
 def shift_truth(truth, time_zero: float):

@@ -73,6 +73,7 @@ from .radar import (  # noqa: F401 - importable from here
     BANDWIDTH_SPAN_WARN,
     SUM_MAX,
     RadarData,
+    Spectrum,
     _bandwidth_line,
 )
 from .spikes import SPIKE_COUNT, SPIKE_FACTOR, drop_spikes  # noqa: F401 - importable from here

@@ -21,7 +21,7 @@ from .compress import (
 from .guard import check_budget, memory_limit, run_bytes
 from .model import Array, Truth, Waveform
 from .plausible import check_plausible
-from .radar import RadarData
+from .radar import RadarData, Spectrum
 from .sources import _guarded, _nbytes, _open
 from .spikes import drop_spikes
 
@@ -207,6 +207,7 @@ def _build(
         waveform,
         truth,
         range_sidelobe_db(freq, range_window, waveform.bandwidth),
+        Spectrum(values, freq),
     )
     check_plausible(data)
     return data

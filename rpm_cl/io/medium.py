@@ -171,7 +171,13 @@ def in_medium(data: RadarData, medium: Medium) -> RadarData:
 
     n = medium.n
     w = data.waveform
-    return replace(data, range=data.range / n, waveform=Waveform(w.fc * n, w.bandwidth * n))
+    spectrum = None if data.spectrum is None else data.spectrum.scaled(n)
+    return replace(
+        data,
+        range=data.range / n,
+        waveform=Waveform(w.fc * n, w.bandwidth * n),
+        spectrum=spectrum,
+    )
 
 
 def paraxial_data(data: RadarData, medium: Medium) -> RadarData:
@@ -204,6 +210,7 @@ def paraxial_data(data: RadarData, medium: Medium) -> RadarData:
         signal=sig,
         range=data.range * scale + offset,
         waveform=Waveform(w.fc / scale, w.bandwidth / scale),
+        spectrum=None,  # the paraxial scene is no scaling of the samples
     )
 
 

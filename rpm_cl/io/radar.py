@@ -52,6 +52,46 @@ def profile_power(signal, nr: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class Spectrum:
+    """The frequency samples a :class:`RadarData`'s signal was compressed
+    from (:func:`rpm_cl.io.compress.range_compress`): any range's profile
+    can be formed from them exactly, with any window.
+
+    Attributes
+    ----------
+    values : ndarray, complex, shape (nx[, nz], nf)
+        ``Y(f_n)``; an echo of range ``R`` and amplitude ``a`` is
+        ``a exp(-j 4 pi f_n R / c)``.
+    frequency : ndarray, shape (nf,)
+        Uniform, strictly increasing, > 0, Hz.
+    """
+
+    values: np.ndarray
+    frequency: np.ndarray
+
+    def __post_init__(self):
+        y = np.asarray(self.values)
+        if not np.iscomplexobj(y):
+            raise InputError(f"spectrum must be complex, got dtype {y.dtype}")
+        f = _uniform_axis("frequency", self.frequency, 2)
+        if f[0] <= 0:
+            raise InputError(f"frequency must be > 0, starts at {f[0]:g} Hz")
+        if y.ndim < 2 or y.shape[-1] != f.size:
+            raise InputError(
+                f"spectrum's last axis ({y.shape[-1] if y.ndim else 0}) must match "
+                f"frequency ({f.size})"
+            )
+        object.__setattr__(self, "values", y)
+        object.__setattr__(self, "frequency", f)
+
+    def scaled(self, factor: float) -> Spectrum:
+        """The same samples at ``factor`` times the frequencies: the scene
+        seen with ranges divided by ``factor`` (a medium of index
+        ``factor``, :func:`rpm_cl.io.medium.in_medium`)."""
+        return Spectrum(self.values, self.frequency * factor)
+
+
+@dataclass(frozen=True)
 class RadarData:
     """Range-compressed radar data, validated at construction.
 
@@ -71,6 +111,12 @@ class RadarData:
         resolution from its main lobe), dB relative to the main lobe, < 0;
         known for a spectrum compressed by :func:`rpm_cl.io.formats.range_compress`,
         None otherwise.  Imaging warns when a peak threshold lies below it.
+    spectrum : Spectrum, optional
+        The frequency samples ``signal`` was compressed from, where the
+        input was a spectrum (:func:`rpm_cl.io.load.load_data`) and nothing
+        since has changed the profiles but a cut of the range axis; None
+        otherwise.  phase-rpm forms its coherent sums from them
+        (:mod:`rpm_cl.extract.phase`).
     """
 
     signal: np.ndarray
@@ -79,6 +125,7 @@ class RadarData:
     waveform: Waveform
     truth: Truth | None = field(default=None)
     range_sidelobe_db: float | None = field(default=None)
+    spectrum: Spectrum | None = field(default=None)
 
     def __post_init__(self):
         s = np.asarray(self.signal)
@@ -145,6 +192,15 @@ class RadarData:
             if sl >= 0:
                 raise InputError(f"range_sidelobe_db must be < 0 dB, got {sl:g}")
             object.__setattr__(self, "range_sidelobe_db", sl)
+        sp = self.spectrum
+        if sp is not None:
+            if not isinstance(sp, Spectrum):
+                raise InputError(f"spectrum must be a Spectrum, got {type(sp).__name__}")
+            if sp.values.shape[:-1] != self.array.shape:
+                raise InputError(
+                    f"spectrum must have shape {self.array.shape} x frequency, got "
+                    f"{sp.values.shape}"
+                )
 
     @property
     def dr(self) -> float:
