@@ -130,3 +130,18 @@ def test_spectrum_is_checked():
     with pytest.raises(InputError, match="frequency"):
         Spectrum(spec, -f[::-1])
 
+
+def test_benchmark_loads_as_the_loader_does(tmp_path):
+    """The robustness benchmark's ``loaded_data`` is what ``load_data`` makes
+    of the same samples written as a spectrum file (``spectrum``,
+    ``frequency``, ``x``), profile for profile."""
+    spec, f, _ = R.synthesize(SCENE, 20.0, 1)
+    path = tmp_path / "s.npz"
+    np.savez(path, spectrum=spec, frequency=f, x=R._axis(SCENE.x))
+    ours, theirs = R.loaded_data(SCENE, spec, f), load_data(path)
+    assert np.array_equal(ours.signal, theirs.signal)
+    assert np.array_equal(ours.range, theirs.range)
+    assert ours.waveform == theirs.waveform
+    assert ours.range_sidelobe_db == theirs.range_sidelobe_db
+    assert np.array_equal(ours.spectrum.values, theirs.spectrum.values)
+    assert ours.range[-1] > 10 * R.region(SCENE)

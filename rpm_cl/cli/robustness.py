@@ -14,8 +14,14 @@ frequency samples, before range compression, with
 the compression being the plain sum over the band (a matched filter for a
 flat spectrum): the peak of ``|sum_n Y_n exp(j 4 pi f_n R / c) / nf|^2`` over
 antennas and ranges, against ``sigma^2 / nf`` for a per-sample noise variance
-``sigma^2``.  The engine then reads the spectrum as a user's file is read
-(:func:`rpm_cl.io.formats.range_compress`, Hann window).
+``sigma^2``.  The engine then reads the spectrum as ``rpm-cl image`` reads
+a spectrum file (:func:`loaded_data`: the Hann compression over the whole
+unambiguous range, the samples kept) and images it with a region of
+interest of twice the farthest echo plus 0.5 m (``max_range``).
+``samples=False`` (``benchmarks/robustness.py --profiles``) hands it the
+range profiles of that region alone instead, as a range-domain file holds
+them (:func:`radar_data`): no samples, and no gates beyond the scene to
+measure the noise on.
 
 Each method's points are scored as the paper scores RPM (Err_RPM: the
 distance to the nearest sample of the true boundary): the fraction within
@@ -34,10 +40,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..io.data import C0, Array, RadarData, Waveform
+from ..io.data import C0, Array, RadarData, Spectrum, Waveform
 from ..io.formats import range_compress
 
-__all__ = ["GEOMETRIES_2D", "SNRS", "Geometry", "crb", "run", "synthesize", "table"]
+__all__ = [
+    "GEOMETRIES_2D",
+    "SNRS",
+    "Geometry",
+    "crb",
+    "loaded_data",
+    "region",
+    "run",
+    "synthesize",
+    "table",
+]
 
 #: In-band S/N of the benchmark, dB (None: noise-free).
 SNRS = (None, 40.0, 30.0, 20.0, 10.0)
@@ -221,16 +237,44 @@ def synthesize(g: Geometry, snr_db: float | None, seed: int = 0):
 
 
 def radar_data(g: Geometry, spectrum, frequency) -> RadarData:
-    """The spectrum range-compressed as a user's file is (Hann window), the
-    range axis cut to twice the farthest echo."""
+    """The spectrum range-compressed as a range-domain file holds it (Hann
+    window), the range axis cut to the region of interest (:func:`region`);
+    no samples."""
     fc = 0.5 * (frequency[0] + frequency[-1])
     s, rng = range_compress(spectrum, frequency, fc, "hann")
-    r_far = float(np.max(_echoes(g, _positions(g))[0]))
-    keep = rng <= 2 * r_far + 0.5
+    keep = rng <= region(g)
     arr = Array(_axis(g.x), None if g.z is None else _axis(g.z))
     # the engine's B for a Hann window over the sweep: its FWHM, nf df / 2
     df = float(frequency[1] - frequency[0])
     return RadarData(s[..., keep], arr, rng[keep], Waveform(fc, g.nf * df / 2))
+
+
+def region(g: Geometry) -> float:
+    """The region of interest the benchmark images: ranges up to twice the
+    farthest echo plus 0.5 m, m."""
+    return 2 * float(np.max(_echoes(g, _positions(g))[0])) + 0.5
+
+
+def loaded_data(g: Geometry, spectrum, frequency) -> RadarData:
+    """The spectrum as :func:`rpm_cl.io.load.load_data` loads a spectrum
+    file without ``fc`` and ``bandwidth``: the Hann compression over the
+    whole unambiguous range, the band's centre, the window's bandwidth and
+    sidelobe level, the samples kept (``RadarData.spectrum``)."""
+    from ..io.compress import range_sidelobe_db, window_bandwidth
+
+    fc = 0.5 * (frequency[0] + frequency[-1])
+    bw = window_bandwidth(frequency, "hann")
+    s, rng = range_compress(spectrum, frequency, fc, "hann")
+    arr = Array(_axis(g.x), None if g.z is None else _axis(g.z))
+    return RadarData(
+        s,
+        arr,
+        rng,
+        Waveform(fc, bw),
+        None,
+        range_sidelobe_db(frequency, "hann", bw),
+        Spectrum(spectrum, frequency),
+    )
 
 
 def crb(g: Geometry, sigma2: float) -> tuple[float, float]:
@@ -315,8 +359,21 @@ def _das_points(das, data: RadarData, g: Geometry) -> np.ndarray:
     return das_points(das, data, grid, "volume")[0]
 
 
-def run(engine, das=None, geometries=None, snrs=SNRS, seeds=(0,), methods=None, progress=False):
+def run(
+    engine,
+    das=None,
+    geometries=None,
+    snrs=SNRS,
+    seeds=(0,),
+    methods=None,
+    progress=False,
+    samples=True,
+):
     """Every method on every scene, S/N and noise seed.
+
+    ``samples``: the data as a spectrum file loads (:func:`loaded_data`,
+    imaged with ``max_range`` = :func:`region`), else the region's range
+    profiles alone (:func:`radar_data`).
 
     Returns
     -------
@@ -340,8 +397,12 @@ def run(engine, das=None, geometries=None, snrs=SNRS, seeds=(0,), methods=None, 
             for seed in seeds:
                 spec, f, sigma2 = synthesize(g, snr, seed)
                 crbs = crbs or crb(g, sigma2)
-                data = radar_data(g, spec, f)
-                params = default_params(data)
+                if samples:
+                    data = loaded_data(g, spec, f)
+                    params = default_params(data, max_range=region(g))
+                else:
+                    data = radar_data(g, spec, f)
+                    params = default_params(data)
                 names = [m for m in methods if not (g.dim == 3 and m in ("mf-rpm", "capon-rpm"))]
                 for m in names:
                     t0 = time.perf_counter()
