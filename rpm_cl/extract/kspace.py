@@ -62,7 +62,11 @@
    resolution across it: neighbouring aliases differ in u by lambda / (2 d),
    i.e. by lambda / 2 of range walk per antenna, so a sub-aperture is
    ``ceil(2 resolution / lambda)`` antennas along each axis (7 for the
-   human body's 50 mm at 15 mm).
+   human body's 50 mm at 15 mm).  And a wrong alias's steep walk can carry
+   a stronger echo from beyond the cluster's gates into them: a
+   non-principal alias is taken only where its aligned peak lies within
+   half a range resolution of the cluster's own gate
+   (:data:`rpm_cl.extract.kspace_align.ALIAS_REACH`).
 5. Near-field focusing (``focus``, default: when needed).  After the
    alignment a target's phase still carries the wavefront curvature,
    2 k_c (|dX|^2 - (u . dX)^2) / (2 R), which spreads its k content over

@@ -21,6 +21,13 @@ from .kspace_geometry import _centred_grids
 
 #: A non-principal alias must give a coherent peak this much larger (module notes, step 4).
 ALIAS_MARGIN = 1.05
+#: A non-principal alias is taken only where its aligned coherent peak lies
+#: within this many range resolutions of the cluster's own gate (module
+#: notes, step 4).  At a half-wavelength pitch every direction has a visible
+#: alias (|u| and |u| - 1); on 45 x 45 antennas at 7.5 mm, 20 GHz, a weak
+#: cluster of the nearest sphere took u_z = 0.9 because its shifts carried a
+#: stronger sphere's echo in at the edge of its gates, 0.1 m from its own.
+ALIAS_REACH = 0.5
 #: Most alias directions the alignment tries per cluster (each is one
 #: shifted copy of the cluster's profiles): a pitch d gives about 4 d /
 #: lambda of them per array axis (5 for the paper's 20 mm sparse array,
@@ -81,6 +88,17 @@ def shift_rows(coeffs: np.ndarray, shift: np.ndarray, lo: int, hi: int) -> np.nd
     return w0 * g[:, 0:n] + w1 * g[:, 1 : n + 1] + w2 * g[:, 2 : n + 2] + w3 * g[:, 3 : n + 3]
 
 
+def _block_profile(c: np.ndarray, block: int) -> np.ndarray:
+    """``sum_b |sum_{X in b} c(X, g)|`` per range gate, shape (n_gates,):
+    what :func:`_block_peak` takes the largest of."""
+    out = c
+    for a in range(c.ndim - 1):
+        n = c.shape[a]
+        edges = np.linspace(0, n, max(1, round(n / max(block, 1))) + 1).astype(int)
+        out = np.add.reduceat(out, edges[:-1], axis=a)
+    return np.abs(out).reshape(-1, c.shape[-1]).sum(axis=0)
+
+
 def _block_peak(c: np.ndarray, block: int) -> float:
     """Largest, over range gates, sum of |coherent sum| over sub-apertures.
 
@@ -98,12 +116,7 @@ def _block_peak(c: np.ndarray, block: int) -> float:
     float
         ``max_g sum_b |sum_{X in b} c(X, g)|`` (0 for no gates).
     """
-    out = c
-    for a in range(c.ndim - 1):
-        n = c.shape[a]
-        edges = np.linspace(0, n, max(1, round(n / max(block, 1))) + 1).astype(int)
-        out = np.add.reduceat(out, edges[:-1], axis=a)
-    val = np.abs(out).reshape(-1, c.shape[-1]).sum(axis=0)
+    val = _block_profile(c, block)
     return float(val.max()) if val.size else 0.0
 
 
@@ -160,7 +173,19 @@ def _plane_wave(kc, axes_x) -> np.ndarray:
     return steer
 
 
-def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=None, autofocus=False):
+def _align(
+    data: RadarData,
+    coeffs,
+    kc,
+    k_periods,
+    axes_x,
+    kc_w,
+    lo,
+    hi,
+    r_c=None,
+    autofocus=False,
+    centre=None,
+):
     """Range-walk alignment of one cluster (module notes, step 4).
 
     ``coeffs`` are the cubic-spline coefficients of the profiles
@@ -173,6 +198,11 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
     q(X) of a point at that range (:func:`_focus_range`), and the signal's
     phase exp(-j 2 k_c q) is removed; with ``autofocus`` too (step 6), q is
     then fitted to the cluster (:func:`_autofocus`).
+
+    ``centre``: the cluster's own gate (its k-space maximum), counted from
+    ``lo``; a non-principal alias whose aligned peak lies farther from it
+    than :data:`ALIAS_REACH` range resolutions is not taken (module notes,
+    step 4).  None: the middle of ``lo:hi``.
 
     Returns the range slopes u = dR_t/dX, the per-antenna offsets delta(X) (m),
     the aligned signal over range gates ``lo:hi`` and the focus factors
@@ -202,6 +232,15 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
             sig = sig * np.exp(2j * kc_w * q)[..., None]
         return sig, _block_peak(sig * steer[..., None], block)
 
+    centre = (hi - lo - 1) / 2 if centre is None else centre
+    reach = ALIAS_REACH * data.waveform.range_resolution / data.dr
+
+    def own_echo(sig) -> bool:
+        """The aligned coherent peak lies within ``reach`` gates of the
+        cluster's own gate."""
+        prof = _block_profile(sig * steer[..., None], block)
+        return prof.size > 0 and abs(int(np.argmax(prof)) - centre) <= reach
+
     best = None
     for u in options:
         delta = sum(u[a] * offsets[a] for a in range(n_k))
@@ -218,8 +257,10 @@ def _align(data: RadarData, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c=Non
             sig, peak = aligned(delta, q)
         # 5 % margin: a wrong alias misaligns the envelopes by a sizeable part
         # of the resolution and loses far more than that; near-ties (flat or
-        # degenerate data) keep the principal alias
-        if best is None or peak > ALIAS_MARGIN * best[0]:
+        # degenerate data) keep the principal alias.  A wrong alias's shifts
+        # can also carry a stronger echo from beyond the cluster's gates into
+        # them, whose peak then sits away from the cluster's own gate
+        if best is None or (peak > ALIAS_MARGIN * best[0] and own_echo(sig)):
             best = (peak, u, delta, sig, q)
     _, u, delta, sig, q = best
     if r_c is None:

@@ -98,7 +98,7 @@ def _clusters(
         if align:
             r_c = float(data.range[ir]) if focused[ir] else None
             u, offset, sig, focus = _align(
-                data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c, params.autofocus
+                data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c, params.autofocus, ir - lo
             )
         else:
             sig = spec[..., lo:hi]
