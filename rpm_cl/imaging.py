@@ -198,9 +198,8 @@ def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
     """Warn when the range sidelobes reach above the k-space peak threshold.
 
     The fix named is a window with lower sidelobes: a threshold raised above
-    them removes the clusters beside each echo, but not those of sidelobe
-    tails at gates thresholded apart (the dechirped gates, kspace module
-    notes, step 2), whose threshold follows their own maximum."""
+    them removes the sidelobes' clusters too, but with them every target
+    weaker than the sidelobes of the strongest."""
     import warnings
 
     from .io.data import DataWarning
