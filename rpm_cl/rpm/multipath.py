@@ -32,9 +32,13 @@ times its length, and the envelope point lies on the refracted ray whose
 parameter is the predicted range's slope (:func:`rpm_cl.io.medium.point_on_ray`).
 
 The objects are represented by their image points (at most
-:data:`MAX_OBJECT_POINTS` of each, evenly spread), so a double bounce between
-two parts of one surface is not sought.  A cluster that fails the test is
-accepted and may itself be a leg of later ones.
+:data:`MAX_OBJECT_POINTS` of each, evenly spread), and accepted clusters
+whose points touch (share a cell of :data:`TOUCH` metres, directly or
+through other accepted clusters) are one object: a double bounce between
+two parts of one surface is not sought (a large array splits each sphere
+into several clusters, whose "double bounces" lie on the sphere's other
+clusters).  A cluster that fails the test is accepted and may itself be a
+leg of later ones.
 """
 
 from __future__ import annotations
@@ -48,6 +52,7 @@ __all__ = [
     "LEVEL_TOL",
     "MAX_OBJECT_POINTS",
     "RADIAL_WEIGHT",
+    "TOUCH",
     "double_bounce",
     "flag_multipath",
     "ghost_points",
@@ -79,6 +84,10 @@ GRADIENT_STEP = 1e-4
 #: antennas of a cluster the prediction is made for (evenly spread): the
 #: cost of a pair grows as their cube.
 MAX_OBJECT_POINTS = 32
+#: Accepted clusters with points in one cube of this edge are parts of one
+#: object, m: neighbouring parts of a surface meet (their windows overlap),
+#: while the objects the test was measured on lie 50 mm or more apart.
+TOUCH = 0.01
 
 
 def double_bounce(antennas: np.ndarray, a: np.ndarray, b: np.ndarray, medium=None) -> np.ndarray:
@@ -160,6 +169,7 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
     cl_rp = np.asarray(rps.cluster)
     order = sorted(np.unique(cl_img), key=lambda c: float(np.median(rps.range[cl_rp == c])))
     accepted, strength = [], []
+    objects = _Objects()
     for c in order:
         ant = _spread(positions[np.unique(np.asarray(rps.antenna)[cl_rp == c])], MAX_OBJECT_POINTS)
         mine = pts3[cl_img == c]
@@ -172,6 +182,8 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
         for i in range(len(accepted)):
             for j in range(i + 1, len(accepted)):
                 if amp > GHOST_AMP * min(strength[i], strength[j]):
+                    continue
+                if objects.same(i, j):
                     continue
                 if (
                     abs(rr[k] - double_bounce(one, accepted[i], accepted[j], medium)[0])
@@ -196,7 +208,36 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
         else:
             accepted.append(_spread(mine, MAX_OBJECT_POINTS))
             strength.append(amp)
+            objects.add(mine)
     return flags
+
+
+class _Objects:
+    """Accepted clusters grouped into objects by touching points (union-find
+    over the :data:`TOUCH` cells their points occupy)."""
+
+    def __init__(self):
+        self.parent: list[int] = []
+        self.cells: dict = {}
+
+    def _root(self, i: int) -> int:
+        while self.parent[i] != i:
+            self.parent[i] = self.parent[self.parent[i]]
+            i = self.parent[i]
+        return i
+
+    def add(self, points: np.ndarray) -> None:
+        """The next accepted cluster, by its image points (M, 3)."""
+        me = len(self.parent)
+        self.parent.append(me)
+        keys = np.unique(np.floor(points / TOUCH).astype(np.int64), axis=0)
+        for key in map(tuple, keys):
+            other = self.cells.setdefault(key, me)
+            if other != me:
+                self.parent[self._root(other)] = self._root(me)
+
+    def same(self, i: int, j: int) -> bool:
+        return self._root(i) == self._root(j)
 
 
 def _median_gap(p: np.ndarray, q: np.ndarray, centre: np.ndarray) -> float:
