@@ -115,7 +115,7 @@ from ..lazy import lazy
 from .blas import one_blas_thread
 from .kspace_clusters import _apply_axes, _clusters, _dft
 from .kspace_detect import _nms_size, _ranked_centres, _regimes, _runs
-from .kspace_geometry import _dechirp_gates, _fresnel
+from .kspace_geometry import _align_on, _dechirp_gates, _fresnel
 from .kspace_params import KSpaceParams
 from .nearfield import decompose_near_field, near_field_wanted
 from .types import Cluster, Decomposition
@@ -402,7 +402,10 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
     margin = max(half_r + 1, int(np.ceil(gate / dr)) + 1)
     dechirp = _dechirp_gates(data, params)
     det, threshold, need = _detection(data, params, k_axes, margin, dechirp)
-    spec, mag, found = _spectra(data, params, det, need, dechirp)
+    # aligned clusters are cut from the shifted profiles, not from S(k, R):
+    # then only its magnitude is kept (a 128 x 128 array's complex map is
+    # 1.7 GB)
+    spec, mag, found = _spectra(data, params, det, need, dechirp, not _align_on(data, params))
     if not found:
         return Decomposition(k_axes, mag, ())
     idx = _ranked_centres(found, size, n_k, threshold, nr)
@@ -490,24 +493,26 @@ def _detection(data: RadarData, params: KSpaceParams, k_axes, margin: int, dechi
     return det, threshold, need
 
 
-def _spectra(data: RadarData, params: KSpaceParams, det, need, dechirp):
+def _spectra(data: RadarData, params: KSpaceParams, det, need, dechirp, keep: bool = True):
     """The untapered spectrum on the gates searched (module notes, step 3).
 
     Returns
     -------
     spec, mag : ndarray, shape of ``det``
-        S(k, R) and |S(k, R)| there, 0 elsewhere.
+        S(k, R) and |S(k, R)| there, 0 elsewhere; ``spec`` None unless
+        ``keep``.
     found : list of (ndarray, int)
         Per run of gates searched, the map its centres are found on (``det``
         with ``detect_taper``, else ``mag``) and its first gate.
     """
     shape = det.shape
-    spec = np.zeros(shape, complex)
+    spec = np.zeros(shape, complex) if keep else None
     mag = np.zeros(shape)
     found = []
     for g0, g1 in _runs(need):
         part = kspace_spectrum(data, params.pad, gates=slice(g0, g1), dechirp=dechirp)[0]
-        spec[..., g0:g1] = part
-        mag[..., g0:g1] = np.abs(part)
+        if keep:
+            spec[..., g0:g1] = part
+        np.abs(part, out=mag[..., g0:g1])
         found.append((det[..., g0:g1] if params.detect_taper else mag[..., g0:g1], g0))
     return spec, mag, found

@@ -110,7 +110,7 @@ def _clusters(
             w = np.ones([1] * (n_k + 1))
             for a in range(n_k):
                 w = w * wins[a].reshape([-1 if b == a else 1 for b in range(n_k + 1)])
-            part = sfft.fftn(sig, s=spec.shape[:n_k], axes=tuple(range(n_k))) if align else sig
+            part = sfft.fftn(sig, s=mag.shape[:n_k], axes=tuple(range(n_k))) if align else sig
             sub = sfft.ifftn(w * part, axes=tuple(range(n_k)))
             sub = sub[tuple(slice(0, n) for n in arr.shape)]
         clusters.append(
