@@ -162,3 +162,25 @@ def test_parts_of_one_object_are_not_each_others_double_bounce(dev32, monkeypatc
         data.array.positions(), res.rps, res.image, data.waveform.range_resolution
     )
     assert apart.sum() > 500
+
+
+def test_touching_does_not_depend_on_where_cells_end():
+    """Parts of one object: points closer than TOUCH always join, across a
+    cell's edge or the origin; points 5 TOUCH apart never do, unless a third
+    cluster bridges them."""
+    from rpm_cl.rpm.multipath import TOUCH, _Objects
+
+    def joined(*clusters):
+        objects = _Objects()
+        for c in clusters:
+            objects.add(np.asarray(c, float))
+        return objects.same(0, 1)
+
+    t = TOUCH
+    assert joined([[t - 1e-6, 1, 0]], [[t + 1e-6, 1, 0]])  # either side of an edge
+    assert joined([[-1e-6, 1, 0]], [[1e-6, 1, 0]])  # either side of the origin
+    assert joined([[0, 1, 0.3 * t]], [[0.6 * t, 1, -0.5 * t]])
+    assert not joined([[0, 1, 0]], [[5 * t, 1, 0]])
+    bridge = [[1.5 * t, 1, 0], [2.5 * t, 1, 0], [3.5 * t, 1, 0]]
+    assert joined([[0, 1, 0]], [[4.2 * t, 1, 0]], bridge)
+    assert not joined([[0, 1, 0]], [[7 * t, 1, 0]], bridge)

@@ -63,9 +63,9 @@
    i.e. by lambda / 2 of range walk per antenna, so a sub-aperture is
    ``ceil(2 resolution / lambda)`` antennas along each axis (7 for the
    human body's 50 mm at 15 mm).  And a wrong alias's steep walk can carry
-   a stronger echo from beyond the cluster's gates into them: a
-   non-principal alias is taken only where its aligned peak lies within
-   half a range resolution of the cluster's own gate
+   a stronger echo from beyond the cluster's gates into one sub-aperture:
+   with focusing, a non-principal alias is taken only where its aligned
+   peak lies within half a range resolution of the cluster's own gate
    (:data:`rpm_cl.extract.kspace_align.ALIAS_REACH`).
 5. Near-field focusing (``focus``, default: when needed).  After the
    alignment a target's phase still carries the wavefront curvature,

@@ -21,9 +21,10 @@ from .kspace_geometry import _centred_grids
 
 #: A non-principal alias must give a coherent peak this much larger (module notes, step 4).
 ALIAS_MARGIN = 1.05
-#: A non-principal alias is taken only where its aligned coherent peak lies
-#: within this many range resolutions of the cluster's own gate (module
-#: notes, step 4).  At a half-wavelength pitch every direction has a visible
+#: With focusing (sub-aperture ranking), a non-principal alias is taken only
+#: where its aligned coherent peak lies within this many range resolutions
+#: of the cluster's own gate (module notes, step 4): one sub-aperture can
+#: carry the ranking.  At a half-wavelength pitch every direction has a visible
 #: alias (|u| and |u| - 1); on 45 x 45 antennas at 7.5 mm, 20 GHz, a weak
 #: cluster of the nearest sphere took u_z = 0.9 because its shifts carried a
 #: stronger sphere's echo in at the edge of its gates, 0.1 m from its own.
@@ -200,9 +201,9 @@ def _align(
     then fitted to the cluster (:func:`_autofocus`).
 
     ``centre``: the cluster's own gate (its k-space maximum), counted from
-    ``lo``; a non-principal alias whose aligned peak lies farther from it
-    than :data:`ALIAS_REACH` range resolutions is not taken (module notes,
-    step 4).  None: the middle of ``lo:hi``.
+    ``lo``; with focusing, a non-principal alias whose aligned peak lies
+    farther from it than :data:`ALIAS_REACH` range resolutions is not taken
+    (module notes, step 4).  None: the middle of ``lo:hi``.
 
     Returns the range slopes u = dR_t/dX, the per-antenna offsets delta(X) (m),
     the aligned signal over range gates ``lo:hi`` and the focus factors
@@ -260,7 +261,7 @@ def _align(
         # degenerate data) keep the principal alias.  A wrong alias's shifts
         # can also carry a stronger echo from beyond the cluster's gates into
         # them, whose peak then sits away from the cluster's own gate
-        if best is None or (peak > ALIAS_MARGIN * best[0] and own_echo(sig)):
+        if best is None or (peak > ALIAS_MARGIN * best[0] and (r_c is None or own_echo(sig))):
             best = (peak, u, delta, sig, q)
     _, u, delta, sig, q = best
     if r_c is None:

@@ -81,7 +81,8 @@ class Spectrum:
                 f"spectrum's last axis ({y.shape[-1] if y.ndim else 0}) must match "
                 f"frequency ({f.size})"
             )
-        object.__setattr__(self, "values", y)
+        # C order: the coherent sums read rows of it per track
+        object.__setattr__(self, "values", np.ascontiguousarray(y))
         object.__setattr__(self, "frequency", f)
 
     def scaled(self, factor: float) -> Spectrum:
@@ -116,7 +117,9 @@ class RadarData:
         input was a spectrum (:func:`rpm_cl.io.load.load_data`) and nothing
         since has changed the profiles but a cut of the range axis; None
         otherwise.  phase-rpm forms its coherent sums from them
-        (:mod:`rpm_cl.extract.phase`).
+        (:mod:`rpm_cl.extract.phase`).  Whatever makes new profiles from
+        the data (``dataclasses.replace(data, signal=...)``) must pass
+        ``spectrum=None`` with them, or the sums describe the old ones.
     """
 
     signal: np.ndarray

@@ -33,8 +33,8 @@ parameter is the predicted range's slope (:func:`rpm_cl.io.medium.point_on_ray`)
 
 The objects are represented by their image points (at most
 :data:`MAX_OBJECT_POINTS` of each, evenly spread), and accepted clusters
-whose points touch (share a cell of :data:`TOUCH` metres, directly or
-through other accepted clusters) are one object: a double bounce between
+whose points touch (lie in the same or neighbouring cubes of :data:`TOUCH`
+metres, directly or through other accepted clusters) are one object: a double bounce between
 two parts of one surface is not sought (a large array splits each sphere
 into several clusters, whose "double bounces" lie on the sphere's other
 clusters).  A cluster that fails the test is accepted and may itself be a
@@ -84,7 +84,8 @@ GRADIENT_STEP = 1e-4
 #: antennas of a cluster the prediction is made for (evenly spread): the
 #: cost of a pair grows as their cube.
 MAX_OBJECT_POINTS = 32
-#: Accepted clusters with points in one cube of this edge are parts of one
+#: Accepted clusters with points in the same or neighbouring cubes of this
+#: edge (closer than it always, than twice it at most) are parts of one
 #: object, m: neighbouring parts of a surface meet (their windows overlap),
 #: while the objects the test was measured on lie 50 mm or more apart.
 TOUCH = 0.01
@@ -227,14 +228,21 @@ class _Objects:
         return i
 
     def add(self, points: np.ndarray) -> None:
-        """The next accepted cluster, by its image points (M, 3)."""
+        """The next accepted cluster, by its image points (M, 3): joined to
+        every accepted cluster with a point in the same or a neighbouring
+        cell (points closer than :data:`TOUCH` always are, wherever the
+        cells' edges fall)."""
         me = len(self.parent)
         self.parent.append(me)
         keys = np.unique(np.floor(points / TOUCH).astype(np.int64), axis=0)
-        for key in map(tuple, keys):
-            other = self.cells.setdefault(key, me)
-            if other != me:
+        steps = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), -1).reshape(-1, 3)
+        near = {tuple(k) for k in np.unique((keys[:, None, :] + steps).reshape(-1, 3), axis=0)}
+        for key in near:
+            other = self.cells.get(key)
+            if other is not None:
                 self.parent[self._root(other)] = self._root(me)
+        for key in map(tuple, keys):
+            self.cells.setdefault(key, me)
 
     def same(self, i: int, j: int) -> bool:
         return self._root(i) == self._root(j)
