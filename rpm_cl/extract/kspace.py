@@ -51,9 +51,10 @@
    wavelength, k~ is aliased and the alias n whose alignment gives the largest
    coherent peak is taken.  With focusing (step 5) the peak is summed over
    sub-apertures instead, the sum of the magnitudes of their coherent sums
-   (:func:`_block_peak`): the aperture is then large enough that a point
-   focus at R~ is the wrong wavefront for an extended surface (an elongated
-   body part is flatter than a point along its length), the whole-aperture
+   (:func:`rpm_cl.extract.kspace_align._block_profile`): the aperture is
+   then large enough that a point focus at R~ is the wrong wavefront for an
+   extended surface (an elongated body part is flatter than a point along
+   its length), the whole-aperture
    sum of the right alias partly cancels, and a wrong alias, whose steep
    range walk gathers pieces of other echoes, won (the human body's lower
    legs seen by a 64 x 64 array: 4.8 for the true u_x = 0.11, 7.9 at
@@ -124,7 +125,7 @@ from .types import Cluster, Decomposition
 # The decomposition's parts that these notes, the tests and
 # rpm_cl.extract.rangepoints name in this module, importable from here as
 # well as from their own:
-from .kspace_align import _block_peak, shift_rows  # noqa: F401
+from .kspace_align import shift_rows  # noqa: F401
 from .kspace_clusters import _window  # noqa: F401
 from .kspace_detect import _centres  # noqa: F401
 from .kspace_focus import _autofocus, _focus_range  # noqa: F401

@@ -4,7 +4,7 @@
 Each antenna's profile is shifted in range by the cluster's range walk
 (cubic B-spline interpolation along R, :func:`shift_rows`), for the alias of
 the cluster's k whose alignment gives the largest coherent peak
-(:func:`_alias_options`, :func:`_block_peak`), and focused where the
+(:func:`_alias_options`, :func:`_block_profile`), and focused where the
 cluster is (:mod:`rpm_cl.extract.kspace_focus`).
 
 The steps named in the docstrings below ("module notes, step N") are those
@@ -90,18 +90,7 @@ def shift_rows(coeffs: np.ndarray, shift: np.ndarray, lo: int, hi: int) -> np.nd
 
 
 def _block_profile(c: np.ndarray, block: int) -> np.ndarray:
-    """``sum_b |sum_{X in b} c(X, g)|`` per range gate, shape (n_gates,):
-    what :func:`_block_peak` takes the largest of."""
-    out = c
-    for a in range(c.ndim - 1):
-        n = c.shape[a]
-        edges = np.linspace(0, n, max(1, round(n / max(block, 1))) + 1).astype(int)
-        out = np.add.reduceat(out, edges[:-1], axis=a)
-    return np.abs(out).reshape(-1, c.shape[-1]).sum(axis=0)
-
-
-def _block_peak(c: np.ndarray, block: int) -> float:
-    """Largest, over range gates, sum of |coherent sum| over sub-apertures.
+    """Per range gate, the sum of |coherent sum| over sub-apertures.
 
     Parameters
     ----------
@@ -114,11 +103,16 @@ def _block_peak(c: np.ndarray, block: int) -> float:
 
     Returns
     -------
-    float
-        ``max_g sum_b |sum_{X in b} c(X, g)|`` (0 for no gates).
+    ndarray, shape (n_gates,)
+        ``sum_b |sum_{X in b} c(X, g)|``; its largest value is the coherent
+        peak the aliases are ranked by.
     """
-    val = _block_profile(c, block)
-    return float(val.max()) if val.size else 0.0
+    out = c
+    for a in range(c.ndim - 1):
+        n = c.shape[a]
+        edges = np.linspace(0, n, max(1, round(n / max(block, 1))) + 1).astype(int)
+        out = np.add.reduceat(out, edges[:-1], axis=a)
+    return np.abs(out).reshape(-1, c.shape[-1]).sum(axis=0)
 
 
 def _alias_options(data: RadarData, kc, k_periods, axes_x, kc_w) -> np.ndarray:
@@ -224,30 +218,29 @@ def _align(
 
     def aligned(delta, q, gates=(lo, hi), block=block):
         """The profiles shifted by ``delta`` (and the focus phase of ``q``
-        removed) over ``gates``, and their coherent peak at kc summed over
-        sub-apertures of ``block`` antennas (:func:`_block_peak`)."""
+        removed) over ``gates``, their coherent peak at kc summed over
+        sub-apertures of ``block`` antennas (:func:`_block_profile`) and the
+        gate of that peak, counted from ``gates[0]``."""
         g0, g1 = gates
         sig = shift_rows(coeffs, delta.ravel() / data.dr, g0, g1)
         sig = sig.reshape(data.array.shape + (g1 - g0,))
         if q is not None:
             sig = sig * np.exp(2j * kc_w * q)[..., None]
-        return sig, _block_peak(sig * steer[..., None], block)
+        prof = _block_profile(sig * steer[..., None], block)
+        if prof.size == 0:
+            return sig, 0.0, None
+        top = int(np.argmax(prof))
+        return sig, float(prof[top]), top
 
     centre = (hi - lo - 1) / 2 if centre is None else centre
     reach = ALIAS_REACH * data.waveform.range_resolution / data.dr
-
-    def own_echo(sig) -> bool:
-        """The aligned coherent peak lies within ``reach`` gates of the
-        cluster's own gate."""
-        prof = _block_profile(sig * steer[..., None], block)
-        return prof.size > 0 and abs(int(np.argmax(prof)) - centre) <= reach
 
     best = None
     for u in options:
         delta = sum(u[a] * offsets[a] for a in range(n_k))
         q = None
         if r_c is None:
-            sig, peak = aligned(delta, None)
+            sig, peak, top = aligned(delta, None)
         else:
             # focused: ranked by the sub-aperture peak (module notes, step 4;
             # it replaced the better of the whole-aperture focused and plain
@@ -255,13 +248,15 @@ def _align(
             # the human body seen by a 64 x 64 array)
             q = _focus_range(u, axes_x, r_c)
             delta = delta + q
-            sig, peak = aligned(delta, q)
+            sig, peak, top = aligned(delta, q)
         # 5 % margin: a wrong alias misaligns the envelopes by a sizeable part
         # of the resolution and loses far more than that; near-ties (flat or
         # degenerate data) keep the principal alias.  A wrong alias's shifts
         # can also carry a stronger echo from beyond the cluster's gates into
         # them, whose peak then sits away from the cluster's own gate
-        if best is None or (peak > ALIAS_MARGIN * best[0] and (r_c is None or own_echo(sig))):
+        # (the aligned peak within ALIAS_REACH of the cluster's own gate)
+        own_echo = top is not None and abs(top - centre) <= reach
+        if best is None or (peak > ALIAS_MARGIN * best[0] and (r_c is None or own_echo)):
             best = (peak, u, delta, sig, q)
     _, u, delta, sig, q = best
     if r_c is None:

@@ -43,9 +43,9 @@ def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole):
     or None where the point focus (all 1) stays best.
 
     ``aligned(delta, q, gates, block)`` is :func:`_align`'s: the profiles
-    shifted by ``delta`` and focused by ``q`` over ``gates``, and their
+    shifted by ``delta`` and focused by ``q`` over ``gates``, their
     coherent peak over sub-apertures of ``block`` antennas (``whole``: the
-    whole aperture).  ``lin`` is the cluster's linear range walk u . dX (m,
+    whole aperture) and its gate.  ``lin`` is the cluster's linear range walk u . dX (m,
     the alignment without the focus term), ``coherent`` its signal aligned
     and focused as a point at ``r_c``, times the conjugate plane wave of its
     k, over gates ``lo:lo + n``.  Each candidate wavefront re-aligns the
