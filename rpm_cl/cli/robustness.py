@@ -40,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..io.data import C0, Array, RadarData, Spectrum, Waveform
+from ..io.data import C0, Array, RadarData, Waveform
 from ..io.formats import range_compress
 
 __all__ = [
@@ -257,23 +257,13 @@ def region(g: Geometry) -> float:
 
 def loaded_data(g: Geometry, spectrum, frequency) -> RadarData:
     """The spectrum as :func:`rpm_cl.io.load.load_data` loads a spectrum
-    file without ``fc`` and ``bandwidth``: the Hann compression over the
-    whole unambiguous range, the band's centre, the window's bandwidth and
-    sidelobe level, the samples kept (``RadarData.spectrum``)."""
-    from ..io.compress import range_sidelobe_db, window_bandwidth
+    file without ``fc`` and ``bandwidth``
+    (:func:`rpm_cl.io.compress.spectrum_data`, Hann window): the
+    compression over the whole unambiguous range, the samples kept."""
+    from ..io.compress import spectrum_data
 
-    fc = 0.5 * (frequency[0] + frequency[-1])
-    bw = window_bandwidth(frequency, "hann")
-    s, rng = range_compress(spectrum, frequency, fc, "hann")
-    arr = Array(_axis(g.x), None if g.z is None else _axis(g.z))
-    return RadarData(
-        s,
-        arr,
-        rng,
-        Waveform(fc, bw),
-        None,
-        range_sidelobe_db(frequency, "hann", bw),
-        Spectrum(spectrum, frequency),
+    return spectrum_data(
+        spectrum, frequency, Array(_axis(g.x), None if g.z is None else _axis(g.z))
     )
 
 

@@ -22,7 +22,7 @@ from .checks import (
     unit_hint,
 )
 from .model import C0, Waveform
-from .radar import BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN, profile_power
+from .radar import BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN, RadarData, Spectrum, profile_power
 from .windows import window
 
 #: Range windows of :func:`range_compress` -> their names in
@@ -298,3 +298,35 @@ def _compress_checked(values, freq, fc, bw, window, array):
             break
     signal, rng = range_compress(y, freq, waveform.fc, window)
     return signal, rng, waveform
+
+
+def spectrum_data(values, freq, array, fc=None, bw=None, window="hann", truth=None) -> RadarData:
+    """The :class:`RadarData` of frequency samples, as
+    :func:`rpm_cl.io.load.load_data` makes it of a spectrum file: the
+    checked compression over the whole unambiguous range
+    (:func:`_compress_checked`; ``fc`` and ``bw`` None: the band's centre
+    and the window's bandwidth), the window's sidelobe level and the samples
+    themselves (``RadarData.spectrum``).
+
+    Parameters
+    ----------
+    values : ndarray, complex, shape array.shape + (nf,)
+    freq : ndarray, shape (nf,)
+        Uniform, increasing, Hz (:func:`_frequency_axis`).
+    array : Array
+    fc, bw : float or None
+        Hz.
+    window : str
+        A key of :data:`RANGE_WINDOWS`.
+    truth : Truth, optional
+    """
+    signal, rng, waveform = _compress_checked(values, freq, fc, bw, window, array)
+    return RadarData(
+        signal,
+        array,
+        rng,
+        waveform,
+        truth,
+        range_sidelobe_db(freq, window, waveform.bandwidth),
+        Spectrum(values, freq),
+    )

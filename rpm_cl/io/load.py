@@ -13,15 +13,14 @@ from .checks import InputError
 from .compress import (
     RANGE_OVERSAMPLE,
     _check_conjugated,
-    _compress_checked,
     _frequency_axis,
     _window_name,
-    range_sidelobe_db,
+    spectrum_data,
 )
 from .guard import check_budget, memory_limit, run_bytes
 from .model import Array, Truth, Waveform
 from .plausible import check_plausible
-from .radar import RadarData, Spectrum
+from .radar import RadarData
 from .sources import _guarded, _nbytes, _open
 from .spikes import drop_spikes
 
@@ -197,18 +196,9 @@ def _build(
     bw = src.read("bandwidth") if "bandwidth" in src else None
     if conjugate:
         values = np.conj(values)
-    signal, rng, waveform = _compress_checked(values, freq, fc, bw, range_window, array)
+    data = spectrum_data(values, freq, array, fc, bw, range_window, truth)
     if not conjugate:
-        _check_conjugated(signal, rng)
-    data = RadarData(
-        signal,
-        array,
-        rng,
-        waveform,
-        truth,
-        range_sidelobe_db(freq, range_window, waveform.bandwidth),
-        Spectrum(values, freq),
-    )
+        _check_conjugated(data.signal, data.range)
     check_plausible(data)
     return data
 
