@@ -180,15 +180,18 @@ def prepared(data: RadarData, params: ImagingParams) -> tuple[RadarData, Imaging
     """
     from dataclasses import replace
 
-    out = preprocess(data, **{k: getattr(params, k) for k in PREPROCESS_FIELDS})
-    if (
-        out.range.size < data.range.size
-        and params.kspace.noise_power is None
-        and params.gain_db_per_m == 0
-    ):
+    steps = {k: getattr(params, k) for k in PREPROCESS_FIELDS}
+    cuts = params.time_zero > 0 or params.max_range is not None
+    if not cuts or params.kspace.noise_power is not None or params.gain_db_per_m != 0:
+        return preprocess(data, **steps), params
+    # the background goes first, on every gate (it is per gate, so cutting
+    # before or after it gives the same profiles); then the cut
+    whole = preprocess(data, background=params.background)
+    out = preprocess(whole, **{**steps, "background": "none"})
+    if out.range.size < whole.range.size:
         from .extract.kspace import measured_noise_power
 
-        power = measured_noise_power(preprocess(data, background=params.background))
+        power = measured_noise_power(whole)
         if power is not None:
             params = replace(params, kspace=replace(params.kspace, noise_power=power))
     return out, params
