@@ -160,6 +160,18 @@ def _taper(shape: tuple) -> np.ndarray:
     return w
 
 
+def _padded_fft(sig: np.ndarray, shape: tuple) -> np.ndarray:
+    """``fftn(sig, s=shape)`` over the leading ``len(shape)`` axes, one axis
+    at a time from the last: each axis's transform runs over the others'
+    samples before they are padded (a 187 x 144 array at pad 4 transforms
+    187 x 576, then 748 x 576 lines' worth, against 748 x 576 twice), the
+    same sums in another order."""
+    out = sig
+    for a in reversed(range(len(shape))):
+        out = sfft.fft(out, n=shape[a], axis=a)
+    return out
+
+
 def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=None, dechirp=None):
     """Zero-padded FFT of the data along the array axes (eq. 2/7).
 
@@ -197,7 +209,7 @@ def kspace_spectrum(data: RadarData, pad: int = 4, taper: bool = False, gates=No
         # body's 11 x 17 -> 44 x 68 (small transforms, many of them)
         spec = _apply_axes([_dft(m, n) for m, n in zip(shape, arr.shape)], sig)
     else:
-        spec = sfft.fftn(sig, s=shape, axes=tuple(range(arr.dim - 1)))
+        spec = _padded_fft(sig, shape)
     steps = (arr.dx,) if not arr.planar else (arr.dx, arr.dz)
     k_axes = tuple(2 * np.pi * np.fft.fftfreq(n, d) for n, d in zip(shape, steps))
     return spec, k_axes
@@ -402,20 +414,42 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
     # range interval (gate / dr + 1)
     margin = max(half_r + 1, int(np.ceil(gate / dr)) + 1)
     dechirp = _dechirp_gates(data, params)
-    det, threshold, need = _detection(data, params, k_axes, margin, dechirp)
+    det, det0, threshold, need = _detection(data, params, k_axes, margin, dechirp)
+    runs = _runs(need)
+    if params.detect_taper:
+        # the centres come from the tapered map, which is then dropped before
+        # the untapered one is formed: only one map over the searched gates
+        # is held at a time (0.28 GB each for 187 x 144 antennas at pad 4 over
+        # 81 gates)
+        idx = _centres_of(det, det0, runs, size, n_k, threshold, nr)
+        del det
     # aligned clusters are cut from the shifted profiles, not from S(k, R):
     # then only its magnitude is kept (a 128 x 128 array's complex map is
     # 1.7 GB)
-    spec, mag, found = _spectra(data, params, det, need, dechirp, not _align_on(data, params))
-    if not found:
-        return Decomposition(k_axes, mag, ())
-    idx = _ranked_centres(found, size, n_k, threshold, nr)
+    spec, mag, span = _spectra(data, params, runs, dechirp, not _align_on(data, params))
+    if not params.detect_taper:
+        idx = _centres_of(mag, span.start, runs, size, n_k, threshold, nr)
+    if not idx.size:
+        return Decomposition(k_axes, mag, (), gate0=span.start)
     matrix_dft = max(arr.shape) <= MATRIX_DFT_MAX
     return Decomposition(
         k_axes,
         mag,
-        tuple(_clusters(data, params, spec, mag, k_axes, periods, idx, gate, matrix_dft)),
+        tuple(
+            _clusters(data, params, spec, mag, span.start, k_axes, periods, idx, gate, matrix_dft)
+        ),
+        gate0=span.start,
     )
+
+
+def _centres_of(det, det0: int, runs, size, n_k: int, threshold, nr: int) -> np.ndarray:
+    """The ranked centres (:func:`_ranked_centres`) of a detection map that
+    covers gates ``det0 ..`` over the runs of gates searched; shape
+    (n_centres, n_k + 1), none without runs."""
+    if not runs:
+        return np.zeros((0, n_k + 1), np.intp)
+    found = [(det[..., g0 - det0 : g1 - det0], g0) for g0, g1 in runs]
+    return _ranked_centres(found, size, n_k, threshold, nr)
 
 
 def _near_field(data: RadarData, params: KSpaceParams, env) -> Decomposition:
@@ -436,9 +470,12 @@ def _detection(data: RadarData, params: KSpaceParams, k_axes, margin: int, dechi
 
     Returns
     -------
-    det : ndarray, shape (nk_0[, nk_1], nr)
-        |S(k, R)| of the (tapered, dechirped) data on the gates that can hold
-        a centre, 0 elsewhere.
+    det : ndarray, shape (nk_0[, nk_1], n)
+        |S(k, R)| of the (tapered, dechirped) data over the n gates from the
+        first to the last that can hold a centre, 0 at those between that
+        cannot.
+    det0 : int
+        The first of those gates.
     threshold : ndarray, shape (nr,)
         Per gate: ``peak_threshold_db`` below the strongest peak of its
         regime (:func:`_regimes`), no less than the strongest regime's less
@@ -462,14 +499,11 @@ def _detection(data: RadarData, params: KSpaceParams, k_axes, margin: int, dechi
         if params.skip_gates
         else np.ones(nr, bool)
     )
-    shape = tuple(len(k) for k in k_axes) + (nr,)
-    det = np.zeros(shape)
-    for g0, g1 in _runs(need):
-        det[..., g0:g1] = np.abs(
-            kspace_spectrum(data, params.pad, params.detect_taper, slice(g0, g1), dechirp)[0]
-        )
+    det0, det = _magnitude_map(data, params.pad, params.detect_taper, need, dechirp)[1:]
+    gate_max = np.zeros(nr)
+    if det.shape[-1]:
+        gate_max[det0 : det0 + det.shape[-1]] = det.reshape(-1, det.shape[-1]).max(axis=0)
     # the threshold per gate: relative to the strongest peak of its regime
-    gate_max = det.reshape(-1, nr).max(axis=0) if nr else np.zeros(0)
     threshold = np.zeros(nr)
     # a regime without a target of its own holds the other's leakage (-67 dB
     # on a 15 x 15 array), which its own relative threshold would take for
@@ -491,29 +525,62 @@ def _detection(data: RadarData, params: KSpaceParams, k_axes, margin: int, dechi
     hot = (gate_max >= threshold) & (gate_max > 0)
     if params.skip_gates:
         need = binary_dilation(hot, margin) & need
-    return det, threshold, need
+    return det, det0, threshold, need
 
 
-def _spectra(data: RadarData, params: KSpaceParams, det, need, dechirp, keep: bool = True):
+def _spectra(data: RadarData, params: KSpaceParams, runs, dechirp, keep: bool = True):
     """The untapered spectrum on the gates searched (module notes, step 3).
 
     Returns
     -------
-    spec, mag : ndarray, shape of ``det``
-        S(k, R) and |S(k, R)| there, 0 elsewhere; ``spec`` None unless
-        ``keep``.
-    found : list of (ndarray, int)
-        Per run of gates searched, the map its centres are found on (``det``
-        with ``detect_taper``, else ``mag``) and its first gate.
+    spec, mag : ndarray, shape (nk_0[, nk_1], n)
+        S(k, R) and |S(k, R)| over the n gates ``span`` from the first to the
+        last of ``runs``, 0 at those between that are not searched;
+        ``spec`` None unless ``keep``.
+    span : slice
+        Those gates.
     """
-    shape = det.shape
-    spec = np.zeros(shape, complex) if keep else None
-    mag = np.zeros(shape)
-    found = []
-    for g0, g1 in _runs(need):
-        part = kspace_spectrum(data, params.pad, gates=slice(g0, g1), dechirp=dechirp)[0]
-        if keep:
-            spec[..., g0:g1] = part
-        np.abs(part, out=mag[..., g0:g1])
-        found.append((det[..., g0:g1] if params.detect_taper else mag[..., g0:g1], g0))
-    return spec, mag, found
+    need = np.zeros(data.range.size, bool)
+    for g0, g1 in runs:
+        need[g0:g1] = True
+    spec, g_lo, mag = _magnitude_map(data, params.pad, False, need, dechirp, keep)
+    return spec, mag, slice(g_lo, g_lo + mag.shape[-1])
+
+
+#: Largest complex spectrum one FFT call forms, bytes, on arrays transformed
+#: by FFTs (beyond :data:`MATRIX_DFT_MAX`): the gates of a run are transformed
+#: in chunks of this size (each gate's transform is its own), so that the
+#: transient copies stay small beside the map (a 187 x 144 array at pad 4
+#: over 81 gates would form 0.56 GB at once).
+FFT_CHUNK_BYTES = 32 << 20
+
+
+def _magnitude_map(data: RadarData, pad: int, taper: bool, need, dechirp, keep: bool = False):
+    """|S(k, R)| (and S where ``keep``) over the gates from the first to the
+    last of ``need``, 0 at those between that are not in it.
+
+    Returns
+    -------
+    spec : ndarray, complex, or None
+        S(k, R) there (None unless ``keep``).
+    g_lo : int
+        The first gate of ``need`` (0 when none is).
+    mag : ndarray, shape (pad*nx[, pad*nz], n)
+    """
+    arr = data.array
+    shape = tuple(pad * n for n in arr.shape)
+    on = np.flatnonzero(need)
+    g_lo, g_hi = (int(on[0]), int(on[-1]) + 1) if on.size else (0, 0)
+    mag = np.zeros(shape + (g_hi - g_lo,))
+    spec = np.zeros(mag.shape, complex) if keep else None
+    step = max(1, g_hi - g_lo)
+    if max(arr.shape) > MATRIX_DFT_MAX:
+        step = max(1, FFT_CHUNK_BYTES // (16 * int(np.prod(shape))))
+    for r0, r1 in _runs(need):
+        for c0 in range(r0, r1, step):
+            c1 = min(r1, c0 + step)
+            part = kspace_spectrum(data, pad, taper, slice(c0, c1), dechirp)[0]
+            if keep:
+                spec[..., c0 - g_lo : c1 - g_lo] = part
+            np.abs(part, out=mag[..., c0 - g_lo : c1 - g_lo])
+    return spec, g_lo, mag

@@ -58,11 +58,44 @@ def _apply_axes(ops, sig):
     return out
 
 
+def _gates(spec, gate0: int, lo: int, hi: int) -> np.ndarray:
+    """Gates ``lo:hi`` of a spectrum that covers the gates from ``gate0`` on,
+    0 at those it does not cover."""
+    n = spec.shape[-1]
+    if gate0 <= lo and hi <= gate0 + n:
+        return spec[..., lo - gate0 : hi - gate0]
+    out = np.zeros(spec.shape[:-1] + (hi - lo,), spec.dtype)
+    a, b = max(lo, gate0), min(hi, gate0 + n)
+    if a < b:
+        out[..., a - lo : b - lo] = spec[..., a - gate0 : b - gate0]
+    return out
+
+
+def _window_fft(sig, wins, shape, padded: bool) -> np.ndarray:
+    """:func:`_window_operator` along every array axis by FFTs, one axis at a
+    time (the window is separable): zero-pad axis a to ``len(wins[a])``,
+    FFT, multiply by ``wins[a]``, inverse FFT, keep its first ``shape[a]``
+    samples; ``padded``: ``sig`` is already the padded spectrum (no forward
+    FFT).  Each axis's transforms then run over the other axes' unpadded
+    samples: a quarter of the 2-D padded transform's work at pad 4."""
+    out = sig
+    for a, win in enumerate(wins):
+        bcast = [1] * out.ndim
+        bcast[a] = -1
+        part = out if padded else sfft.fft(out, n=win.size, axis=a)
+        part = sfft.ifft(part * win.reshape(bcast), axis=a)
+        out = part[(slice(None),) * a + (slice(0, shape[a]),)]
+    return out
+
+
 def _clusters(
-    data: RadarData, params: KSpaceParams, spec, mag, k_axes, periods, idx, gate, matrix_dft
+    data: RadarData, params: KSpaceParams, spec, mag, gate0, k_axes, periods, idx, gate, matrix_dft
 ):
     """One :class:`Cluster` per centre ``idx`` (window, alignment, inverse FFT).
 
+    ``spec`` and ``mag`` cover the range gates from ``gate0`` on (``spec``:
+    None where the clusters are aligned, which cut their signals from the
+    shifted profiles instead).
     ``matrix_dft``: window and transforms as DFT matrices along each array
     axis (:func:`_window_operator`); False: FFTs (large arrays,
     ``rpm_cl.extract.kspace.MATRIX_DFT_MAX``)."""
@@ -101,25 +134,20 @@ def _clusters(
                 data, coeffs, kc, k_periods, axes_x, kc_w, lo, hi, r_c, params.autofocus, ir - lo
             )
         else:
-            sig = spec[..., lo:hi]
+            sig = _gates(spec, gate0, lo, hi)
         if dfts:
             sub = _apply_axes(
                 [_window_operator(wins[a], dfts[a], padded=not align) for a in range(n_k)], sig
             )
         else:  # large arrays: FFTs (n log n beats the n^2 of the matrices)
-            w = np.ones([1] * (n_k + 1))
-            for a in range(n_k):
-                w = w * wins[a].reshape([-1 if b == a else 1 for b in range(n_k + 1)])
-            part = sfft.fftn(sig, s=mag.shape[:n_k], axes=tuple(range(n_k))) if align else sig
-            sub = sfft.ifftn(w * part, axes=tuple(range(n_k)))
-            sub = sub[tuple(slice(0, n) for n in arr.shape)]
+            sub = _window_fft(sig, wins, arr.shape, padded=not align)
         clusters.append(
             Cluster(
                 kc,
                 float(data.range[ir]),
                 slice(lo, hi),
                 sub,
-                float(mag[tuple(ind)]),
+                float(mag[tuple(ind[:-1]) + (ir - gate0,)]),
                 offset,
                 u,
                 focus,

@@ -64,11 +64,17 @@ class Decomposition:
     ----------
     k_axes : tuple of ndarray
         k_x (and k_z) sample grids of the padded FFT, rad/m, FFT order.
-    magnitude : ndarray, shape (nkx[, nkz], nr)
-        |S(k, R)|; at gates where detection is dechirped (focused arrays,
-        module notes, step 2), that of the dechirped data.
+    magnitude : ndarray, shape (nkx[, nkz], n)
+        |S(k, R)| over the n range gates from ``gate0`` on (those the
+        decomposition searched, from the first to the last; 0 at gates
+        between them it skipped, and at every gate beyond them); at gates
+        where detection is dechirped (focused arrays, module notes, step 2),
+        that of the dechirped data.  :meth:`full_magnitude` spreads it over
+        every gate.
     clusters : tuple of Cluster
         Strongest first.
+    gate0 : int
+        The range gate of ``magnitude``'s first sample.
     near_field : bool
         The clusters are the near-field decomposition's
         (:mod:`rpm_cl.extract.nearfield`): fitted spherical waves, whose phase is the
@@ -78,4 +84,14 @@ class Decomposition:
     k_axes: tuple
     magnitude: np.ndarray
     clusters: tuple
+    gate0: int = 0
     near_field: bool = False
+
+    def full_magnitude(self, nr: int) -> np.ndarray:
+        """``magnitude`` on all ``nr`` range gates of the data (0 where it
+        was not computed), shape (nkx[, nkz], nr)."""
+        mag = self.magnitude
+        out = np.zeros(mag.shape[:-1] + (nr,), mag.dtype)
+        n = max(0, min(mag.shape[-1], nr - self.gate0))
+        out[..., self.gate0 : self.gate0 + n] = mag[..., :n]
+        return out

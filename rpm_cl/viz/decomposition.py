@@ -75,7 +75,7 @@ def kspace_map(data: RadarData, params=None) -> KSpaceMap:
     arr = data.array
     kx = dec.k_axes[0]
     kp_x = 2 * np.pi / arr.dx
-    mag = dec.magnitude
+    mag = dec.full_magnitude(seen.range.size)
     kz = None
     centres = [(c.k[0], float(air_ranges(pp.medium, c.r_centre))) for c in dec.clusters]
     if arr.planar:
