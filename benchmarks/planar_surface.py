@@ -8,7 +8,14 @@ noise, 300 range gates of 2 mm.  The script simulates it into ``--out``
 process, and prints the engine's stage times, the child's peak memory
 (VmHWM, polled) and the share of points within 15 mm of the surface.
 
-    python benchmarks/planar_surface.py [--out plane.npz]
+``--frequencies N`` hands the engine the same surface as a real stepped-
+frequency scan records it instead: a spectrum file of N frequencies over
+22.2-26.2 GHz (11 for the public 24 GHz scan), one unit echo per antenna
+at the simulated specular range, ``exp(-j 4 pi f R / c)``, with 30 dB of
+white noise on the samples (S/N as the engine's in-band model: a rect
+compression's peak power over its mean noise power).
+
+    python benchmarks/planar_surface.py [--out plane.npz] [--frequencies 11]
 """
 
 import argparse
@@ -36,6 +43,31 @@ def _make(path):
     save_data(path, data)
 
 
+def _spectrum(path, out, nf):
+    """The range-domain stand-in's specular ranges as an ``nf``-frequency
+    spectrum file (module notes)."""
+    t = np.load(path)
+    x, z = t["x"], t["z"]
+    r = np.full(x.size * z.size, np.nan)
+    r[t["truth_rp_antenna"]] = t["truth_rp_range"]
+    f = np.linspace(22.2e9, 26.2e9, nf)
+    spec = np.exp(-4j * np.pi * f * r.reshape(x.size, z.size, 1) / 299792458.0)
+    # rect compression: a unit echo's peak nf, noise power nf s2 per gate
+    s2 = nf / 10.0 ** (30 / 10)
+    rng = np.random.default_rng(2)
+    spec += np.sqrt(s2 / 2) * (
+        rng.standard_normal(spec.shape) + 1j * rng.standard_normal(spec.shape)
+    )
+    np.savez(
+        out,
+        spectrum=spec.astype(np.complex64),
+        frequency=f,
+        x=x,
+        z=z,
+        truth_boundary=t["truth_boundary"],
+    )
+
+
 def _peak_rss(pid):
     try:
         with open(f"/proc/{pid}/status") as f:
@@ -48,13 +80,19 @@ def _peak_rss(pid):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="plane.npz")
+    ap.add_argument("--frequencies", type=int, default=0, help="image a spectrum of N frequencies")
     args = ap.parse_args(argv)
     if not os.path.exists(args.out):
         _make(args.out)
-    result = os.path.splitext(args.out)[0] + "_points.npz"
+    source = args.out
+    if args.frequencies:
+        source = os.path.splitext(args.out)[0] + f"_f{args.frequencies}.npz"
+        if not os.path.exists(source):
+            _spectrum(args.out, source, args.frequencies)
+    result = os.path.splitext(source)[0] + "_points.npz"
     t0 = time.perf_counter()
     p = subprocess.Popen(
-        [sys.executable, "-m", "rpm_cl", "image", args.out, "-o", result, "-v"],
+        [sys.executable, "-m", "rpm_cl", "image", source, "-o", result, "-v"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

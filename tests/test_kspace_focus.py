@@ -38,6 +38,7 @@ def test_focus_range_is_the_exact_point_range(rng):
         grids = np.meshgrid(
             *[np.asarray(ax, ld) - ld(0.5) * (ld(ax[0]) + ld(ax[-1])) for ax in axes], indexing="ij"
         )
+        grids_ld = grids
         uu = [ld(v) for v in u]
         rr = ld(r_c)
         d2 = sum((grids[a] + rr * uu[a]) ** 2 for a in range(n_k))
@@ -46,13 +47,26 @@ def test_focus_range_is_the_exact_point_range(rng):
         scale = max(float(np.max(np.abs(ref))), 1e-300)
         np.testing.assert_allclose(got, ref.astype(float), rtol=0, atol=1e-12 * scale + 1e-15)
         assert np.all(np.isfinite(got))
-        # with factors, only the Fresnel part of each axis is scaled
+        # with a factor of 1 or more, only the Fresnel part of each axis is scaled
         f = rng.uniform(0, 1.2, n_k)
+        f[int(rng.integers(n_k))] = rng.uniform(1.0, 1.2)
         extra = kspace._focus_range(u, axes, r_c, f) - got
         grids = np.meshgrid(*[ax - 0.5 * (ax[0] + ax[-1]) for ax in axes], indexing="ij")
         want = sum((f[a] - 1) * (1 - u[a] ** 2) * grids[a] ** 2 / (2 * r_c) for a in range(n_k))
         np.testing.assert_allclose(extra, want, rtol=1e-9, atol=1e-18)
         np.testing.assert_array_equal(kspace._focus_range(u, axes, r_c, np.ones(n_k)), got)
+        # every factor below 1: a sphere of radius rho whose nearest point
+        # lies at r_c, i.e. its centre at r_c + rho in the same direction
+        rho = 10.0 ** rng.uniform(np.log10(0.01), np.log10(10.0))
+        f = np.full(n_k, r_c / (r_c + rho))
+        cc = rr + ld(rho)
+        d2 = sum((grids_ld[a] + cc * uu[a]) ** 2 for a in range(n_k))
+        d2 = d2 + cc * cc * (1 - sum(v * v for v in uu))
+        ref = np.sqrt(d2) - ld(rho) - rr - sum(uu[a] * grids_ld[a] for a in range(n_k))
+        scale = max(float(np.max(np.abs(ref))), 1e-300)
+        np.testing.assert_allclose(
+            kspace._focus_range(u, axes, r_c, f), ref.astype(float), rtol=0, atol=1e-9 * scale
+        )
 
 
 def test_focus_range_differs_from_the_fresnel_term_at_third_order():
@@ -125,3 +139,26 @@ def test_unfocused_clusters_have_no_focus():
     data, pre = simulate_preset("human-body")
     dec = kspace.decompose(data, default_params(data, **pre.defaults).kspace)
     assert dec.clusters and all(c.focus is None for c in dec.clusters)
+
+
+def test_autofocus_fits_a_surface_close_to_a_wide_aperture():
+    """A surface 0.1 m from a 0.36 m aperture (a near-field scan): the
+    point's higher-order terms at 0.1 m are 0.1 m at the corners, so the
+    fitted wavefront must be the surface's own (a point at R + rho), and its
+    factor is fine enough that every antenna's echo stays in the window: the
+    fit is within 0.005 of R / (R + rho) = 0.04, and nearly every antenna
+    gives an RP within 2 mm (Fresnel scaling alone on the 0.1-step grid took
+    0.2, whose walk is 8 mm off 0.1 m from the centre, and kept a central
+    disc of the array)."""
+    rho = 2.4
+    scene = Scene((Ellipsoid((0.0, 0.1 + rho, 0.0), (rho, rho, rho)),))
+    data = simulate(
+        scene, ARRAY, Waveform(24e9, 4e9), np.arange(0.0, 0.3, 2e-3), boundary_spacing=2e-3
+    )
+    params = default_params(data, pad=2)
+    dec = kspace.decompose(data, params.kspace)
+    assert len(dec.clusters) == 1
+    np.testing.assert_allclose(dec.clusters[0].focus, 0.1 / (0.1 + rho), atol=0.005)
+    rps = rps_from_decomposition(data, dec, params.rp_threshold_db)
+    good = int(np.sum(err_range(rps.antenna, rps.range, data.truth) <= 0.002))
+    assert good >= 0.97 * N * N

@@ -142,10 +142,13 @@ def test_cli_writes_the_flag_column(tmp_path):
 def test_parts_of_one_object_are_not_each_others_double_bounce(dev32, monkeypatch):
     """The three spheres on 64 x 64 antennas at 7.5 mm: the decomposition
     splits each sphere into several clusters, which meet on its surface, and
-    there is no double bounce in the data.  No point is flagged; with every
-    accepted cluster its own object (a cube of touching too small to join
-    any two) the sphere's parts predict "double bounces" onto its other
-    parts and 1167 points on the spheres were flagged."""
+    there is no double bounce in the data.  No point is flagged.  Without
+    the rule that a cluster on surfaces already found is no ghost, two
+    clusters on the facing flanks of two spheres are taken for the pair's
+    double bounce; with every accepted cluster its own object (a cube of
+    touching too small to join any two) the sphere's parts predict "double
+    bounces" onto its other parts.  Either way hundreds of points on the
+    spheres are flagged."""
     from dataclasses import replace
 
     from rpm_cl.cli import robustness as R
@@ -157,11 +160,34 @@ def test_parts_of_one_object_are_not_each_others_double_bounce(dev32, monkeypatc
     params = default_params(data, multipath="flag")
     res = imaging.run_method("phase-rpm", data, params, dev32)
     assert len(res.image.points) > 20000 and not res.image.multipath.any()
+    # two clusters lie on the facing flanks of two spheres, where the pair's
+    # double bounce would image: they are on surfaces already found
+    monkeypatch.setattr(multipath._Objects, "covered", lambda self, p: 0.0)
+    loose = multipath.flag_multipath(
+        data.array.positions(), res.rps, res.image, data.waveform.range_resolution
+    )
+    assert loose.sum() > 500
+    on_sphere = np.zeros(len(loose), bool)
+    for cx, cy, cz, rho in g.targets:
+        d = np.abs(np.linalg.norm(res.image.points - [cx, cy, cz], axis=1) - rho)
+        on_sphere |= d <= 0.02
+    assert np.mean(on_sphere[loose]) > 0.99
+    monkeypatch.undo()
     monkeypatch.setattr(multipath, "TOUCH", 1e-9)
     apart = multipath.flag_multipath(
         data.array.positions(), res.rps, res.image, data.waveform.range_resolution
     )
     assert apart.sum() > 500
+
+
+def test_covered_counts_points_in_or_beside_accepted_cells():
+    from rpm_cl.rpm.multipath import TOUCH, _Objects
+
+    objects = _Objects()
+    assert objects.covered(np.zeros((3, 3))) == 0.0
+    objects.add(np.array([[0.0, 1.0, 0.0], [0.5 * TOUCH, 1.0, 0.0]]))
+    pts = np.array([[1.5 * TOUCH, 1.0, 0.0], [3.5 * TOUCH, 1.0, 0.0], [0.0, 1.0, -0.5 * TOUCH]])
+    assert objects.covered(pts) == pytest.approx(2 / 3)
 
 
 def test_touching_does_not_depend_on_where_cells_end():

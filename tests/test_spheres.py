@@ -283,7 +283,7 @@ def test_grid_ranking_is_exact_distance_then_index(rng, steps):
     assert grid is not None
     radius = 3.2 * steps[0]
     same = ant[:, None] == ant[None, :]
-    order, eligible, within = _ranked_grid(grid, same, 0, c, radius)
+    order, eligible, within = _ranked_grid(grid, same, 0, c, radius, np.arange(c))
     ties = 0
     for i in range(c):
         d2 = [(ux * (ix[j] - ix[i])) ** 2 + (uz * (iz[j] - iz[i])) ** 2 for j in range(c)]
@@ -349,3 +349,38 @@ def test_clusters_smaller_than_the_list(off_grid, near):
         assert nn[i] == len(others)
         assert set(nbr[i, : nn[i]].tolist()) == others
         assert np.all(nbr[i, nn[i] :] == -1)
+
+
+@pytest.mark.parametrize("off_grid", [False, True])
+def test_large_clusters_thin_only_the_far_part(rng, monkeypatch, off_grid):
+    """A cluster larger than FAR_SAMPLE: the nearest part of every list is
+    the exact one (from the RPs within the radius alone), and the far part
+    holds distinct RPs of the cluster at other antennas, spread from near the
+    nearest part out to the farthest ranks."""
+    from rpm_cl.rpm import neighbours as NB
+
+    gx, gz = np.meshgrid(np.arange(24), np.arange(20), indexing="ij")
+    x, z = gx.ravel() * 7.5e-3, gz.ravel() * 7.5e-3
+    if off_grid:
+        x = x + rng.uniform(-1e-3, 1e-3, x.size)
+    ant = np.arange(x.size)
+    ant[5] = ant[4]  # two RPs at one antenna
+    x[5], z[5] = x[4], z[4]
+    c = x.size
+    st_, ct = np.zeros(c, int), np.full(c, c)
+    radius, kmax, near = 0.03, 16, 4
+    exact, en = NB.neighbour_lists(x, z, ant, st_, ct, radius, kmax, near)
+    monkeypatch.setattr(NB, "FAR_SAMPLE", 100)
+    thin, tn = NB.neighbour_lists(x, z, ant, st_, ct, radius, kmax, near)
+    dall = np.hypot(x[:, None] - x[None, :], z[:, None] - z[None, :])
+    reach = []
+    for i in range(c):
+        lst = thin[i, : tn[i]]
+        np.testing.assert_array_equal(lst[:near], exact[i, :near])  # the nearest part
+        assert len(set(lst.tolist())) == len(lst) and np.all(ant[lst] != ant[i])
+        assert tn[i] >= kmax - 4  # a thinned RP may repeat a nearest one
+        others = np.sort(dall[i, ant != ant[i]])
+        rank = np.searchsorted(others, dall[i, lst[near:]], side="left") / (others.size - 1)
+        reach.append((rank.min(), rank.max()))
+    reach = np.array(reach)
+    assert np.median(reach[:, 0]) < 0.1 and np.median(reach[:, 1]) > 0.9

@@ -264,7 +264,15 @@ def _align(
     # the whole aperture as one block: the coherent peak itself
     f = (
         _autofocus(
-            aligned, delta - q, sig * steer[..., None], u, axes_x, r_c, lo, max(data.array.shape)
+            aligned,
+            delta - q,
+            sig * steer[..., None],
+            u,
+            axes_x,
+            r_c,
+            lo,
+            max(data.array.shape),
+            kc_w,
         )
         if autofocus
         else None

@@ -24,6 +24,10 @@ from .kspace_geometry import _centred_grids
 #: best of these is then refined by AUTOFOCUS_REFINE on each side.
 AUTOFOCUS_FACTORS = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 1.2)
 AUTOFOCUS_REFINE = 0.1
+#: The refinement then halves its step while a step still moves the
+#: Fresnel phase at the aperture's edge by more than a quarter cycle, down
+#: to this factor step at most.
+AUTOFOCUS_FINEST = 1e-3
 #: Range gates on each side of the coherent peak's gate that the autofocus
 #: compares the wavefronts on.
 AUTOFOCUS_GATES = 2
@@ -37,7 +41,7 @@ AUTOFOCUS_GATES = 2
 AUTOFOCUS_MARGIN = 1.25
 
 
-def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole):
+def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole, k_c):
     """Per-axis factors of the Fresnel part of the focus wavefront that
     maximise a cluster's whole-aperture coherent peak (module notes, step 6),
     or None where the point focus (all 1) stays best.
@@ -53,7 +57,10 @@ def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole):
     ``2 AUTOFOCUS_GATES + 1`` gates around the point focus's coherent peak
     only.  One axis at a time, the
     others held: :data:`AUTOFOCUS_FACTORS`, then AUTOFOCUS_REFINE either side
-    of the best (within the factors' range); two sweeps over the axes at
+    of the best (within the factors' range), then half that, and so on while
+    a step moves the Fresnel phase at the aperture's edge by more than a
+    quarter cycle at the carrier wavenumber ``k_c`` (rad/m), down to
+    :data:`AUTOFOCUS_FINEST`; two sweeps over the axes at
     most.  The result is kept only where its peak is AUTOFOCUS_MARGIN times
     the point focus's.
     """
@@ -66,9 +73,16 @@ def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole):
     def peak(f):
         key = tuple(np.round(f, 6))
         if key not in memo:
-            q = _with_factors(*terms, f)
+            q = _surface_term(u, axes_x, r_c, f, *terms)
             memo[key] = aligned(lin + q, q, gates, whole)[1]
         return memo[key]
+
+    # the finest step the refinement halves down to: a factor step whose
+    # Fresnel phase at the aperture's edge, 2 k_c df max|quad|, is a quarter
+    # of a cycle (0.003 for a 0.56 m scan 0.1 m over a surface at 24 GHz;
+    # the grid's 0.1 there is 13 rad)
+    edge = max(float(np.abs(q).max()) for q in terms[1]) if terms[1] else 0.0
+    fine = max(AUTOFOCUS_FINEST, 0.25 * np.pi / (2.0 * k_c * edge)) if edge > 0 else np.inf
 
     f = np.ones(len(axes_x))
     best = point = peak(f)
@@ -76,13 +90,12 @@ def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole):
     for _ in range(2):
         start = f.copy()
         for a in range(len(axes_x)):
-            for values in (AUTOFOCUS_FACTORS, None):
-                if values is None:  # refine around the best so far
-                    values = [
-                        v
-                        for v in (f[a] - AUTOFOCUS_REFINE, f[a] + AUTOFOCUS_REFINE)
-                        if lo_f <= v <= hi_f
-                    ]
+            steps = [AUTOFOCUS_REFINE]
+            while steps[-1] / 2 >= fine:
+                steps.append(steps[-1] / 2)
+            for values in [AUTOFOCUS_FACTORS] + steps:
+                if not isinstance(values, tuple):  # refine around the best so far
+                    values = [v for v in (f[a] - values, f[a] + values) if lo_f <= v <= hi_f]
                 for v in values:
                     trial = f.copy()
                     trial[a] = v
@@ -117,14 +130,39 @@ def _focus_range(u, axes_x, r_c: float, f=None) -> np.ndarray:
     at ``|u| = 0.5`` across a 0.47 m aperture at 1.2 m the next term is
     1.5 rad of phase).  ``f`` (one factor per array axis) scales the Fresnel
     part along each axis, ``(1 - u_a^2) dX_a^2 / (2 r_c)``: the wavefront of
-    a surface curved more gently than a point.
+    a surface curved more gently than a point (:func:`_surface_term`).
 
     Returns
     -------
     ndarray, shape of the array
     """
     exact, quads = _focus_terms(u, axes_x, r_c)
-    return exact if f is None else _with_factors(exact, quads, f)
+    return exact if f is None else _surface_term(u, axes_x, r_c, f, exact, quads)
+
+
+def _surface_term(u, axes_x, r_c: float, f, exact, quads) -> np.ndarray:
+    """The focus term of a surface whose Fresnel part along axis a is
+    ``f[a]`` times a point's at ``r_c``.
+
+    A sphere of radius rho whose nearest point lies at range r_c returns
+    the wavefront of a point at ``r_c + rho`` (its centre's range less rho),
+    and ``f = r_c / (r_c + rho)``: so where every factor is below 1 the
+    exact term is a point's at ``r_c / max(f)``, the other axes' Fresnel
+    parts scaled down from there.  Only the Fresnel parts are scaled where a
+    factor reaches 1 or more (concave or point-like along that axis).  The
+    exact term matters where the aperture is not small against the range:
+    a 0.56 m scan 0.1 m over a surface of 2.9 m curvature radius (``f`` =
+    0.034) has a point's higher terms at 0.1 m of 0.19 m at its corners,
+    which Fresnel scaling alone keeps.
+    """
+    f = np.asarray(f, float)
+    top = float(f.max())
+    if top >= 1.0:
+        return _with_factors(exact, quads, f)
+    if top <= 0.0:  # flat along every axis
+        return np.zeros_like(exact)
+    base = _focus_terms(u, axes_x, r_c / top)[0]
+    return base + sum((f[a] - top) * quads[a] for a in range(len(quads)))
 
 
 def _with_factors(exact, quads, f) -> np.ndarray:

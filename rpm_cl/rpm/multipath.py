@@ -179,8 +179,12 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
         rr = np.asarray(rps.range, float)[cl_rp == c]
         k = int(np.argsort(rr)[len(rr) // 2])
         one = positions[np.asarray(rps.antenna)[cl_rp == c][k]][None]
+        # a cluster whose points lie on surfaces already found images those
+        # surfaces (more of a sphere seen by a large array), not the empty
+        # space a double bounce is imaged in
         ghost = False
-        for i in range(len(accepted)):
+        on_found = objects.covered(mine) > 0.5
+        for i in range(len(accepted) * (not on_found)):
             for j in range(i + 1, len(accepted)):
                 if amp > GHOST_AMP * min(strength[i], strength[j]):
                     continue
@@ -243,6 +247,21 @@ class _Objects:
                 self.parent[self._root(other)] = self._root(me)
         for key in map(tuple, keys):
             self.cells.setdefault(key, me)
+
+    def covered(self, points: np.ndarray) -> float:
+        """The share of ``points`` (M, 3) in a cell of an accepted cluster or
+        a neighbouring one (0 with none accepted)."""
+        if not self.cells or len(points) == 0:
+            return 0.0
+        keys = np.floor(points / TOUCH).astype(np.int64)
+        steps = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), -1).reshape(-1, 3)
+        cells = {}
+        hit = np.zeros(len(points), bool)
+        for n, key in enumerate(map(tuple, keys)):
+            if key not in cells:
+                cells[key] = any(tuple(k) in self.cells for k in np.asarray(key) + steps)
+            hit[n] = cells[key]
+        return float(hit.mean())
 
     def same(self, i: int, j: int) -> bool:
         return self._root(i) == self._root(j)

@@ -19,6 +19,14 @@ Which RPs it holds matters:
   with the mean-shift refinement on, the point is refined to the exhaustive
   argmax, and the list only matters where that refinement does not run).
 
+A cluster of more than :data:`FAR_SAMPLE` RPs (an extended surface seen by
+a large planar array: one cluster of 26 552 RPs) takes its nearest part
+from the RPs within ``radius`` of each block of main RPs only, which is
+exact, and spreads its far part over the ranks of a fixed random draw of
+FAR_SAMPLE of its RPs (rank r of the cluster is about rank r n / N of the
+draw): ranking all N RPs against each other costs N^2.  The far part only
+has to reach across the cluster.
+
 RPs are ranked by distance and then by index.  Antennas on one uniform grid
 (every planar array of the input contract) are ranked by integer keys built
 from their offsets in steps (:func:`_ranked_grid`): equal distances tie
@@ -39,6 +47,11 @@ import numpy as np
 __all__ = ["neighbour_lists"]
 
 _BLOCK = 256  # main RPs per block of the distance sort (memory: block x cluster)
+#: Clusters of more RPs rank their far sub RPs over a fixed random draw of
+#: this many (module notes): ranking every RP against every other
+#: grows as the square of the cluster (a surface of 26 552 RPs: 11 s of a
+#: 16 s run).  Their nearest RPs still come from every RP within the radius.
+FAR_SAMPLE = 8192
 
 
 def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, near=None):
@@ -89,36 +102,42 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
         n_far = kmax - n_near
         px, pz, ant = x[s : s + c], z[s : s + c], antenna[s : s + c]
         grid = _grid_offsets(px, pz)
+        big = c > FAR_SAMPLE and n_far > 0 and np.isfinite(radius)
+        if big:
+            # per RP, how many of the cluster's RPs share its antenna (itself
+            # included): never eligible
+            _, inv, per_ant = np.unique(ant, return_inverse=True, return_counts=True)
+            shared = per_ant[inv]
+            # a fixed random draw, not every n-th RP: a stride commensurate
+            # with the array's rows would leave whole rows (the far corners)
+            # out of the ranks
+            thin = np.sort(np.random.default_rng(c).choice(c, FAR_SAMPLE, replace=False))
         for b0 in range(0, c, _BLOCK):
             b1 = min(c, b0 + _BLOCK)
-            same = ant[b0:b1, None] == ant[None, :]  # itself and its antenna
-            if grid is None:
-                order, eligible, within = _ranked(px, pz, same, b0, b1, radius)
+            if big:
+                order, _, within = _near_part(px, pz, ant, grid, b0, b1, radius)
+                eligible = c - shared[b0:b1]
             else:
-                order, eligible, within = _ranked_grid(grid, same, b0, b1, radius)
+                order, eligible, within = _ranked_cols(px, pz, ant, grid, b0, b1, radius, None)
             if order.shape[1] < kmax:  # a cluster smaller than the list
                 order = np.pad(order, ((0, 0), (0, kmax - order.shape[1])), constant_values=-1)
             t = np.minimum(n_near, within)  # nearest taken
-            rows = np.arange(b1 - b0)
             lists = np.full((b1 - b0, kmax), -1, np.int64)
             cols = np.arange(n_near)[None, :]
             take = cols < t[:, None]
             lists[:, :n_near] = np.where(take, order[:, :n_near] if n_near else 0, -1)
             if n_far:
-                # the remaining kmax - t slots: ranks spread evenly over
-                # t .. eligible-1 (duplicates dropped when fewer remain)
-                f = kmax - t
-                span = np.maximum(eligible - t, 0)
-                j = np.arange(kmax)[None, :]
-                frac = j / np.maximum(f - 1, 1)[:, None]
-                pos = t[:, None] + np.round(frac * np.maximum(span - 1, 0)[:, None]).astype(
-                    np.int64
-                )
-                ok = (j < f[:, None]) & (span[:, None] > 0)
-                dup = np.zeros_like(ok)
-                dup[:, 1:] = pos[:, 1:] == pos[:, :-1]
-                ok &= ~dup
-                far = np.where(ok, order[rows[:, None], np.minimum(pos, c - 1)], -1)
+                if big:
+                    # the far ranks over a random thinning of the cluster:
+                    # rank r of the cluster is about rank r * len / eligible
+                    # of the thinning (module notes)
+                    order, eligible_t, _ = _ranked_cols(px, pz, ant, grid, b0, b1, np.inf, thin)
+                    t_far = np.ceil(t * eligible_t / np.maximum(eligible, 1)).astype(np.int64)
+                    far = _spread_ranks(order, t_far, eligible_t, kmax - t, kmax)
+                    # a thinned RP among the nearest is not taken twice
+                    far[(far[:, :, None] == lists[:, None, :n_near]).any(axis=2)] = -1
+                else:
+                    far = _spread_ranks(order, t, eligible, kmax - t, kmax)
                 lists = np.concatenate([lists[:, :n_near], far], axis=1)
             # compact: valid entries first, in order
             valid = lists >= 0
@@ -179,18 +198,61 @@ def _grid_offsets(x, z):
     return ix, iz, cls[inv].reshape(nx, nz).astype(np.int32), keys, sx
 
 
-def _ranked(px, pz, same, b0, b1, radius):
-    """Rows b0..b1 of a cluster: every RP's index by (distance, index), the
-    RPs at other antennas and those within ``radius``."""
-    d = np.hypot(px[b0:b1, None] - px[None, :], pz[b0:b1, None] - pz[None, :])
+def _spread_ranks(order, t, eligible, f, kmax: int) -> np.ndarray:
+    """The far part of each row's list: ``f`` slots at ranks spread evenly
+    over ``t .. eligible - 1`` of ``order`` (duplicates dropped when fewer
+    remain), -1 where none; shape (rows, kmax)."""
+    rows = np.arange(order.shape[0])
+    span = np.maximum(eligible - t, 0)
+    j = np.arange(kmax)[None, :]
+    frac = j / np.maximum(f - 1, 1)[:, None]
+    pos = t[:, None] + np.round(frac * np.maximum(span - 1, 0)[:, None]).astype(np.int64)
+    ok = (j < f[:, None]) & (span[:, None] > 0)
+    dup = np.zeros_like(ok)
+    dup[:, 1:] = pos[:, 1:] == pos[:, :-1]
+    ok &= ~dup
+    return np.where(ok, order[rows[:, None], np.minimum(pos, order.shape[1] - 1)], -1)
+
+
+def _ranked_cols(px, pz, ant, grid, b0, b1, radius, cols):
+    """Rows b0..b1 of a cluster ranked against the RPs ``cols`` (indices
+    into the cluster, increasing; None: all of them), by :func:`_ranked` or,
+    on a uniform grid, :func:`_ranked_grid`; ``order`` holds cluster
+    indices."""
+    cols = np.arange(px.size) if cols is None else cols
+    same = ant[b0:b1, None] == ant[None, cols]  # itself and its antenna
+    if grid is None:
+        return _ranked(px, pz, same, b0, b1, radius, cols)
+    return _ranked_grid(grid, same, b0, b1, radius, cols)
+
+
+def _near_part(px, pz, ant, grid, b0, b1, radius):
+    """:func:`_ranked_cols` of rows b0..b1 against only the RPs within
+    ``radius`` of their bounding box: every RP within ``radius`` of a row
+    is among them, so ``within`` and the ranks below it are the whole
+    cluster's (``eligible`` is not)."""
+    pad = radius * (1.0 + 1e-9)
+    box = (
+        (px >= px[b0:b1].min() - pad)
+        & (px <= px[b0:b1].max() + pad)
+        & (pz >= pz[b0:b1].min() - pad)
+        & (pz <= pz[b0:b1].max() + pad)
+    )
+    return _ranked_cols(px, pz, ant, grid, b0, b1, radius, np.flatnonzero(box))
+
+
+def _ranked(px, pz, same, b0, b1, radius, cols):
+    """Rows b0..b1 of a cluster: the RPs ``cols`` by (distance, index), the
+    RPs at other antennas among them and those within ``radius``."""
+    d = np.hypot(px[b0:b1, None] - px[None, cols], pz[b0:b1, None] - pz[None, cols])
     d[same] = np.inf
-    order = np.argsort(d, axis=1, kind="stable")
-    ds = np.take_along_axis(d, order, axis=1)
+    rank = np.argsort(d, axis=1, kind="stable")
+    ds = np.take_along_axis(d, rank, axis=1)
     ok = np.isfinite(ds)  # RPs at the same antenna (inf) are never within, even an inf radius
-    return order, ok.sum(axis=1), (ok & (ds <= radius)).sum(axis=1)
+    return cols[rank], ok.sum(axis=1), (ok & (ds <= radius)).sum(axis=1)
 
 
-def _ranked_grid(grid, same, b0, b1, radius):
+def _ranked_grid(grid, same, b0, b1, radius, cols):
     """:func:`_ranked` for antennas on a uniform grid, where the distance of
     two RPs is a function of their offset in steps: each offset's distance
     class (its rank among the grid's distances) times the cluster size plus
@@ -202,7 +264,7 @@ def _ranked_grid(grid, same, b0, b1, radius):
     ix, iz, cls_table, keys, sx = grid
     c, nz = ix.size, cls_table.shape[1]
     ncls = keys.size
-    flat = np.abs(ix[b0:b1, None] - ix[None, :]) * nz + np.abs(iz[b0:b1, None] - iz[None, :])
+    flat = np.abs(ix[b0:b1, None] - ix[None, cols]) * nz + np.abs(iz[b0:b1, None] - iz[None, cols])
     cls = cls_table.ravel()[flat]
     cls[same] = ncls  # after every distance
     within = (cls < np.searchsorted(keys, (radius / sx) ** 2 * (1 + 1e-12), side="right")).sum(
@@ -210,6 +272,6 @@ def _ranked_grid(grid, same, b0, b1, radius):
     )
     # int32 wherever the keys fit: they sort faster than int64
     kt = np.int32 if (ncls + 1) * c < 2**31 else np.int64
-    key = np.sort(cls.astype(kt) * kt(c) + np.arange(c, dtype=kt)[None, :], axis=1)
+    key = np.sort(cls.astype(kt) * kt(c) + cols.astype(kt)[None, :], axis=1)
     order = key % c
     return order, (key < ncls * c).sum(axis=1), within
