@@ -369,7 +369,7 @@ def test_large_clusters_thin_only_the_far_part(rng, monkeypatch, off_grid):
     c = x.size
     st_, ct = np.zeros(c, int), np.full(c, c)
     radius, kmax, near = 0.03, 16, 4
-    exact, en = NB.neighbour_lists(x, z, ant, st_, ct, radius, kmax, near)
+    exact, _ = NB.neighbour_lists(x, z, ant, st_, ct, radius, kmax, near)
     monkeypatch.setattr(NB, "FAR_SAMPLE", 100)
     thin, tn = NB.neighbour_lists(x, z, ant, st_, ct, radius, kmax, near)
     dall = np.hypot(x[:, None] - x[None, :], z[:, None] - z[None, :])
