@@ -182,3 +182,20 @@ def test_near_target_at_plain_gates_is_kept_beside_a_dechirped_one():
     assert not on[np.argmin(abs(data.range - 0.8))]
     dec = kspace.decompose(data, params)
     assert sorted(round(c.r_centre, 2) for c in dec.clusters) == [0.8, 1.01]
+
+
+def test_coherent_sum_is_the_weighted_sum_of_the_shifted_rows(rng):
+    """The autofocus's coherent sum equals summing the map_coordinates
+    reference of every row with its weight, the edges included."""
+    from rpm_cl.extract.kspace_align import coherent_sum
+
+    n_rows, nr = int(rng.integers(2, 60)), int(rng.integers(30, 120))
+    sig = rng.normal(size=(n_rows, nr)) + 1j * rng.normal(size=(n_rows, nr))
+    c = _coeffs(sig)
+    shift = rng.uniform(-12.0, 12.0, n_rows)
+    weights = np.exp(1j * rng.uniform(0, 2 * np.pi, n_rows)) * rng.uniform(0.5, 2, n_rows)
+    for lo, hi in ((0, nr), (5, 12), (nr - 4, nr)):
+        ref = (weights[:, None] * _row_reference(c, shift, lo, hi)).sum(axis=0)
+        got = coherent_sum(c, shift, lo, hi, weights)
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    assert coherent_sum(c, shift, 7, 7, weights).shape == (0,)

@@ -41,15 +41,14 @@ AUTOFOCUS_GATES = 2
 AUTOFOCUS_MARGIN = 1.25
 
 
-def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole, k_c):
+def _autofocus(whole_peak, lin, coherent, u, axes_x, r_c, lo, k_c):
     """Per-axis factors of the Fresnel part of the focus wavefront that
     maximise a cluster's whole-aperture coherent peak (module notes, step 6),
     or None where the point focus (all 1) stays best.
 
-    ``aligned(delta, q, gates, block)`` is :func:`_align`'s: the profiles
-    shifted by ``delta`` and focused by ``q`` over ``gates``, their
-    coherent peak over sub-apertures of ``block`` antennas (``whole``: the
-    whole aperture) and its gate.  ``lin`` is the cluster's linear range walk u . dX (m,
+    ``whole_peak(delta, q, gates)`` is :func:`_align`'s: the whole-aperture
+    coherent peak at the cluster's k of the profiles shifted by ``delta``
+    and focused by ``q`` over ``gates``.  ``lin`` is the cluster's linear range walk u . dX (m,
     the alignment without the focus term), ``coherent`` its signal aligned
     and focused as a point at ``r_c``, times the conjugate plane wave of its
     k, over gates ``lo:lo + n``.  Each candidate wavefront re-aligns the
@@ -74,7 +73,7 @@ def _autofocus(aligned, lin, coherent, u, axes_x, r_c, lo, whole, k_c):
         key = tuple(np.round(f, 6))
         if key not in memo:
             q = _surface_term(u, axes_x, r_c, f, *terms)
-            memo[key] = aligned(lin + q, q, gates, whole)[1]
+            memo[key] = whole_peak(lin + q, q, gates)
         return memo[key]
 
     # the finest step the refinement halves down to: a factor step whose
