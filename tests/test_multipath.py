@@ -142,13 +142,10 @@ def test_cli_writes_the_flag_column(tmp_path):
 def test_parts_of_one_object_are_not_each_others_double_bounce(dev32, monkeypatch):
     """The three spheres on 64 x 64 antennas at 7.5 mm: the decomposition
     splits each sphere into several clusters, which meet on its surface, and
-    there is no double bounce in the data.  No point is flagged.  Without
-    the rule that a cluster on surfaces already found is no ghost, two
-    clusters on the facing flanks of two spheres are taken for the pair's
-    double bounce; with every accepted cluster its own object (a cube of
-    touching too small to join any two) the sphere's parts predict "double
-    bounces" onto its other parts.  Either way hundreds of points on the
-    spheres are flagged."""
+    there is no double bounce in the data.  No point is flagged; with every
+    accepted cluster its own object (a cube of touching too small to join
+    any two) the sphere's parts predict "double bounces" onto its other
+    parts, and hundreds of points on the spheres are flagged."""
     from dataclasses import replace
 
     from rpm_cl.cli import robustness as R
@@ -160,24 +157,63 @@ def test_parts_of_one_object_are_not_each_others_double_bounce(dev32, monkeypatc
     params = default_params(data, multipath="flag")
     res = imaging.run_method("phase-rpm", data, params, dev32)
     assert len(res.image.points) > 20000 and not res.image.multipath.any()
-    # two clusters lie on the facing flanks of two spheres, where the pair's
-    # double bounce would image: they are on surfaces already found
-    monkeypatch.setattr(multipath._Objects, "covered", lambda self, p: 0.0)
-    loose = multipath.flag_multipath(
-        data.array.positions(), res.rps, res.image, data.waveform.range_resolution
-    )
-    assert loose.sum() > 500
-    on_sphere = np.zeros(len(loose), bool)
-    for cx, cy, cz, rho in g.targets:
-        d = np.abs(np.linalg.norm(res.image.points - [cx, cy, cz], axis=1) - rho)
-        on_sphere |= d <= 0.02
-    assert np.mean(on_sphere[loose]) > 0.99
-    monkeypatch.undo()
     monkeypatch.setattr(multipath, "TOUCH", 1e-9)
     apart = multipath.flag_multipath(
         data.array.positions(), res.rps, res.image, data.waveform.range_resolution
     )
     assert apart.sum() > 500
+
+
+def _synthetic(clusters, x):
+    """RangePoints and an Image of clusters given as (points (M, 2), ranges
+    at every antenna, amplitude): one RP and one point per antenna."""
+    from rpm_cl.extract.rangepoints import RangePoints
+    from rpm_cl.result import Image
+
+    n = x.size
+    pts, rng_, amp, cl = [], [], [], []
+    for c, (p, r, a) in enumerate(clusters):
+        pts.append(p), rng_.append(r), amp.append(np.full(n, a)), cl.append(np.full(n, c))
+    cl = np.concatenate(cl)
+    rps = RangePoints(
+        np.tile(np.arange(n), len(clusters)),
+        np.tile(x, len(clusters)),
+        None,
+        np.concatenate(rng_),
+        np.concatenate(amp),
+        cl,
+    )
+    image = Image(np.concatenate(pts), cl, np.ones(cl.size), np.arange(cl.size))
+    return rps, image
+
+
+def test_a_cluster_on_surfaces_found_is_no_double_bounce(monkeypatch):
+    """Two points and their double bounce, imaged where the bounce predicts
+    (on the envelope of its ranges): flagged.  With an object accepted
+    first whose surface runs through those places, the same cluster lies on
+    a surface already found and is not flagged; without the rule it is."""
+    from rpm_cl.rpm import multipath
+
+    x = (np.arange(31) - 15) * 4e-3
+    ant = np.column_stack([x, 0 * x, 0 * x])
+    a, b = np.array([[-0.1, 0.4, 0.0]]), np.array([[0.12, 0.38, 0.0]])
+    ra, rb = (np.linalg.norm(ant - t, axis=1) for t in (a, b))
+    ghost = ghost_points(ant, a, b)[:, :2]
+    legs = [(np.repeat(t[:, :2], x.size, 0), r, 1.0) for t, r in ((a, ra), (b, rb))]
+    bounce = (ghost, double_bounce(ant, a, b), 0.3)
+    res = 0.6
+    rps, image = _synthetic([*legs, bounce], x)
+    flags = multipath.flag_multipath(np.column_stack([x, 0 * x]), rps, image, res)
+    assert flags[image.cluster == 2].all() and not flags[image.cluster < 2].any()
+    # a surface through the same places, as strong as the legs (no ghost
+    # itself) and ranked before the bounce
+    surface = (ghost + [0.0, 1e-3], np.linalg.norm(ant[:, :2] - ghost, axis=1), 1.0)
+    rps, image = _synthetic([*legs, surface, bounce], x)
+    flags = multipath.flag_multipath(np.column_stack([x, 0 * x]), rps, image, res)
+    assert not flags.any()
+    monkeypatch.setattr(multipath._Objects, "covered", lambda self, p: 0.0)
+    flags = multipath.flag_multipath(np.column_stack([x, 0 * x]), rps, image, res)
+    assert flags[image.cluster == 3].all()
 
 
 def test_covered_counts_points_in_or_beside_accepted_cells():
