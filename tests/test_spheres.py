@@ -353,7 +353,7 @@ def test_clusters_smaller_than_the_list(off_grid, near):
 
 @pytest.mark.parametrize("off_grid", [False, True])
 def test_large_clusters_thin_only_the_far_part(rng, monkeypatch, off_grid):
-    """A cluster larger than FAR_SAMPLE: the nearest part of every list is
+    """A cluster larger than THIN_ABOVE: the nearest part of every list is
     the exact one (from the RPs within the radius alone), and the far part
     holds distinct RPs of the cluster at other antennas, spread from near the
     nearest part out to the farthest ranks."""
@@ -370,6 +370,7 @@ def test_large_clusters_thin_only_the_far_part(rng, monkeypatch, off_grid):
     st_, ct = np.zeros(c, int), np.full(c, c)
     radius, kmax, near = 0.03, 16, 4
     exact, _ = NB.neighbour_lists(x, z, ant, st_, ct, radius, kmax, near)
+    monkeypatch.setattr(NB, "THIN_ABOVE", 100)
     monkeypatch.setattr(NB, "FAR_SAMPLE", 100)
     thin, tn = NB.neighbour_lists(x, z, ant, st_, ct, radius, kmax, near)
     dall = np.hypot(x[:, None] - x[None, :], z[:, None] - z[None, :])

@@ -19,11 +19,11 @@ Which RPs it holds matters:
   with the mean-shift refinement on, the point is refined to the exhaustive
   argmax, and the list only matters where that refinement does not run).
 
-A cluster of more than :data:`FAR_SAMPLE` RPs (an extended surface seen by
+A cluster of more than :data:`THIN_ABOVE` RPs (an extended surface seen by
 a large planar array: one cluster of 26 552 RPs) takes its nearest part
 from the RPs within ``radius`` of each block of main RPs only, which is
 exact, and spreads its far part over the ranks of a fixed random draw of
-FAR_SAMPLE of its RPs (rank r of the cluster is about rank r n / N of the
+:data:`FAR_SAMPLE` of its RPs (rank r of the cluster is about rank r n / N of the
 draw): ranking all N RPs against each other costs N^2.  The far part only
 has to reach across the cluster.
 
@@ -48,10 +48,14 @@ __all__ = ["neighbour_lists"]
 
 _BLOCK = 256  # main RPs per block of the distance sort (memory: block x cluster)
 #: Clusters of more RPs rank their far sub RPs over a fixed random draw of
-#: this many (module notes): ranking every RP against every other
+#: FAR_SAMPLE of them (module notes): ranking every RP against every other
 #: grows as the square of the cluster (a surface of 26 552 RPs: 11 s of a
 #: 16 s run).  Their nearest RPs still come from every RP within the radius.
-FAR_SAMPLE = 8192
+THIN_ABOVE = 8192
+#: RPs in that draw: the far part takes some 20 ranks spread over it, and a
+#: quantile of 2048 draws lies within about 1 % of the cluster's rank range
+#: (its standard error, sqrt(p (1 - p) / 2048)).
+FAR_SAMPLE = 2048
 
 
 def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, near=None):
@@ -102,7 +106,7 @@ def neighbour_lists(x, z, antenna, cstart, ccount, radius: float, kmax: int, nea
         n_far = kmax - n_near
         px, pz, ant = x[s : s + c], z[s : s + c], antenna[s : s + c]
         grid = _grid_offsets(px, pz)
-        big = c > FAR_SAMPLE and n_far > 0 and np.isfinite(radius)
+        big = c > THIN_ABOVE and n_far > 0 and np.isfinite(radius)
         if big:
             # per RP, how many of the cluster's RPs share its antenna (itself
             # included): never eligible
