@@ -232,3 +232,26 @@ def test_pair_scan_equals_direct_fits_for_correlated_pairs(rng):
             assert abs(np.vdot(a[:, 0], a[:, 1])) / 21 > nearfield.PAIR_CORRELATION
     two = [[model.cost([[um[i], rm[i]], [un[j], rn[j]]]) for j in range(3)] for i in range(2)]
     np.testing.assert_allclose(model.scan_pair([], um, rm, un, rn), two, rtol=1e-9)
+
+
+@pytest.mark.parametrize("near_field", [None, True])
+def test_moving_the_array_moves_the_image(dev32, near_field):
+    """Positions as recorded (a line starting 12 m along) image the same as
+    the same positions centred, moved by the same offset: the near-field
+    search's spherical waves are placed from the array's centre, not from
+    the origin (from the origin, 82 points became 36)."""
+    import dataclasses
+
+    from rpm_cl.simulate import simulate
+    from rpm_cl.simulate.scene import PointTarget, Scene
+
+    x = (np.arange(41) - 20) * 0.02
+    scene = Scene((PointTarget((-0.05, 0.4)), PointTarget((0.1, 0.5))))
+    data = simulate(scene, Array(x), Waveform(20e9, 0.2e9), np.arange(0, 1.5, 2.5e-3), 30.0, 1)
+    off = 12.345
+    moved = dataclasses.replace(data, array=Array(x + off))
+    for method in ("phase-rpm", "kspace-rpm"):
+        a = run_method(method, data, default_params(data, near_field=near_field), dev32)
+        b = run_method(method, moved, default_params(moved, near_field=near_field), dev32)
+        assert a.image.points.shape == b.image.points.shape and len(a.image.points) > 40
+        np.testing.assert_allclose(b.image.points - [off, 0.0], a.image.points, atol=1e-9)

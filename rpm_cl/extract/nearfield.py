@@ -271,7 +271,11 @@ class _Search(_Pursuit, _PairPlacement, _Placement, _FocusMap):
     """
 
     def __init__(self, data, thr, pad, device=None):
+        # positions from the array's centre: the spherical waves' (u, R) are
+        # taken from the origin, so positions as recorded (a scan starting
+        # 12 m along a line) would put every candidate's centre there
         x = np.asarray(data.array.x, float)
+        x = x - 0.5 * (x[0] + x[-1])
         self.x, self.n, self.k0 = x, x.size, data.waveform.kc
         self.dr = data.dr
         self.res_r = data.waveform.range_resolution
