@@ -5,13 +5,14 @@
 200 positions at 2 cm (a 4 m line), 1.5 GHz carrier with 1 GHz of band
 (range resolution 0.15 m), six point targets 0.30-0.34 m deep spread over
 the line (``tests/test_config.py``'s scene), noise-free and 20 dB in-band.
-For phase-rpm and kspace-rpm with the default range-walk alignment and
-without it, and DAS peaks: the targets with a point within 30 mm, each
-target's nearest point (mm) and the share of points within 30 mm of a
-target.  The line is 13 times as long as the targets are deep: a
+For phase-rpm and kspace-rpm with the default settings, without the
+near-field focus (``focus=False``) and without the range-walk alignment
+(``align=False``), and DAS peaks: the targets with a point within 30 mm,
+each target's nearest point (mm) and the share of points within 30 mm of
+a target.  The line is 13 times as long as the targets are deep: a
 cluster's k and range then hold every target seen at that angle, each at
-its own place along the line, and one linear range walk across the whole
-aperture (the alignment) fits only the targets near the line's centre.
+its own place along the line, while the focus (kspace module notes, step
+5) is the wavefront of one point at the line's centre.
 """
 
 from __future__ import annotations
@@ -41,25 +42,27 @@ def main(argv=None) -> int:
     engine = DeviceRPM(create_env())
     scene = Scene(tuple(PointTarget(tuple(p)) for p in TARGETS))
     xs = np.arange(200) * 0.02 - 2.0
-    runs = [("phase-rpm", None), ("phase-rpm", False), ("kspace-rpm", None)]
-    runs += [("kspace-rpm", False), ("das", None)]
-    print("S/N    seed  method       align  points  hit  nearest per target (mm)          <= 30 mm")
+    runs = [(m, o) for m in ("phase-rpm", "kspace-rpm") for o in ("default", "focus", "align")]
+    runs.append(("das", "default"))
+    print(
+        "S/N    seed  method       off      points  hit  nearest per target (mm)          <= 30 mm"
+    )
     for snr in (None, 20.0):
         for seed in args.seeds:
             data = simulate(
                 scene, Array(xs), Waveform(1.5e9, 1.0e9), np.arange(0, 1.5, 0.005), snr, seed
             )
-            for method, align in runs:
-                params = default_params(data, align=align)
+            for method, off in runs:
+                params = default_params(data, **({} if off == "default" else {off: False}))
                 pts = run_method(method, data, params, engine).image.points
                 d = np.linalg.norm(pts[:, None] - TARGETS[None], axis=2)
                 near = d.min(axis=0) if len(pts) else np.full(len(TARGETS), np.inf)
                 on = float(np.mean(d.min(axis=1) <= 0.03)) if len(pts) else 0.0
-                label = "-" if method == "das" else "auto" if align is None else "off"
+                label = "-" if off == "default" else off
                 mm = " ".join(f"{v * 1e3:5.0f}" for v in near)
                 print(
                     f"{'inf' if snr is None else f'{snr:g}':5s}  {seed:4d}  {method:11s}  "
-                    f"{label:5s}  {len(pts):6d}  {int(np.sum(near <= 0.03))}/{len(TARGETS)}  "
+                    f"{label:7s}  {len(pts):6d}  {int(np.sum(near <= 0.03))}/{len(TARGETS)}  "
                     f"{mm}  {100 * on:6.1f} %"
                 )
     return 0
