@@ -12,7 +12,9 @@ each target's nearest point (mm) and the share of points within 30 mm of
 a target.  The line is 13 times as long as the targets are deep: a
 cluster's k and range then hold every target seen at that angle, each at
 its own place along the line, while the focus (kspace module notes, step
-5) is the wavefront of one point at the line's centre.
+5) is the wavefront of one point at the line's centre.  phase-rpm cuts
+such a line into segments (``rpm_cl.extract.segments``); kspace-rpm, the
+paper's method, decomposes it whole.
 """
 
 from __future__ import annotations
