@@ -91,7 +91,12 @@
    scaled by a factor per array axis, chosen among a few (0 to 1.2) for the
    largest whole-aperture coherent peak (:func:`_autofocus`), and where that
    peak is at least AUTOFOCUS_MARGIN (1.25) times the point focus's, it and
-   the offsets are taken from that wavefront.  Measured on the human body at
+   the offsets are taken from that wavefront, the factor then refined to a
+   quarter cycle of phase at the aperture's edge.  Where every factor f is
+   below 1 the wavefront is exactly a point's at R / f (a sphere's echo),
+   not only the Fresnel term scaled: a surface 0.1 m under a 0.56 m scan
+   otherwise kept a point's higher-order terms, 0.19 m at its corners
+   (:func:`rpm_cl.extract.kspace_focus._surface_term`).  Measured on the human body at
    20 dB, seeds 0-3 (``python benchmarks/large_arrays.py``): a 64 x 64 array
    finds 97.2-97.4 % of the 45056 true echoes within 10 mm (83.5-83.7 %
    with a point's Fresnel term only, 91.3 % with the exact point focus of
