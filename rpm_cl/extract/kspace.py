@@ -431,7 +431,7 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
     # aligned clusters are cut from the shifted profiles, not from S(k, R):
     # then only its magnitude is kept (a 128 x 128 array's complex map is
     # 1.7 GB)
-    spec, mag, span = _spectra(data, params, runs, dechirp, not _align_on(data, params))
+    spec, mag, span = _spectra(data, params, need, dechirp, not _align_on(data, params))
     if not params.detect_taper:
         idx = _centres_of(mag, span.start, runs, size, n_k, threshold, nr)
     if not idx.size:
@@ -533,21 +533,19 @@ def _detection(data: RadarData, params: KSpaceParams, k_axes, margin: int, dechi
     return det, det0, threshold, need
 
 
-def _spectra(data: RadarData, params: KSpaceParams, runs, dechirp, keep: bool = True):
-    """The untapered spectrum on the gates searched (module notes, step 3).
+def _spectra(data: RadarData, params: KSpaceParams, need, dechirp, keep: bool = True):
+    """The untapered spectrum on the gates searched, ``need`` (module notes,
+    step 3).
 
     Returns
     -------
     spec, mag : ndarray, shape (nk_0[, nk_1], n)
         S(k, R) and |S(k, R)| over the n gates ``span`` from the first to the
-        last of ``runs``, 0 at those between that are not searched;
+        last of ``need``, 0 at those between that are not searched;
         ``spec`` None unless ``keep``.
     span : slice
         Those gates.
     """
-    need = np.zeros(data.range.size, bool)
-    for g0, g1 in runs:
-        need[g0:g1] = True
     spec, g_lo, mag = _magnitude_map(data, params.pad, False, need, dechirp, keep)
     return spec, mag, slice(g_lo, g_lo + mag.shape[-1])
 
