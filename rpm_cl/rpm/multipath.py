@@ -217,6 +217,10 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
     return flags
 
 
+#: A TOUCH cell's offsets to itself and its 26 neighbours, shape (27, 3).
+_BESIDE = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), -1).reshape(-1, 3)
+
+
 class _Objects:
     """Accepted clusters grouped into objects by touching points (union-find
     over the :data:`TOUCH` cells their points occupy)."""
@@ -239,8 +243,7 @@ class _Objects:
         me = len(self.parent)
         self.parent.append(me)
         keys = np.unique(np.floor(points / TOUCH).astype(np.int64), axis=0)
-        steps = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), -1).reshape(-1, 3)
-        near = {tuple(k) for k in np.unique((keys[:, None, :] + steps).reshape(-1, 3), axis=0)}
+        near = {tuple(k) for k in np.unique((keys[:, None, :] + _BESIDE).reshape(-1, 3), axis=0)}
         for key in near:
             other = self.cells.get(key)
             if other is not None:
@@ -253,15 +256,11 @@ class _Objects:
         a neighbouring one (0 with none accepted)."""
         if not self.cells or len(points) == 0:
             return 0.0
-        keys = np.floor(points / TOUCH).astype(np.int64)
-        steps = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), -1).reshape(-1, 3)
-        cells = {}
-        hit = np.zeros(len(points), bool)
-        for n, key in enumerate(map(tuple, keys)):
-            if key not in cells:
-                cells[key] = any(tuple(k) in self.cells for k in np.asarray(key) + steps)
-            hit[n] = cells[key]
-        return float(hit.mean())
+        keys, inv = np.unique(
+            np.floor(points / TOUCH).astype(np.int64), axis=0, return_inverse=True
+        )
+        hit = np.array([any(tuple(k) in self.cells for k in key + _BESIDE) for key in keys])
+        return float(np.mean(hit[inv.ravel()]))
 
     def same(self, i: int, j: int) -> bool:
         return self._root(i) == self._root(j)
