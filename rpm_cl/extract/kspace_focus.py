@@ -114,10 +114,11 @@ def _autofocus(whole_peak, lin, coherent, u, axes_x, r_c, lo, k_c):
     # whose direction is a little off, the fine steps climb a side lobe of
     # the coherent peak (a point 0.46 m from a 1 m linear array: 0.9375 at
     # 1.9 times the point's peak, and a tenth of its RPs then off it)
-    steps = []
-    while (steps[-1] if steps else AUTOFOCUS_REFINE) / 2 >= fine:
-        steps.append((steps[-1] if steps else AUTOFOCUS_REFINE) / 2)
-    return sweeps(f, best, steps)[0] if steps else f
+    steps, step = [], AUTOFOCUS_REFINE / 2
+    while step >= fine:
+        steps.append(step)
+        step /= 2
+    return sweeps(f, best, steps)[0]
 
 
 def _focus_terms(u, axes_x, r_c: float):
