@@ -26,7 +26,7 @@ def _line(snr=None, seed=0):
 @pytest.mark.parametrize("preset", ["paper-2d", "paper-2d-sparse"])
 def test_short_apertures_are_decomposed_whole(preset):
     data, _ = simulate_preset(preset)
-    assert segments.segment_plan(data, _strongest_range(data)) is None
+    assert segments.segment_plan(data, _strongest_range) is None
 
 
 def test_a_metre_line_over_a_near_point_is_whole():
@@ -36,13 +36,13 @@ def test_a_metre_line_over_a_near_point_is_whole():
         Waveform(20e9, 0.2e9),
         np.arange(0.0, 1.5, 2.5e-3),
     )
-    assert segments.segment_plan(data, _strongest_range(data)) is None
+    assert segments.segment_plan(data, _strongest_range) is None
 
 
 def test_segments_overlap_by_half_and_their_kept_parts_tile_the_line():
     data = _line()
     strongest = _strongest_range(data)
-    plan = segments.segment_plan(data, strongest)
+    plan = segments.segment_plan(data, _strongest_range)
     assert plan is not None and len(plan) >= 4
     length = segments.SEGMENT_PER_RANGE * strongest
     covered = np.zeros(data.array.n, int)
@@ -55,8 +55,17 @@ def test_segments_overlap_by_half_and_their_kept_parts_tile_the_line():
             prev = plan[i - 1][0]
             assert prev.stop - ant.start >= n // 2  # at least half overlaps
     assert np.all(covered == 1)
-    # no echo, no segments; planar arrays are decomposed whole
-    assert segments.segment_plan(data, None) is None
+    # no echo, no segments
+    assert segments.segment_plan(data, lambda d: None) is None
+
+
+def test_planar_arrays_are_whole_without_reading_their_echoes():
+    body, _ = simulate_preset("human-body")
+
+    def unread(data):
+        raise AssertionError("the strongest range of a planar array was asked for")
+
+    assert segments.segment_plan(body, unread) is None
 
 
 @pytest.mark.parametrize("snr", [None, 20.0])

@@ -12,14 +12,15 @@ a 4 m line lost the two nearest its ends (``benchmarks/long_scan.py``).
 Where the line is longer than :data:`SEGMENTS_ABOVE` segments, it is cut
 into segments of :data:`SEGMENT_PER_RANGE` times the strongest echo's range
 (the range the derived sigma_x is bounded by,
-:func:`rpm_cl.rpm.params._strongest_range`, handed in by the caller), each overlapping its neighbours by half; each segment is
-decomposed on its own (its RPs are the k-space decomposition's of that
-stretch of line), and each keeps the RPs of its antennas in its middle half
-(the first and last segments also their outer quarter), so that every
+:func:`rpm_cl.rpm.params._strongest_range`, handed in by the caller), each
+overlapping its neighbours by half; each segment is decomposed on its own
+(its RPs are the k-space decomposition's of that stretch of line), and
+each keeps the RPs of its antennas in its middle half (the first and last
+segments also their outer quarter, :func:`kept_rps`), so that every
 antenna's RPs come from the segment it is most central in.  The segments'
-clusters stay apart; RPM then images all RPs as one set.  The paper's
-scenes and the gprMax fixture are not long by this measure and are
-decomposed whole.
+clusters stay apart (:func:`joined_rps`); RPM then images all RPs as one
+set.  The paper's scenes and the gprMax fixture are not long by this
+measure and are decomposed whole.
 """
 
 from __future__ import annotations
@@ -29,8 +30,16 @@ import dataclasses
 import numpy as np
 
 from ..io.data import Array, RadarData
+from .rangepoints import RangePoints
 
-__all__ = ["SEGMENTS_ABOVE", "SEGMENT_PER_RANGE", "segment_data", "segment_plan"]
+__all__ = [
+    "SEGMENTS_ABOVE",
+    "SEGMENT_PER_RANGE",
+    "joined_rps",
+    "kept_rps",
+    "segment_data",
+    "segment_plan",
+]
 
 #: Segment length as a multiple of the strongest echo's range.  Measured on
 #: six targets 0.30-0.34 m under a 4 m line (``benchmarks/long_scan.py``'s
@@ -44,15 +53,17 @@ SEGMENT_PER_RANGE = 2.0
 SEGMENTS_ABOVE = 2.0
 
 
-def segment_plan(data: RadarData, strongest: float | None) -> list | None:
+def segment_plan(data: RadarData, strongest_range) -> list | None:
     """The segments of a long linear scan, or None where it is decomposed
     whole.
 
     Parameters
     ----------
     data : RadarData
-    strongest : float or None
-        The strongest echo's range, m (None: no echo, no segments).
+    strongest_range : callable
+        ``strongest_range(data)``: the strongest echo's range, m, or None
+        where the data hold no echo (no segments); called for linear arrays
+        only (a planar array's profile power is read for nothing otherwise).
 
     Returns
     -------
@@ -62,7 +73,10 @@ def segment_plan(data: RadarData, strongest: float | None) -> list | None:
         antenna in exactly one segment's.
     """
     arr = data.array
-    if arr.planar or strongest is None or not strongest > 0 or arr.n < 2:
+    if arr.planar or arr.n < 2:
+        return None
+    strongest = strongest_range(data)
+    if strongest is None or not strongest > 0:
         return None
     length = SEGMENT_PER_RANGE * strongest
     if float(arr.x[-1] - arr.x[0]) <= SEGMENTS_ABOVE * length:
@@ -97,4 +111,38 @@ def segment_data(data: RadarData, antennas: slice) -> RadarData:
         array=Array(np.asarray(data.array.x)[antennas]),
         truth=None,
         spectrum=spectrum,
+    )
+
+
+def kept_rps(rps: RangePoints, antennas: slice, kept: slice) -> RangePoints:
+    """A segment's RPs (found on its antennas ``antennas``) at the antennas
+    it keeps, ``kept``, with the whole line's antenna indices."""
+    ant = np.asarray(rps.antenna) + antennas.start
+    keep = (ant >= kept.start) & (ant < kept.stop)
+
+    def f(a):
+        return None if a is None else np.asarray(a)[keep]
+
+    return RangePoints(
+        ant[keep], f(rps.x), f(rps.z), f(rps.range), f(rps.amp), f(rps.cluster), f(rps.sample)
+    )
+
+
+def joined_rps(parts: list) -> RangePoints:
+    """The segments' kept RPs as one set, each segment's clusters numbered
+    after the previous ones' (clusters of different segments stay apart)."""
+    offsets = np.cumsum([0] + [int(np.max(p.cluster)) + 1 if len(p) else 0 for p in parts])
+
+    def cat(name):
+        return np.concatenate([np.asarray(getattr(p, name)) for p in parts])
+
+    samples = [p.sample for p in parts]
+    return RangePoints(
+        cat("antenna"),
+        cat("x"),
+        None,
+        cat("range"),
+        cat("amp"),
+        np.concatenate([np.asarray(p.cluster) + o for p, o in zip(parts, offsets)]),
+        None if any(v is None for v in samples) else np.concatenate(samples),
     )

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..extract.kspace import decompose
 from ..extract.rangepoints import RangePoints, rps_from_decomposition, rps_from_profiles
-from ..extract.segments import segment_data, segment_plan
+from ..extract.segments import joined_rps, kept_rps, segment_data, segment_plan
 from ..io.data import RadarData
 from ..io.medium import Medium
 from ..result import Image, ImageResult
@@ -45,7 +45,7 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     from ..extract.phase import phase_ranges
 
     t0 = time.perf_counter()
-    plan = segment_plan(data, _strongest_range(data))
+    plan = segment_plan(data, _strongest_range)
     parts, spent = [], 0.0
     for antennas, kept in plan or [(slice(None), slice(None))]:
         part = data if plan is None else segment_data(data, antennas)
@@ -55,8 +55,8 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
         rps = rps_from_decomposition(part, dec, params.rp_threshold_db)
         if not dec.near_field and dec.clusters:
             rps, _ = phase_ranges(part, rps, np.array([c.k for c in dec.clusters]))
-        parts.append(rps if plan is None else _kept(rps, antennas, kept))
-    rps = parts[0] if plan is None else _joined(parts)
+        parts.append(rps if plan is None else kept_rps(rps, antennas, kept))
+    rps = parts[0] if plan is None else joined_rps(parts)
     t1 = t0 + spent
     t2 = time.perf_counter()
     image = _rpm(rps, params, engine)
@@ -78,40 +78,6 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
             "total": t4 - t0,
         },
         {"multipath": n_rpm - n_single, "reach": n_single - len(image.points)},
-    )
-
-
-def _kept(rps: RangePoints, antennas: slice, kept: slice) -> RangePoints:
-    """A segment's RPs (:mod:`rpm_cl.extract.segments`) at the antennas it
-    keeps, with the whole line's antenna indices."""
-    ant = np.asarray(rps.antenna) + antennas.start
-    keep = (ant >= kept.start) & (ant < kept.stop)
-
-    def f(a):
-        return None if a is None else np.asarray(a)[keep]
-
-    return RangePoints(
-        ant[keep], f(rps.x), f(rps.z), f(rps.range), f(rps.amp), f(rps.cluster), f(rps.sample)
-    )
-
-
-def _joined(parts: list) -> RangePoints:
-    """The segments' RPs as one set, each segment's clusters numbered after
-    the previous ones' (clusters of different segments stay apart)."""
-    offsets = np.cumsum([0] + [int(np.max(p.cluster)) + 1 if len(p) else 0 for p in parts])
-
-    def cat(name):
-        return np.concatenate([np.asarray(getattr(p, name)) for p in parts])
-
-    samples = [p.sample for p in parts]
-    return RangePoints(
-        cat("antenna"),
-        cat("x"),
-        None,
-        cat("range"),
-        cat("amp"),
-        np.concatenate([np.asarray(p.cluster) + o for p, o in zip(parts, offsets)]),
-        None if any(v is None for v in samples) else np.concatenate(samples),
     )
 
 
