@@ -36,6 +36,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..extract.backprojection import BYTES_PER_TERM, BYTES_PER_TERM_REFRACTED
+from ..extract.backprojection import weights as _weights
 from ..io.data import C0, InputError, RadarData
 from ..io.images import GRID_COORD_MAX, Grid, check_disk, parse_grid, write_image
 
@@ -93,39 +95,6 @@ def check_float32_range(data: RadarData) -> None:
             f"image holds ({F32_MIN_PEAK:g} .. {F32_MAX_SUM / n:.3g} for {n} "
             f"antennas); use --precision float64, or scale the signal"
         )
-
-
-def _weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float, medium=None):
-    """Sample index (n, A), the two complex weights (n, A) for voxels p (n, 3);
-    ``medium`` a half-space: refracted ranges."""
-    if medium is not None and medium.half_space:
-        from ..io.medium import one_way
-
-        d = one_way(medium, ant[None, :, :], p[:, None, :])
-    else:
-        d = np.square(p[:, 0:1] - ant[None, :, 0])
-        d += np.square(p[:, 1:2] - ant[None, :, 1])
-        d += np.square(p[:, 2:3] - ant[None, :, 2])
-        np.sqrt(d, out=d)
-    ph = np.exp(1j * k2 * d)
-    d -= r0
-    d /= dr  # d is now the fractional sample index t
-    i = np.floor(d)
-    d -= i  # the fraction
-    inside = (i >= 0) & (i < nr - 1)
-    ph *= inside
-    i[~inside] = 0
-    w1 = ph * d
-    ph -= w1  # ph (1 - fr)
-    return i.astype(np.int64), ph, w1
-
-
-#: Bytes per (voxel, antenna) of a chunk's temporaries: straight lines
-#: (the measured peak of :func:`_weights` and the gather), and refracted
-#: paths (:func:`rpm_cl.io.medium.crossing` holds about a dozen float64 arrays
-#: more).
-BYTES_PER_TERM = 160
-BYTES_PER_TERM_REFRACTED = 400
 
 
 def _chunk_voxels(n_ant: int, budget: float, per: int = BYTES_PER_TERM) -> int:

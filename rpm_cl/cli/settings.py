@@ -77,6 +77,10 @@ _EXTRA_DOCS = {
     "m; None keeps all.",
     "reach_deg": "phase-rpm: points seen from their main RP's antenna farther than this "
     "from boresight are dropped, deg (0 < reach_deg <= 90; 90 keeps all).",
+    "coherence": "phase-rpm, linear arrays: drop the points that sit beside a peak of the "
+    "coherent (DAS) image rather than on it (rpm_cl.rpm.coherence); false keeps all.",
+    "coherence_db": "How far below the largest DAS magnitude within 1.2 cross-range "
+    "resolutions a point's own may lie and the point be kept, dB in [-60, 0).",
 }
 
 

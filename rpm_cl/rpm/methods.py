@@ -65,6 +65,8 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     image = _multipath(data, rps, image, params.multipath, params.medium)
     n_single = len(image.points)
     image = in_reach(data.array, rps, image, params.reach_deg)
+    n_reach = len(image.points)
+    image = coherent(data, image, params)
     t4 = time.perf_counter()
     return ImageResult(
         "phase-rpm",
@@ -77,8 +79,32 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
             "multipath": t4 - t3,
             "total": t4 - t0,
         },
-        {"multipath": n_rpm - n_single, "reach": n_single - len(image.points)},
+        {
+            "multipath": n_rpm - n_single,
+            "reach": n_single - n_reach,
+            "coherence": n_reach - len(image.points),
+        },
     )
+
+
+def coherent(data: RadarData, image: Image, params: ImagingParams) -> Image:
+    """The image without the points beside a scatterer rather than on it
+    (:mod:`rpm_cl.rpm.coherence`): linear arrays in air or a homogeneous
+    medium whose band is wide enough, with ``params.coherence`` on;
+    ``ImageResult.dropped``
+    counts them."""
+    from .coherence import MIN_FRACTIONAL_BANDWIDTH, coherent_keep
+
+    if (
+        not params.coherence
+        or data.waveform.bandwidth < MIN_FRACTIONAL_BANDWIDTH * data.waveform.fc
+        or data.array.planar
+        or params.medium.half_space
+        or image.points.shape[0] == 0
+    ):
+        return image
+    keep = coherent_keep(data, image.points, params.coherence_db, params.reach_deg)
+    return image if keep.all() else image.keep(keep)
 
 
 def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:

@@ -31,6 +31,11 @@ SIGMA_X_PER_RANGE = 2.0
 #: 20 dB every point beyond 60 deg was more than 50 mm from the targets
 #: (``python benchmarks/reach.py``).  Real antennas' beams are narrower.
 REACH_DEG_DEFAULT = 70.0
+#: phase-rpm on linear arrays: a point whose coherent (DAS) magnitude lies
+#: more than this far below the largest within about one cross-range
+#: resolution of it sits beside a scatterer, not on it, and is dropped
+#: (:mod:`rpm_cl.rpm.coherence`), dB.
+COHERENCE_DB_DEFAULT = -6.0
 #: k-space window period for planar arrays, rad/m: the measured best on the
 #: paper's 3-D scene (0.8-1.2 k-space resolution cells of its 11 x 17 array;
 #: see rpm_cl.simulate.scene._human_body).  Linear arrays: WINDOW_LINEAR_PER_KC.
@@ -56,6 +61,7 @@ RP_THRESHOLD_DB_DEFAULT = -10.0
 PREPROCESS_FIELDS = ("background", "time_zero", "gain_db_per_m", "max_range")
 
 __all__ = [
+    "COHERENCE_DB_DEFAULT",
     "PREPROCESS_FIELDS",
     "REACH_DEG_DEFAULT",
     "RP_THRESHOLD_DB_DEFAULT",
@@ -228,6 +234,8 @@ class ImagingParams:
     rp_threshold_db: float = RP_THRESHOLD_DB_DEFAULT
     multipath: Literal["drop", "flag"] = "drop"
     reach_deg: float = REACH_DEG_DEFAULT
+    coherence: bool = True
+    coherence_db: float = COHERENCE_DB_DEFAULT
     background: Literal["none", "mean", "median"] = "none"
     time_zero: float = 0.0
     gain_db_per_m: float = 0.0
@@ -239,6 +247,8 @@ class ImagingParams:
             raise InputError(f"rp_threshold_db must be < 0, got {self.rp_threshold_db}")
         if not (np.isfinite(self.reach_deg) and 0 < self.reach_deg <= 90):
             raise InputError(f"reach_deg must be in (0, 90] degrees, got {self.reach_deg}")
+        if not (-60.0 <= self.coherence_db < 0):
+            raise InputError(f"coherence_db must be in [-60, 0) dB, got {self.coherence_db}")
         if self.multipath not in ("drop", "flag"):
             raise InputError(f"multipath must be 'drop' or 'flag', got {self.multipath!r}")
 

@@ -1,0 +1,113 @@
+"""The coherent sum of the range profiles along a point's own ranges,
+
+    I(p) = sum_a s_a(|p - a|) exp(+j 2 k_c |p - a|),
+
+with s_a linearly interpolated along the range axis (0 outside it): the
+delay-and-sum value at ``p``.  :mod:`rpm_cl.baselines.das` forms whole
+images of it; the RPM family reads it at single points
+(:mod:`rpm_cl.rpm.coherence`).  Both take the interpolation weights from
+:func:`weights`, so the two agree to rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..io.data import C0, InputError, RadarData
+
+__all__ = ["BYTES_PER_TERM", "BYTES_PER_TERM_REFRACTED", "at_points", "weights"]
+
+#: Bytes per (point, antenna) of a chunk's temporaries: straight lines
+#: (the measured peak of :func:`weights` and the gather), and refracted
+#: paths (:func:`rpm_cl.io.medium.crossing` holds about a dozen float64 arrays
+#: more).
+BYTES_PER_TERM = 160
+BYTES_PER_TERM_REFRACTED = 400
+
+
+def weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float, medium=None):
+    """Interpolation weights of the sum at points ``p``.
+
+    Parameters
+    ----------
+    p : ndarray, shape (n, 3)
+        Points (x, y, z), m.
+    ant : ndarray, shape (A, 3)
+        Antennas (x, 0, z), m.
+    r0, dr : float
+        First range gate and gate spacing, m.
+    nr : int
+        Range gates.
+    k2 : float
+        2 k_c, rad/m.
+    medium : rpm_cl.io.medium.Medium, optional
+        A half-space: refracted ranges; else straight lines.
+
+    Returns
+    -------
+    i : ndarray of int64, shape (n, A)
+        The lower sample's index (0 where the range is off the axis).
+    w0, w1 : ndarray, complex, shape (n, A)
+        The weights of samples ``i`` and ``i + 1`` (0 off the axis).
+    """
+    if medium is not None and medium.half_space:
+        from ..io.medium import one_way
+
+        d = one_way(medium, ant[None, :, :], p[:, None, :])
+    else:
+        d = np.square(p[:, 0:1] - ant[None, :, 0])
+        d += np.square(p[:, 1:2] - ant[None, :, 1])
+        d += np.square(p[:, 2:3] - ant[None, :, 2])
+        np.sqrt(d, out=d)
+    ph = np.exp(1j * k2 * d)
+    d -= r0
+    d /= dr  # d is now the fractional sample index t
+    i = np.floor(d)
+    d -= i  # the fraction
+    inside = (i >= 0) & (i < nr - 1)
+    ph *= inside
+    i[~inside] = 0
+    w1 = ph * d
+    ph -= w1  # ph (1 - fr)
+    return i.astype(np.int64), ph, w1
+
+
+def at_points(data: RadarData, points: np.ndarray, memory_budget: float = 2e8) -> np.ndarray:
+    """I(p) at scattered points in air, float64.
+
+    Parameters
+    ----------
+    data : RadarData
+    points : ndarray, shape (M, dim)
+        (x, y) for linear arrays, (x, y, z) for planar ones, m.
+    memory_budget : float
+        Bound on the temporaries, bytes (:data:`BYTES_PER_TERM` per point
+        and antenna of a chunk).
+
+    Returns
+    -------
+    ndarray, complex, shape (M,)
+    """
+    points = np.asarray(points, np.float64)
+    if points.ndim != 2 or points.shape[1] != data.array.dim:
+        raise InputError(f"points must have shape (M, {data.array.dim}), got {points.shape}")
+    pos = data.array.positions()
+    ant = np.zeros((pos.shape[0], 3))
+    ant[:, 0] = pos[:, 0]
+    if data.array.planar:
+        ant[:, 2] = pos[:, 2]
+    p3 = np.zeros((points.shape[0], 3))
+    p3[:, : points.shape[1]] = points
+    sig = np.ascontiguousarray(data.signal.reshape(-1, data.range.size), np.complex128)
+    k2 = 4 * np.pi * data.waveform.fc / C0
+    out = np.empty(points.shape[0], np.complex128)
+    step = max(1, int(memory_budget // (BYTES_PER_TERM * len(ant))))
+    a_idx = np.arange(len(ant))[None, :]
+    for lo in range(0, points.shape[0], step):
+        hi = min(points.shape[0], lo + step)
+        i, w0, w1 = weights(p3[lo:hi], ant, float(data.range[0]), data.dr, data.range.size, k2)
+        w0 *= sig[a_idx, i]
+        w1 *= sig[a_idx, i + 1]
+        w0 += w1
+        out[lo:hi] = w0.sum(axis=1)
+    return out

@@ -1,0 +1,178 @@
+"""The coherent sum at points (rpm_cl.extract.backprojection) and phase-rpm's
+coherence test of its points (rpm_cl.rpm.coherence)."""
+
+import numpy as np
+import pytest
+
+from rpm_cl.baselines.das import Grid, das_numpy
+from rpm_cl.extract.backprojection import at_points
+from rpm_cl.io.data import C0, Array, InputError, RadarData, Waveform
+from rpm_cl.rpm.coherence import coherent_keep, crossrange_resolution
+from rpm_cl.rpm.params import ImagingParams, default_params
+from rpm_cl.simulate import simulate
+from rpm_cl.simulate.scene import PointTarget, Scene
+
+
+def _random_data(rng, planar):
+    x = (np.arange(9) - 4) * 6e-3
+    z = (np.arange(4) - 1.5) * 6e-3 if planar else None
+    arr = Array(x, z)
+    r = 0.25 + 2e-3 * np.arange(150)
+    sig = rng.normal(size=arr.shape + (r.size,)) + 1j * rng.normal(size=arr.shape + (r.size,))
+    return RadarData(sig, arr, r, Waveform(18e9, 2e9))
+
+
+def _loop_sum(data, p):
+    """I(p) written out antenna by antenna: np.interp of the real and
+    imaginary profiles at |p - a|, times exp(+j 2 k_c |p - a|)."""
+    pos = data.array.positions()
+    sig = data.signal.reshape(-1, data.range.size)
+    k2 = 4 * np.pi * data.waveform.fc / C0
+    pz = p[2] if data.array.planar else 0.0
+    total = 0j
+    for a, s in zip(pos, sig):
+        az = a[2] if data.array.planar else 0.0
+        d = np.sqrt((p[0] - a[0]) ** 2 + p[1] ** 2 + (pz - az) ** 2)
+        v = np.interp(d, data.range, s.real, 0, 0) + 1j * np.interp(d, data.range, s.imag, 0, 0)
+        total += v * np.exp(1j * k2 * d)
+    return total
+
+
+@pytest.mark.parametrize("planar", [False, True])
+def test_sum_at_points_matches_the_written_out_sum_and_das(planar):
+    rng = np.random.default_rng(11)
+    data = _random_data(rng, planar)
+    n = 40
+    pts = np.column_stack(
+        [rng.uniform(-0.05, 0.05, n), rng.uniform(0.27, 0.5, n)]
+        + ([rng.uniform(-0.03, 0.03, n)] if planar else [])
+    )
+    got = at_points(data, pts, memory_budget=1e4)  # several chunks
+    want = np.array([_loop_sum(data, p) for p in pts])
+    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-10 * np.abs(want).max())
+    g = Grid(pts[:3, 0], pts[:3, 1], pts[:3, 2] if planar else None)
+    img = das_numpy(data, g)
+    i = np.arange(3)
+    diag = img[i, i, i] if planar else img[i, i]
+    np.testing.assert_allclose(at_points(data, pts[:3]), diag, rtol=1e-12)
+
+
+def test_sum_at_points_wants_the_array_s_dimension():
+    data = _random_data(np.random.default_rng(1), False)
+    with pytest.raises(InputError, match="shape"):
+        at_points(data, np.zeros((4, 3)))
+
+
+def test_crossrange_resolution_by_hand():
+    x = np.linspace(-0.5, 0.5, 101)
+    lam = C0 / 10e9
+    # seen from (0, 0.5) the ends are at 45 deg: sin spans 2 sin 45
+    got = crossrange_resolution(x, np.array([[0.0, 0.5]]), 10e9, 90.0)
+    assert got[0] == pytest.approx(lam / (2 * 2 * np.sin(np.pi / 4)), rel=1e-9)
+    # a 30 deg reach keeps the antennas with |sin| <= 0.5: the spread is that
+    # of the outermost such antennas
+    p = np.array([[0.0, 0.5]])
+    s = x / np.hypot(x, 0.5)
+    s = s[np.abs(s) <= 0.5]
+    got = crossrange_resolution(x, p, 10e9, 30.0)
+    assert got[0] == pytest.approx(lam / (2 * (s.max() - s.min())), rel=1e-9)
+    # off to one side: only one side's antennas, a coarser resolution
+    side = crossrange_resolution(x, np.array([[0.9, 0.5]]), 10e9, 90.0)
+    assert side[0] > 2 * got[0]
+
+
+def _two_targets(snr=None):
+    """A strong and a 12 dB weaker point 0.3 m down under a 1.3 m line at
+    2 cm, 1.5 GHz with 1 GHz of band (cross-range resolution ~45 mm)."""
+    targets = np.array([[-0.2, 0.3], [0.15, 0.32]])
+    scene = Scene((PointTarget(targets[0]), PointTarget(targets[1], amplitude=0.25)))
+    xs = (np.arange(66) - 32.5) * 0.02
+    data = simulate(scene, Array(xs), Waveform(1.5e9, 1e9), np.arange(0, 1.2, 5e-3), snr, 3)
+    return data, targets
+
+
+@pytest.mark.parametrize("snr", [None, 20.0])
+def test_points_on_targets_are_kept_and_beside_them_dropped(snr):
+    data, targets = _two_targets(snr)
+    dx = crossrange_resolution(data.array.x, targets, data.waveform.fc, 70.0)
+    # on each target, 0.2 resolutions off it, and one resolution beside it
+    # at its depth (where a point that slid along its range circle lands)
+    on = np.vstack([targets, targets + np.column_stack([0.2 * dx, 0 * dx])])
+    beside = np.vstack(
+        [targets + np.column_stack([dx, 0 * dx]), targets - np.column_stack([dx, 0 * dx])]
+    )
+    keep = coherent_keep(data, np.vstack([on, beside]), -6.0, 70.0)
+    assert keep[: len(on)].all()
+    assert not keep[len(on) :].any()
+
+
+def test_a_laxer_threshold_keeps_more():
+    data, targets = _two_targets()
+    dx = crossrange_resolution(data.array.x, targets, data.waveform.fc, 70.0)
+    pts = targets[:1] + np.outer(np.linspace(0, 1.2, 13), [dx[0], 0.0])
+    n = [int(coherent_keep(data, pts, t, 70.0).sum()) for t in (-1.0, -6.0, -20.0)]
+    assert 1 <= n[0] < n[1] < n[2]
+
+
+def test_threshold_is_checked():
+    for bad in (0.0, 1.0, -61.0, float("nan")):
+        with pytest.raises(InputError, match="coherence_db"):
+            ImagingParams(coherence_db=bad)
+
+
+# ------------------------------------------------------------- phase-rpm
+BARS = np.array([(-0.7 + 0.2 * i, 0.27 + 0.03 * ((i * 7) % 3)) for i in range(8)])
+
+
+@pytest.fixture(scope="module")
+def bars_data():
+    """Eight points 0.2 m apart, 0.27-0.33 m down, under 100 positions at
+    2.13 cm with 0.98-2 GHz: a rebar mat's B-scan in electrical range,
+    whose neighbouring bars share the 0.15 m range resolution."""
+    scene = Scene(tuple(PointTarget(p) for p in BARS))
+    xs = (np.arange(100) - 49.5) * 0.0213
+    return simulate(scene, Array(xs), Waveform(1.49e9, 1.02e9), np.arange(0, 1.5, 5e-3), 20.0, 0)
+
+
+def _scored(data, dev32, **over):
+    from rpm_cl.imaging import run_method
+
+    res = run_method("phase-rpm", data, default_params(data, **over), dev32)
+    d = np.linalg.norm(res.image.points[:, None] - BARS[None], axis=2)
+    return float(np.mean(d.min(axis=1) <= 0.03)), int(np.sum(d.min(axis=0) <= 0.03)), res
+
+
+def test_phase_rpm_keeps_the_points_on_the_bars(bars_data, dev32):
+    """Without the test about a third of phase-rpm's points sit beside the
+    bars; with it at least 85 % lie within 30 mm of one, and every bar
+    keeps a point."""
+    share, hit, res = _scored(bars_data, dev32)
+    off_share, off_hit, off = _scored(bars_data, dev32, coherence=False)
+    assert share >= 0.85 and hit == len(BARS)
+    assert off_share < 0.75 and off_hit == len(BARS)
+    assert res.dropped["coherence"] > 0 and off.dropped["coherence"] == 0
+    assert len(res.image.points) + res.dropped["coherence"] == len(off.image.points)
+
+
+def test_a_peak_no_point_marks_keeps_the_points_beside_it():
+    """Points beside the weak target only: with no point on its peak they
+    stay (they are all the image says about it); with one on it they go."""
+    data, targets = _two_targets()
+    dx = crossrange_resolution(data.array.x, targets, data.waveform.fc, 70.0)
+    beside = targets[1] + np.array([[dx[1], 0.0], [-dx[1], 0.0]])
+    strong = targets[:1]
+    assert coherent_keep(data, np.vstack([strong, beside]), -6.0, 70.0).all()
+    keep = coherent_keep(data, np.vstack([strong, targets[1:], beside]), -6.0, 70.0)
+    np.testing.assert_array_equal(keep, [True, True, False, False])
+
+
+def test_narrow_band_data_are_left_alone(dev32):
+    """0.2 GHz at 20 GHz (1 % of the carrier): the DAS image's side lobes are
+    peaks of their own, and phase-rpm drops nothing by this test."""
+    from rpm_cl.imaging import run_method
+
+    scene = Scene((PointTarget((-0.05, 0.4)), PointTarget((0.1, 0.5))))
+    x = (np.arange(41) - 20) * 0.02
+    data = simulate(scene, Array(x), Waveform(20e9, 0.2e9), np.arange(0, 1.5, 2.5e-3), 30.0, 1)
+    res = run_method("phase-rpm", data, default_params(data), dev32)
+    assert res.dropped["coherence"] == 0 and len(res.image.points) > 40
