@@ -176,3 +176,33 @@ def test_narrow_band_data_are_left_alone(dev32):
     data = simulate(scene, Array(x), Waveform(20e9, 0.2e9), np.arange(0, 1.5, 2.5e-3), 30.0, 1)
     res = run_method("phase-rpm", data, default_params(data), dev32)
     assert res.dropped["coherence"] == 0 and len(res.image.points) > 40
+
+
+def test_recorded_data_undoes_the_paraxial_scene():
+    from rpm_cl.io.medium import Medium, paraxial_data, recorded_data
+
+    data = _random_data(np.random.default_rng(5), False)
+    m = Medium(6.0, 0.08)
+    back = recorded_data(paraxial_data(data, m), m)
+    np.testing.assert_allclose(back.signal, data.signal, rtol=1e-6)
+    np.testing.assert_allclose(back.range, data.range, rtol=1e-12)
+    assert back.waveform.fc == pytest.approx(data.waveform.fc, rel=1e-12)
+    assert back.waveform.bandwidth == pytest.approx(data.waveform.bandwidth, rel=1e-12)
+    assert recorded_data(data, Medium(6.0)) is data
+
+
+def test_sum_at_points_follows_the_refracted_paths():
+    """Above a half-space the sum at a point equals DAS's refracted image
+    there, and differs from the straight-line sum."""
+    from rpm_cl.io.medium import Medium
+
+    rng = np.random.default_rng(8)
+    data = _random_data(rng, False)
+    m = Medium(4.0, 0.05)
+    g = Grid(np.array([-0.02, 0.01, 0.03]), np.array([0.12, 0.15, 0.2]))
+    img = das_numpy(data, g, medium=m)
+    i = np.arange(3)
+    pts = np.column_stack([g.x, g.y])
+    got = at_points(data, pts, medium=m)
+    np.testing.assert_allclose(got, img[i, i], rtol=1e-12)
+    assert np.abs(got - at_points(data, pts)).max() > 0.1 * np.abs(got).max()

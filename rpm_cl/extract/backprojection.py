@@ -72,17 +72,26 @@ def weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: f
     return i.astype(np.int64), ph, w1
 
 
-def at_points(data: RadarData, points: np.ndarray, memory_budget: float = 2e8) -> np.ndarray:
-    """I(p) at scattered points in air, float64.
+def at_points(
+    data: RadarData, points: np.ndarray, memory_budget: float = 2e8, medium=None
+) -> np.ndarray:
+    """I(p) at scattered points, float64.
 
     Parameters
     ----------
     data : RadarData
+        As recorded (air-equivalent ranges).
     points : ndarray, shape (M, dim)
         (x, y) for linear arrays, (x, y, z) for planar ones, m.
     memory_budget : float
         Bound on the temporaries, bytes (:data:`BYTES_PER_TERM` per point
-        and antenna of a chunk).
+        and antenna of a chunk, :data:`BYTES_PER_TERM_REFRACTED` above a
+        half-space).
+    medium : rpm_cl.io.medium.Medium, optional
+        A half-space: the ranges are the refracted paths
+        (:func:`rpm_cl.io.medium.one_way`); else straight lines (a
+        homogeneous medium's data go in as its equivalent air scene,
+        :func:`rpm_cl.io.medium.in_medium`).
 
     Returns
     -------
@@ -101,11 +110,15 @@ def at_points(data: RadarData, points: np.ndarray, memory_budget: float = 2e8) -
     sig = np.ascontiguousarray(data.signal.reshape(-1, data.range.size), np.complex128)
     k2 = 4 * np.pi * data.waveform.fc / C0
     out = np.empty(points.shape[0], np.complex128)
-    step = max(1, int(memory_budget // (BYTES_PER_TERM * len(ant))))
+    refr = medium if medium is not None and medium.half_space else None
+    per = BYTES_PER_TERM if refr is None else BYTES_PER_TERM_REFRACTED
+    step = max(1, int(memory_budget // (per * len(ant))))
     a_idx = np.arange(len(ant))[None, :]
     for lo in range(0, points.shape[0], step):
         hi = min(points.shape[0], lo + step)
-        i, w0, w1 = weights(p3[lo:hi], ant, float(data.range[0]), data.dr, data.range.size, k2)
+        i, w0, w1 = weights(
+            p3[lo:hi], ant, float(data.range[0]), data.dr, data.range.size, k2, refr
+        )
         w0 *= sig[a_idx, i]
         w1 *= sig[a_idx, i + 1]
         w0 += w1

@@ -67,6 +67,7 @@ __all__ = [
     "paraxial_data",
     "point_on_ray",
     "ray_through",
+    "recorded_data",
     "seen_data",
     "virtual_centre",
 ]
@@ -211,6 +212,26 @@ def paraxial_data(data: RadarData, medium: Medium) -> RadarData:
         range=data.range * scale + offset,
         waveform=Waveform(w.fc / scale, w.bandwidth / scale),
         spectrum=None,  # the paraxial scene is no scaling of the samples
+    )
+
+
+def recorded_data(seen: RadarData, medium: Medium) -> RadarData:
+    """The data as recorded (air-equivalent ranges, the radar's own carrier)
+    back from the half-space's paraxial scene :func:`paraxial_data` made of
+    them; ``seen`` itself unless ``medium.half_space``.  The samples the
+    paraxial scene dropped stay dropped."""
+    if not medium.half_space:
+        return seen
+    from .data import Waveform
+
+    _, scale, offset = paraxial(medium)
+    w = seen.waveform
+    sig = seen.signal * np.exp(2j * w.kc * offset).astype(seen.signal.dtype)
+    return replace(
+        seen,
+        signal=sig,
+        range=(seen.range - offset) / scale,
+        waveform=Waveform(w.fc * scale, w.bandwidth * scale),
     )
 
 

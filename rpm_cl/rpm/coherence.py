@@ -48,9 +48,10 @@ target are local peaks of their own: on 41 antennas at 2 cm at 20 GHz with
 0.2 GHz of band the test kept points 13-45 mm from a target on side lobes
 and dropped those 4-11 mm from it.
 
-The test is off for planar arrays (their RPs come one per antenna and echo,
-and a surface has no isolated peak) and above a half-space (the engine's
-data there are the paraxial scene).
+Above a half-space the sums follow the refracted paths of the data as
+recorded.  The test is off for planar arrays (a surface has no isolated
+peak to test against, and a sum over 27,000 antennas per point would cost
+more than the image).
 """
 
 from __future__ import annotations
@@ -115,7 +116,7 @@ def crossrange_resolution(x: np.ndarray, points: np.ndarray, fc: float, reach_de
 
 
 def coherent_keep(
-    data: RadarData, points: np.ndarray, threshold_db: float, reach_deg: float
+    data: RadarData, points: np.ndarray, threshold_db: float, reach_deg: float, medium=None
 ) -> np.ndarray:
     """Which points sit on a peak of the coherent image (module notes).
 
@@ -130,6 +131,12 @@ def coherent_keep(
         a point's own may lie.
     reach_deg : float
         The antennas' reach (:func:`crossrange_resolution`).
+    medium : rpm_cl.io.medium.Medium, optional
+        A half-space, with ``data`` as recorded: the sums follow the
+        refracted paths, and the resolution is the material's wavelength's
+        seen from the paraxial virtual antennas
+        (:func:`rpm_cl.io.medium.paraxial`).  Else ``data`` is the scene in
+        air (a homogeneous medium's equivalent air scene).
 
     Returns
     -------
@@ -140,7 +147,14 @@ def coherent_keep(
     points = np.asarray(points, np.float64)
     if points.shape[0] == 0:
         return np.zeros(0, bool)
-    dx = crossrange_resolution(data.array.x, points, data.waveform.fc, reach_deg)
+    half = medium is not None and medium.half_space
+    if half:
+        from ..io.medium import paraxial
+
+        virtual = points - [0.0, paraxial(medium)[0]]
+        dx = crossrange_resolution(data.array.x, virtual, data.waveform.fc * medium.n, reach_deg)
+    else:
+        dx = crossrange_resolution(data.array.x, points, data.waveform.fc, reach_deg)
     radius = RADIUS_CELLS * dx
     lo = points.min(axis=0) - radius.max()
     hi = points.max(axis=0) + radius.max()
@@ -167,12 +181,13 @@ def coherent_keep(
     nodes, owner = np.concatenate(nodes), np.concatenate(owner)
     flat, where = np.unique(nodes, return_inverse=True)
     xy = np.stack([lo[0] + step * (flat // n[1]), lo[1] + step * (flat % n[1])], axis=1)
-    value = np.abs(at_points(data, xy))[where]
+    refr = medium if half else None
+    value = np.abs(at_points(data, xy, medium=refr))[where]
     # each point's largest neighbour: the last of its nodes by value
     order = np.lexsort((value, owner))
     last = order[np.r_[np.flatnonzero(np.diff(owner[order])), order.size - 1]]
     peak, at = value[last], xy[where[last]]
-    own = np.abs(at_points(data, points))
+    own = np.abs(at_points(data, points, medium=refr))
     on = own >= 10.0 ** (threshold_db / 20.0) * peak
     if on.all() or not on.any():
         return on

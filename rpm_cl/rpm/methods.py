@@ -89,9 +89,9 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
 
 def coherent(data: RadarData, image: Image, params: ImagingParams) -> Image:
     """The image without the points beside a scatterer rather than on it
-    (:mod:`rpm_cl.rpm.coherence`): linear arrays in air or a homogeneous
-    medium whose band is wide enough, with ``params.coherence`` on;
-    ``ImageResult.dropped``
+    (:mod:`rpm_cl.rpm.coherence`): linear arrays whose band is wide enough,
+    with ``params.coherence`` on; ``data`` as the method saw them
+    (:func:`rpm_cl.io.medium.seen_data`).  ``ImageResult.dropped``
     counts them."""
     from .coherence import MIN_FRACTIONAL_BANDWIDTH, coherent_keep
 
@@ -99,11 +99,15 @@ def coherent(data: RadarData, image: Image, params: ImagingParams) -> Image:
         not params.coherence
         or data.waveform.bandwidth < MIN_FRACTIONAL_BANDWIDTH * data.waveform.fc
         or data.array.planar
-        or params.medium.half_space
         or image.points.shape[0] == 0
     ):
         return image
-    keep = coherent_keep(data, image.points, params.coherence_db, params.reach_deg)
+    medium = params.medium
+    if medium.half_space:  # the sums follow the refracted paths of the data as recorded
+        from ..io.medium import recorded_data
+
+        data = recorded_data(data, medium)
+    keep = coherent_keep(data, image.points, params.coherence_db, params.reach_deg, medium)
     return image if keep.all() else image.keep(keep)
 
 
