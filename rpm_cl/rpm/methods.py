@@ -62,11 +62,13 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     image = _rpm(rps, params, engine)
     t3 = time.perf_counter()
     n_rpm = len(image.points)
+    # the points beside coherent peaks go first: where they bridge the gap
+    # between two objects, the double-bounce test takes the two for one
+    image = coherent(data, image, params)
+    n_coherent = len(image.points)
     image = _multipath(data, rps, image, params.multipath, params.medium)
     n_single = len(image.points)
     image = in_reach(data.array, rps, image, params.reach_deg)
-    n_reach = len(image.points)
-    image = coherent(data, image, params)
     t4 = time.perf_counter()
     return ImageResult(
         "phase-rpm",
@@ -80,9 +82,9 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
             "total": t4 - t0,
         },
         {
-            "multipath": n_rpm - n_single,
-            "reach": n_single - n_reach,
-            "coherence": n_reach - len(image.points),
+            "coherence": n_rpm - n_coherent,
+            "multipath": n_coherent - n_single,
+            "reach": n_single - len(image.points),
         },
     )
 
