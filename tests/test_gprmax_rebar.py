@@ -144,3 +144,28 @@ def test_default_rpm_puts_its_points_on_the_bars(data, medium, bars, dev32):
         DEFAULT_METHOD, data, default_params(data, eps_r=medium.eps_r, coherence=False), dev32
     ).image
     assert (_to_boundary(off.points, bars) <= 0.020).any(axis=1).mean() < 0.70
+
+
+def test_without_a_background_run_the_coupling_is_removed_by_default(tmp_path, medium, bars, dev32):
+    """A real B-scan comes without a target-free run: converted without one,
+    the direct coupling at range 0 is the strongest echo at every antenna,
+    28 dB above the bars'.  The default background ("auto") removes the
+    mean trace: at least 85 % of the points within 20 mm of a bar and at
+    least 10 on each shallow bar.  With "none" the coupling sets the
+    decomposition's threshold and not one point lies on a bar."""
+    from rpm_cl.extract.preprocess import coupling_dominates
+    from rpm_cl.imaging import DEFAULT_METHOD, run_method
+    from rpm_cl.rpm.params import default_params
+
+    path = tmp_path / "raw.npz"
+    G.save_spectrum(path, G.convert(TARGETS, None, BAND, sidecar=SCENE))
+    raw = load_data(path)
+    assert coupling_dominates(raw)
+    pts = run_method(DEFAULT_METHOD, raw, default_params(raw, eps_r=medium.eps_r), dev32)
+    near = _to_boundary(pts.image.points, bars) <= 0.020
+    assert near.any(axis=1).mean() >= 0.85
+    assert np.all(np.delete(near.sum(axis=0), DEEP) >= 10)
+    none = run_method(
+        DEFAULT_METHOD, raw, default_params(raw, eps_r=medium.eps_r, background="none"), dev32
+    ).image.points
+    assert len(none) == 0 or not (_to_boundary(none, bars) <= 0.020).any()

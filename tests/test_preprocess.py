@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from rpm_cl.extract.preprocess import preprocess
+from rpm_cl.extract.preprocess import COUPLING_SHARE, coupling_dominates, preprocess
 from rpm_cl.imaging import run_method
 from rpm_cl.io.data import Array, InputError, RadarData, Waveform
 from rpm_cl.rpm import reference
@@ -28,7 +28,46 @@ def scene():
 
 
 def test_all_off_is_the_data_itself(scene):
-    assert preprocess(scene[1]) is scene[1]
+    assert preprocess(scene[1], background="none") is scene[1]
+    # auto: no coupling in the clean scene, nothing done
+    assert preprocess(scene[0]) is scene[0]
+
+
+def test_auto_background_removes_a_dominant_coupling(scene):
+    """The leaky scene's strongest echo, at 30 mm at every antenna alike, is
+    a coupling: auto removes the mean profile, as "mean" does; the clean
+    scene's strongest echo walks across the array and is left alone."""
+    clean, leaky = scene
+    assert coupling_dominates(leaky) and not coupling_dominates(clean)
+    np.testing.assert_array_equal(preprocess(leaky).signal, preprocess(leaky, "mean").signal)
+    # counted from time zero: set beyond the echo, it is no coupling there
+    assert not coupling_dominates(leaky, time_zero=0.05)
+    # a planar array's common echo may be a flat sample's surface: kept
+    planar = Array(X[:8], X[:6])
+    n = 48
+    flat = synthesize(np.arange(n), np.full(n, 0.03), np.ones(n), n, WF, AXIS)
+    pd = RadarData(flat.reshape(8, 6, -1), planar, AXIS, WF)
+    assert not coupling_dominates(pd)
+    lin = RadarData(flat.reshape(48, -1)[:31], Array(X), AXIS, WF)
+    assert coupling_dominates(lin)
+
+
+def test_auto_background_wants_a_common_echo():
+    """An echo at the same range at every antenna but with a phase that
+    changes across the scan (a tilted plate's specular flash is not; a
+    target's range walk below a gate is) is no coupling: the antennas' mean
+    keeps under COUPLING_SHARE of its power."""
+    n = X.size
+    rng = np.random.default_rng(3)
+    amp = np.exp(1j * rng.uniform(-np.pi, np.pi, n))
+    echo = synthesize(np.arange(n), np.full(n, 0.03), np.ones(n), n, WF, AXIS)
+    gate = np.argmin(np.abs(AXIS - 0.03))
+    assert coupling_dominates(RadarData(echo, Array(X), AXIS, WF))
+    mixed = echo * amp[:, None]
+    assert not coupling_dominates(RadarData(mixed, Array(X), AXIS, WF))
+    assert np.abs(mixed[:, gate].mean()) ** 2 < COUPLING_SHARE * np.mean(
+        np.abs(mixed[:, gate]) ** 2
+    )
 
 
 def test_background_removal_takes_what_every_antenna_sees(scene):

@@ -68,7 +68,8 @@ _EXTRA_DOCS = {
     "objects explains (rpm_cl.rpm.multipath) are dropped ('drop'), or kept with a "
     "'multipath' column in the result ('flag').",
     "background": "Before imaging (rpm_cl.extract.preprocess): subtract the mean or median range "
-    "profile over the antennas per gate ('none', 'mean', 'median').",
+    "profile over the antennas per gate ('mean', 'median'), nothing ('none'), or the mean "
+    "where a B-scan's strongest echo is the antennas' own coupling ('auto').",
     "time_zero": "Before imaging: this range becomes 0 (the antenna's own pulse, or the "
     "surface echo of a ground-coupled antenna), m; earlier gates are dropped.",
     "gain_db_per_m": "Before imaging: amplitudes times 10^(g R / 20), a gain of g dB per "

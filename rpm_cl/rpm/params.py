@@ -236,7 +236,7 @@ class ImagingParams:
     reach_deg: float = REACH_DEG_DEFAULT
     coherence: bool = True
     coherence_db: float = COHERENCE_DB_DEFAULT
-    background: Literal["none", "mean", "median"] = "none"
+    background: Literal["auto", "none", "mean", "median"] = "auto"
     time_zero: float = 0.0
     gain_db_per_m: float = 0.0
     max_range: float | None = None
