@@ -246,3 +246,38 @@ def test_touching_does_not_depend_on_where_cells_end():
     bridge = [[1.5 * t, 1, 0], [2.5 * t, 1, 0], [3.5 * t, 1, 0]]
     assert joined([[0, 1, 0]], [[4.2 * t, 1, 0]], bridge)
     assert not joined([[0, 1, 0]], [[7 * t, 1, 0]], bridge)
+
+
+@pytest.mark.parametrize("half_space", [False, True])
+def test_leg_pairs_are_those_the_exact_level_test_keeps(half_space):
+    """The stacked level test (multipath._Legs) returns exactly the pairs,
+    in the loop's order, whose double bounce (double_bounce) lies within
+    the tolerance, on random clusters of random sizes; and nothing the
+    ``keep`` table rules out."""
+    from rpm_cl.io.medium import Medium
+    from rpm_cl.rpm import multipath
+
+    rng = np.random.default_rng(21)
+    medium = Medium(4.0, 0.05) if half_space else None
+    legs = multipath._Legs(medium)
+    clusters = []
+    for _ in range(14):
+        m = int(rng.integers(1, multipath.MAX_OBJECT_POINTS + 1))
+        centre = np.array([rng.uniform(-0.3, 0.3), rng.uniform(0.2, 0.6), 0.0])
+        c = centre + rng.normal(0, 0.02, (m, 3)) * [1, 1, 0]
+        clusters.append(c)
+        legs.add(c)
+    one = np.array([[rng.uniform(-0.2, 0.2), 0.0, 0.0]])
+    all_pairs = [(i, j) for i in range(14) for j in range(i + 1, 14)]
+    ranges = {
+        p: multipath.double_bounce(one, clusters[p[0]], clusters[p[1]], medium)[0]
+        for p in all_pairs
+    }
+    keep = np.ones((14, 14), bool)
+    for r in np.quantile(list(ranges.values()), [0.2, 0.5, 0.8]):
+        tol = 0.03
+        want = [p for p in all_pairs if abs(r - ranges[p]) <= tol]
+        assert want and legs.candidates(one, r, tol, keep) == want
+    keep[0, :] = keep[:, 0] = False
+    got = legs.candidates(one, float(np.median(list(ranges.values()))), 10.0, keep)
+    assert got == [p for p in all_pairs if 0 not in p]

@@ -62,13 +62,15 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     image = _rpm(rps, params, engine)
     t3 = time.perf_counter()
     n_rpm = len(image.points)
-    # the points beside coherent peaks go first: where they bridge the gap
-    # between two objects, the double-bounce test takes the two for one
+    # points no antenna could have made go first, then those beside coherent
+    # peaks (where they bridge the gap between two objects, the double-bounce
+    # test takes the two for one); the double-bounce test, whose cost grows
+    # with the clusters, sees what is left
+    image = in_reach(data.array, rps, image, params.reach_deg)
+    n_reach = len(image.points)
     image = coherent(data, image, params)
     n_coherent = len(image.points)
     image = _multipath(data, rps, image, params.multipath, params.medium)
-    n_single = len(image.points)
-    image = in_reach(data.array, rps, image, params.reach_deg)
     t4 = time.perf_counter()
     return ImageResult(
         "phase-rpm",
@@ -82,9 +84,9 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
             "total": t4 - t0,
         },
         {
-            "coherence": n_rpm - n_coherent,
-            "multipath": n_coherent - n_single,
-            "reach": n_single - len(image.points),
+            "reach": n_rpm - n_reach,
+            "coherence": n_reach - n_coherent,
+            "multipath": n_coherent - len(image.points),
         },
     )
 

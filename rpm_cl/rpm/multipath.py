@@ -171,6 +171,7 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
     order = sorted(np.unique(cl_img), key=lambda c: float(np.median(rps.range[cl_rp == c])))
     accepted, strength = [], []
     objects = _Objects()
+    legs = _Legs(medium)
     for c in order:
         ant = _spread(positions[np.unique(np.asarray(rps.antenna)[cl_rp == c])], MAX_OBJECT_POINTS)
         mine = pts3[cl_img == c]
@@ -184,29 +185,25 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
         # space a double bounce is imaged in
         ghost = False
         on_found = objects.covered(mine) > 0.5
-        for i in range(len(accepted) * (not on_found)):
-            for j in range(i + 1, len(accepted)):
-                if amp > GHOST_AMP * min(strength[i], strength[j]):
-                    continue
-                if objects.same(i, j):
-                    continue
-                if (
-                    abs(rr[k] - double_bounce(one, accepted[i], accepted[j], medium)[0])
-                    > LEVEL_TOL * resolution
-                ):
-                    continue
-                g = ghost_points(ant, accepted[i], accepted[j], medium)
-                if len(g) == 0:
-                    continue
-                centre = np.median(g, axis=0)
-                legs = min(
-                    float(np.linalg.norm(centre - np.median(accepted[i], axis=0))),
-                    float(np.linalg.norm(centre - np.median(accepted[j], axis=0))),
-                )
-                if _median_gap(mine, g, centre_xyz) < GHOST_TOL * legs:
-                    ghost = True
-                    break
-            if ghost:
+        pairs = []
+        if not on_found and len(accepted) > 1:
+            # both legs stronger than the cluster by GHOST_AMP, and two
+            # objects, not two parts of one
+            strong = amp <= GHOST_AMP * np.asarray(strength)
+            roots = np.array([objects.root(i) for i in range(len(accepted))])
+            keep = strong[:, None] & strong[None, :] & (roots[:, None] != roots[None, :])
+            pairs = legs.candidates(one, rr[k], LEVEL_TOL * resolution, keep)
+        for i, j in pairs:
+            g = ghost_points(ant, accepted[i], accepted[j], medium)
+            if len(g) == 0:
+                continue
+            centre = np.median(g, axis=0)
+            gap = min(
+                float(np.linalg.norm(centre - np.median(accepted[i], axis=0))),
+                float(np.linalg.norm(centre - np.median(accepted[j], axis=0))),
+            )
+            if _median_gap(mine, g, centre_xyz) < GHOST_TOL * gap:
+                ghost = True
                 break
         if ghost:
             flags[cl_img == c] = True
@@ -214,7 +211,86 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
             accepted.append(_spread(mine, MAX_OBJECT_POINTS))
             strength.append(amp)
             objects.add(mine)
+            legs.add(accepted[-1])
     return flags
+
+
+class _Legs:
+    """The accepted clusters as legs of double bounces, stacked so that the
+    level test of every pair runs at once.
+
+    :meth:`candidates` returns, in the order the test takes them (i < j,
+    lexicographic), the pairs whose double-bounce range at an antenna lies
+    within the tolerance of the cluster's (:func:`double_bounce` over the
+    stacked points).  Pairs whose range cannot: the exact range ``R_AB``
+    lies between ``(d_i + D_ij + d_j) / 2`` (the least of each part, ``D``
+    the least distance between two clusters' points) and the path through
+    the two points nearest the antenna, so only pairs within those bounds
+    are formed.  Testing pair by pair made the filter cubic in the clusters:
+    110 s for the 518 clusters of a 200-antenna line over eighteen bars.
+    """
+
+    #: Pairs whose ranges are formed at once (each a (32, 32) table).
+    CHUNK = 2048
+
+    def __init__(self, medium=None):
+        self.medium = medium
+        self.scale = 1.0 if medium is None else medium.n
+        self.points = np.full((0, MAX_OBJECT_POINTS, 3), np.nan)
+        self.gap = np.zeros((0, 0))
+
+    def _one_way(self, one: np.ndarray) -> np.ndarray:
+        """Leg lengths (clusters, MAX_OBJECT_POINTS) from ``one`` (1, 3) to
+        every stacked point (inf at the padding)."""
+        p = self.points
+        if self.medium is None:
+            d = np.linalg.norm(p - one[0], axis=2)
+        else:
+            from ..io.medium import one_way
+
+            d = one_way(self.medium, one[None], np.nan_to_num(p))
+        return np.where(np.isnan(p[..., 0]), np.inf, d)
+
+    def add(self, points: np.ndarray) -> None:
+        n = len(self.points)
+        row = np.zeros((1, MAX_OBJECT_POINTS, 3))
+        row[0, : len(points)] = points
+        row[0, len(points) :] = np.nan
+        d = np.linalg.norm(self.points[:, :, None, :] - points[None, None], axis=3)
+        gap = np.zeros((n + 1, n + 1))
+        gap[:n, :n] = self.gap
+        gap[n, :n] = gap[:n, n] = self.scale * np.nanmin(d, axis=(1, 2)) if n else []
+        self.gap = gap
+        self.points = np.concatenate([self.points, row])
+
+    def candidates(self, one: np.ndarray, r: float, tol: float, keep) -> list:
+        """Pairs (i, j), i < j, that ``keep`` (a (n, n) bool table) allows,
+        whose double bounce seen from ``one`` (1, 3) lies within ``tol`` of
+        range ``r``."""
+        n = len(self.points)
+        if n < 2:
+            return []
+        legs = self._one_way(one)  # (n, P)
+        near = np.argmin(legs, axis=1)
+        d = legs[np.arange(n), near]
+        best = self.points[np.arange(n), near]
+        through = self.scale * np.linalg.norm(best[:, None] - best[None], axis=2)
+        low = 0.5 * (d[:, None] + self.gap + d[None, :])
+        high = 0.5 * (d[:, None] + through + d[None, :])
+        ok = (low <= r + tol) & (high >= r - tol) & keep
+        i, j = np.nonzero(np.triu(ok, 1))
+        out = []
+        for c0 in range(0, len(i), self.CHUNK):
+            a, b = i[c0 : c0 + self.CHUNK], j[c0 : c0 + self.CHUNK]
+            ab = self.scale * np.linalg.norm(
+                self.points[a][:, :, None, :] - self.points[b][:, None, :, :], axis=3
+            )
+            total = legs[a][:, :, None] + ab + legs[b][:, None, :]
+            total = np.where(np.isnan(total), np.inf, total)
+            rab = 0.5 * total.reshape(len(a), -1).min(axis=1)
+            hit = np.abs(r - rab) <= tol
+            out.extend(zip(a[hit].tolist(), b[hit].tolist()))
+        return out
 
 
 #: A TOUCH cell's offsets to itself and its 26 neighbours, shape (27, 3).
@@ -265,6 +341,10 @@ class _Objects:
     def same(self, i: int, j: int) -> bool:
         return self._root(i) == self._root(j)
 
+    def root(self, i: int) -> int:
+        """The object of accepted cluster ``i``."""
+        return self._root(i)
+
 
 def _median_gap(p: np.ndarray, q: np.ndarray, centre: np.ndarray) -> float:
     """Median over ``p`` of the distance to the nearest point of ``q``, m,
@@ -300,7 +380,10 @@ def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray, medium=None
     """
     r = double_bounce(antennas, a, b, medium)
     grad = np.zeros((len(antennas), 3))
-    for axis in (0, 2):
+    # everything in the plane z = 0 (a linear array's scene): the range is
+    # even in z there, its z slope exactly 0
+    flat = not (antennas[:, 2].any() or a[:, 2].any() or b[:, 2].any())
+    for axis in (0,) if flat else (0, 2):
         e = np.zeros(3)
         e[axis] = GRADIENT_STEP
         grad[:, axis] = (
