@@ -79,6 +79,10 @@ def test_crossrange_resolution_by_hand():
     # off to one side: only one side's antennas, a coarser resolution
     side = crossrange_resolution(x, np.array([[0.9, 0.5]]), 10e9, 90.0)
     assert side[0] > 2 * got[0]
+    # only the antennas that saw the point count: x in [-0.1, 0.2]
+    few = crossrange_resolution(x, p, 10e9, 90.0, seen=np.array([[-0.1, 0.2]]))
+    s = x[(x >= -0.1) & (x <= 0.2)] / np.hypot(x[(x >= -0.1) & (x <= 0.2)], 0.5)
+    assert few[0] == pytest.approx(lam / (2 * (s.max() - s.min())), rel=1e-9)
 
 
 def _two_targets(snr=None):

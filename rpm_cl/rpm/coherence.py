@@ -20,7 +20,9 @@ beside something, not on it.
 What is done
 ------------
 For a linear array, per point ``p`` with the antennas within ``reach_deg``
-of boresight seen from it:
+of boresight seen from it and among those whose echoes made it (its
+cluster's RPs: a real antenna's beam, not the array's length, sets the
+aperture an echo is seen over):
 
 - the cross-range resolution ``dx(p) = lambda_c / (2 (sin t_max - sin
   t_min))`` over the angles ``t`` (from boresight) at which those antennas
@@ -83,7 +85,9 @@ STEP_CELLS = 0.25
 MAX_CELLS = 6
 
 
-def crossrange_resolution(x: np.ndarray, points: np.ndarray, fc: float, reach_deg: float):
+def crossrange_resolution(
+    x: np.ndarray, points: np.ndarray, fc: float, reach_deg: float, seen=None
+) -> np.ndarray:
     """Cross-range resolution of a linear array at each point, m.
 
     Parameters
@@ -97,16 +101,21 @@ def crossrange_resolution(x: np.ndarray, points: np.ndarray, fc: float, reach_de
     reach_deg : float
         Antennas farther than this from boresight, seen from the point, do
         not count.
+    seen : ndarray, shape (M, 2), optional
+        Per point the first and last x of the antennas that saw it (those of
+        its cluster's RPs): the others do not count either.
 
     Returns
     -------
     ndarray, shape (M,)
         ``lambda_c / (2 span)``, span the spread of ``sin t`` over the
-        antennas in reach (of all antennas where none is).
+        antennas that count (over all antennas where none does).
     """
     lat = x[None, :] - points[:, 0:1]
     s = lat / np.hypot(lat, points[:, 1:2])
     inside = np.abs(s) <= np.sin(np.radians(min(reach_deg, 90.0)))
+    if seen is not None:
+        inside &= (x[None, :] >= seen[:, 0:1]) & (x[None, :] <= seen[:, 1:2])
     hi = np.where(inside, s, -np.inf).max(axis=1)
     lo = np.where(inside, s, np.inf).min(axis=1)
     none = ~inside.any(axis=1)
@@ -116,7 +125,12 @@ def crossrange_resolution(x: np.ndarray, points: np.ndarray, fc: float, reach_de
 
 
 def coherent_keep(
-    data: RadarData, points: np.ndarray, threshold_db: float, reach_deg: float, medium=None
+    data: RadarData,
+    points: np.ndarray,
+    threshold_db: float,
+    reach_deg: float,
+    medium=None,
+    seen=None,
 ) -> np.ndarray:
     """Which points sit on a peak of the coherent image (module notes).
 
@@ -137,6 +151,9 @@ def coherent_keep(
         seen from the paraxial virtual antennas
         (:func:`rpm_cl.io.medium.paraxial`).  Else ``data`` is the scene in
         air (a homogeneous medium's equivalent air scene).
+    seen : ndarray, shape (M, 2), optional
+        Per point the first and last x of the antennas whose echoes made it
+        (:func:`crossrange_resolution`); None: every antenna in reach.
 
     Returns
     -------
@@ -152,9 +169,11 @@ def coherent_keep(
         from ..io.medium import paraxial
 
         virtual = points - [0.0, paraxial(medium)[0]]
-        dx = crossrange_resolution(data.array.x, virtual, data.waveform.fc * medium.n, reach_deg)
+        dx = crossrange_resolution(
+            data.array.x, virtual, data.waveform.fc * medium.n, reach_deg, seen
+        )
     else:
-        dx = crossrange_resolution(data.array.x, points, data.waveform.fc, reach_deg)
+        dx = crossrange_resolution(data.array.x, points, data.waveform.fc, reach_deg, seen)
     radius = RADIUS_CELLS * dx
     lo = points.min(axis=0) - radius.max()
     hi = points.max(axis=0) + radius.max()

@@ -68,7 +68,7 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     # with the clusters, sees what is left
     image = in_reach(data.array, rps, image, params.reach_deg)
     n_reach = len(image.points)
-    image = coherent(data, image, params)
+    image = coherent(data, rps, image, params)
     n_coherent = len(image.points)
     image = _multipath(data, rps, image, params.multipath, params.medium)
     t4 = time.perf_counter()
@@ -91,7 +91,7 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     )
 
 
-def coherent(data: RadarData, image: Image, params: ImagingParams) -> Image:
+def coherent(data: RadarData, rps: RangePoints, image: Image, params: ImagingParams) -> Image:
     """The image without the points beside a scatterer rather than on it
     (:mod:`rpm_cl.rpm.coherence`): linear arrays whose band is wide enough,
     with ``params.coherence`` on; ``data`` as the method saw them
@@ -111,7 +111,13 @@ def coherent(data: RadarData, image: Image, params: ImagingParams) -> Image:
         from ..io.medium import recorded_data
 
         data = recorded_data(data, medium)
-    keep = coherent_keep(data, image.points, params.coherence_db, params.reach_deg, medium)
+    # the antennas that saw each point: those of its cluster's RPs (sorted
+    # by cluster)
+    ids, first = np.unique(np.asarray(rps.cluster), return_index=True)
+    x = np.asarray(rps.x, np.float64)
+    at = np.searchsorted(ids, np.asarray(image.cluster))
+    seen = np.column_stack([np.minimum.reduceat(x, first)[at], np.maximum.reduceat(x, first)[at]])
+    keep = coherent_keep(data, image.points, params.coherence_db, params.reach_deg, medium, seen)
     return image if keep.all() else image.keep(keep)
 
 
