@@ -94,3 +94,20 @@ def test_paper_2d_example_meets_the_paper_at_20db():
     # points within 100 mm; one noise realisation, so a few points of slack
     assert s["rp_within_10mm"] >= 0.85 * s["rp_total"]
     assert s["rpm_within_100mm"] >= 0.90 * s["rpm_total"]
+
+
+def test_gpr_bscan_images_the_bars_and_draws_three_panels(tmp_path):
+    """The rebar fixture without its background run, as a real B-scan comes:
+    at least 85 % of phase-rpm's points within 20 mm of a bar's outline,
+    at least 5 points on each of the five shallow bars, and the picture
+    written."""
+    png = tmp_path / "gpr.png"
+    out = _main("gpr_bscan.py")(png=str(png))
+    bars, pts = out["bars"], out["rpm"].image.points
+    assert np.mean(out["distance"] <= 0.02) >= 0.85
+    d = np.abs(
+        np.hypot(pts[:, None, 0] - bars[None, :, 0], pts[:, None, 1] - bars[None, :, 1])
+        - bars[None, :, 2]
+    )
+    assert np.all((d[:, :5] <= 0.02).sum(axis=0) >= 5)
+    assert png.stat().st_size > 10_000
