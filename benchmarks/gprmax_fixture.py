@@ -229,18 +229,12 @@ def run_gprmax(python, name, n_traces, work, threads):
     return merged, sec, log
 
 
-def run_scan(name, targets, work, threads, python):
-    """Run the 41 traces of one scan with gprMax and merge them; returns
-    (merged path, seconds, log path)."""
-    with open(os.path.join(work, f"{name}.in"), "w") as fh:
-        fh.write(input_file(f"rpm-cl fixture: {name}", targets, threads))
-    return run_gprmax(python, name, N_SCAN, work, threads)
-
-
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def fixture_args(doc: str, folder: str):
+    """The command line of a fixture script (``doc`` its docstring, ``folder``
+    its default under tests/data): --out, --threads, --python, --keep."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument(
-        "--out", default=os.path.join(os.path.dirname(__file__), "..", "tests", "data", "gprmax")
+        "--out", default=os.path.join(os.path.dirname(__file__), "..", "tests", "data", folder)
     )
     ap.add_argument("--threads", type=int, default=1, help="OpenMP threads of gprMax (default 1)")
     ap.add_argument(
@@ -251,7 +245,76 @@ def main():
     ap.add_argument(
         "--keep", help="a folder where gprMax's input files, logs and per-trace outputs are kept"
     )
-    args = ap.parse_args()
+    return ap.parse_args()
+
+
+def run_pair(out, work, n_traces, threads, python, write_input):
+    """Run the targets' and the background's scans (``write_input(name,
+    with_targets)`` gives each one's input file text), copy the merged
+    outputs to ``out``; returns each scan's gprMax seconds."""
+    runs = {}
+    for name, targets in (("targets", True), ("background", False)):
+        with open(os.path.join(work, f"{name}.in"), "w") as fh:
+            fh.write(write_input(name, targets))
+        merged, sec, _ = run_gprmax(python, name, n_traces, work, threads)
+        runs[name] = sec
+        print(f"{name}: {n_traces} traces in {sec:.1f} s (gprMax, {threads} thread(s))")
+        shutil.copyfile(merged, os.path.join(out, f"{name}_merged.h5"))
+    return runs
+
+
+def read_pair(out, what="scattered"):
+    """The merged B-scans in ``out``: prints their peaks and that of the
+    difference (``what`` names it); returns (iterations, dt, positions)."""
+    import h5py
+
+    with (
+        h5py.File(os.path.join(out, "targets_merged.h5"), "r") as f,
+        h5py.File(os.path.join(out, "background_merged.h5"), "r") as g,
+    ):
+        a, b = f["rxs/rx1/Ez"][()], g["rxs/rx1/Ez"][()]
+        its, dt_file = int(f.attrs["Iterations"]), float(f.attrs["dt"])
+        pos = f["trace_metadata/rxs/rx1/Position"][()]
+    scat = a - b
+    print(
+        f"Ez {a.shape} ({a.dtype}); background peak {np.abs(b).max():.3g} V/m, "
+        f"{what} peak {np.abs(scat).max():.3g} V/m "
+        f"({20 * np.log10(np.abs(scat).max() / np.abs(b).max()):.1f} dB)"
+    )
+    return its, dt_file, pos
+
+
+def fdtd_record(cell, pml_cells, domain, window, dt_file, its, threads, runs):
+    """The ``fdtd`` entry of a fixture's scene.json."""
+    return {
+        "mode": "2-D TM",
+        "cell": cell,
+        "domain": list(domain),
+        "pml_cells": pml_cells,
+        "time_window": window,
+        "dt": dt_file,
+        "iterations": its,
+        "precision": "double",
+        "threads": threads,
+        "seconds": {k: round(v, 1) for k, v in runs.items()},
+    }
+
+
+def write_scene(out, scene):
+    """Write ``out/scene.json`` and print the fixture's files and size."""
+    with open(os.path.join(out, "scene.json"), "w") as fh:
+        json.dump(scene, fh, indent=1)
+        fh.write("\n")
+    total = 0
+    for name in ("targets_merged.h5", "background_merged.h5", "scene.json"):
+        size = os.path.getsize(os.path.join(out, name))
+        total += size
+        print(f"wrote {os.path.join(out, name)} ({size / 1e3:.0f} kB)")
+    print(f"fixture: {total / 1e6:.2f} MB")
+
+
+def main():
+    args = fixture_args(__doc__, "gprmax")
     import gprMax
 
     dt, f40, _, xs, dist, checks = check_settings()
@@ -285,27 +348,15 @@ def main():
     work = args.keep or tempfile.mkdtemp(prefix="gprmax-fixture-")
     os.makedirs(work, exist_ok=True)
     try:
-        runs = {}
-        for name, targets in (("targets", True), ("background", False)):
-            merged, sec, _ = run_scan(name, targets, work, args.threads, args.python)
-            runs[name] = sec
-            print(f"{name}: {N_SCAN} traces in {sec:.1f} s (gprMax, {args.threads} thread(s))")
-            shutil.copyfile(merged, os.path.join(args.out, f"{name}_merged.h5"))
-        import h5py
-
-        with (
-            h5py.File(os.path.join(args.out, "targets_merged.h5"), "r") as f,
-            h5py.File(os.path.join(args.out, "background_merged.h5"), "r") as g,
-        ):
-            a, b = f["rxs/rx1/Ez"][()], g["rxs/rx1/Ez"][()]
-            its, dt_file = int(f.attrs["Iterations"]), float(f.attrs["dt"])
-            pos = f["trace_metadata/rxs/rx1/Position"][()]
-        scat = a - b
-        print(
-            f"Ez {a.shape} ({a.dtype}); direct field peak {np.abs(b).max():.3g} V/m, "
-            f"scattered peak {np.abs(scat).max():.3g} V/m "
-            f"({20 * np.log10(np.abs(scat).max() / np.abs(b).max()):.1f} dB)"
+        runs = run_pair(
+            args.out,
+            work,
+            N_SCAN,
+            args.threads,
+            args.python,
+            lambda name, targets: input_file(f"rpm-cl fixture: {name}", targets, args.threads),
         )
+        its, dt_file, pos = read_pair(args.out)
         assert np.allclose(pos[:, 0], xs) and np.allclose(pos[:, 1], SCAN_Y)
         scene = {
             "description": "gprMax 2-D TM B-scan fixture of rpm-cl (benchmarks/gprmax_fixture.py);"
@@ -330,29 +381,12 @@ def main():
                     "material": "pec",
                 }
             ],
-            "fdtd": {
-                "mode": "2-D TM",
-                "cell": DX,
-                "domain": list(DOMAIN),
-                "pml_cells": PML_CELLS,
-                "time_window": TIME_WINDOW,
-                "dt": dt_file,
-                "iterations": its,
-                "precision": "double",
-                "threads": args.threads,
-                "seconds": {k: round(v, 1) for k, v in runs.items()},
-            },
+            "fdtd": fdtd_record(
+                DX, PML_CELLS, DOMAIN, TIME_WINDOW, dt_file, its, args.threads, runs
+            ),
             "files": {"targets": "targets_merged.h5", "background": "background_merged.h5"},
         }
-        with open(os.path.join(args.out, "scene.json"), "w") as fh:
-            json.dump(scene, fh, indent=1)
-            fh.write("\n")
-        total = 0
-        for name in ("targets_merged.h5", "background_merged.h5", "scene.json"):
-            size = os.path.getsize(os.path.join(args.out, name))
-            total += size
-            print(f"wrote {os.path.join(args.out, name)} ({size / 1e3:.0f} kB)")
-        print(f"fixture: {total / 1e6:.2f} MB")
+        write_scene(args.out, scene)
     finally:
         if not args.keep:
             shutil.rmtree(work, ignore_errors=True)

@@ -54,19 +54,20 @@ It prints the settings, gprMax's run time of each scan and the sizes written.
 
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import os
 import shutil
-import sys
 import tempfile
 
 import numpy as np
 from gprmax_fixture import (  # this folder: the same runs and Ricker
+    fdtd_record,
+    fixture_args,
     frequency_at_db,
+    read_pair,
     ricker_db,
-    run_gprmax,
+    run_pair,
+    write_scene,
 )
 
 C0 = 299_792_458.0
@@ -178,31 +179,8 @@ def input_file(title, rods: bool, threads: int, window: float) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_scan(name, rods, work, threads, python, window):
-    """Run the traces of one scan with gprMax and merge them; returns
-    (merged path, seconds)."""
-    with open(os.path.join(work, f"{name}.in"), "w") as fh:
-        fh.write(input_file(f"rpm-cl half-space fixture: {name}", rods, threads, window))
-    merged, sec, _ = run_gprmax(python, name, N_SCAN, work, threads)
-    return merged, sec
-
-
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument(
-        "--out",
-        default=os.path.join(os.path.dirname(__file__), "..", "tests", "data", "gprmax_halfspace"),
-    )
-    ap.add_argument("--threads", type=int, default=1, help="OpenMP threads of gprMax (default 1)")
-    ap.add_argument(
-        "--python",
-        default=sys.executable,
-        help="the Python that has gprMax installed (default: this one)",
-    )
-    ap.add_argument(
-        "--keep", help="a folder where gprMax's input files, logs and per-trace outputs are kept"
-    )
-    args = ap.parse_args()
+    args = fixture_args(__doc__, "gprmax_halfspace")
     import gprMax
 
     dt, f40, _, xs, ranges, window, checks = check_settings()
@@ -241,27 +219,17 @@ def main():
     work = args.keep or tempfile.mkdtemp(prefix="gprmax-halfspace-")
     os.makedirs(work, exist_ok=True)
     try:
-        runs = {}
-        for name, rods in (("targets", True), ("background", False)):
-            merged, sec = run_scan(name, rods, work, args.threads, args.python, window)
-            runs[name] = sec
-            print(f"{name}: {N_SCAN} traces in {sec:.1f} s (gprMax, {args.threads} thread(s))")
-            shutil.copyfile(merged, os.path.join(args.out, f"{name}_merged.h5"))
-        import h5py
-
-        with (
-            h5py.File(os.path.join(args.out, "targets_merged.h5"), "r") as f,
-            h5py.File(os.path.join(args.out, "background_merged.h5"), "r") as g,
-        ):
-            a, b = f["rxs/rx1/Ez"][()], g["rxs/rx1/Ez"][()]
-            its, dt_file = int(f.attrs["Iterations"]), float(f.attrs["dt"])
-            pos = f["trace_metadata/rxs/rx1/Position"][()]
-        scat = a - b
-        print(
-            f"Ez {a.shape} ({a.dtype}); background peak {np.abs(b).max():.3g} V/m, "
-            f"rods' echoes peak {np.abs(scat).max():.3g} V/m "
-            f"({20 * np.log10(np.abs(scat).max() / np.abs(b).max()):.1f} dB)"
+        runs = run_pair(
+            args.out,
+            work,
+            N_SCAN,
+            args.threads,
+            args.python,
+            lambda name, rods: input_file(
+                f"rpm-cl half-space fixture: {name}", rods, args.threads, window
+            ),
         )
+        its, dt_file, pos = read_pair(args.out, "rods' echoes")
         y_ant = SURFACE_Y + ANTENNA_HEIGHT
         assert np.allclose(pos[:, 0], xs) and np.allclose(pos[:, 1], y_ant)
         scene = {
@@ -293,29 +261,10 @@ def main():
                 for r in RODS
             ],
             "band": list(BAND),
-            "fdtd": {
-                "mode": "2-D TM",
-                "cell": DX,
-                "domain": list(DOMAIN),
-                "pml_cells": PML_CELLS,
-                "time_window": window,
-                "dt": dt_file,
-                "iterations": its,
-                "precision": "double",
-                "threads": args.threads,
-                "seconds": {k: round(v, 1) for k, v in runs.items()},
-            },
+            "fdtd": fdtd_record(DX, PML_CELLS, DOMAIN, window, dt_file, its, args.threads, runs),
             "files": {"targets": "targets_merged.h5", "background": "background_merged.h5"},
         }
-        with open(os.path.join(args.out, "scene.json"), "w") as fh:
-            json.dump(scene, fh, indent=1)
-            fh.write("\n")
-        total = 0
-        for name in ("targets_merged.h5", "background_merged.h5", "scene.json"):
-            size = os.path.getsize(os.path.join(args.out, name))
-            total += size
-            print(f"wrote {os.path.join(args.out, name)} ({size / 1e3:.0f} kB)")
-        print(f"fixture: {total / 1e6:.2f} MB")
+        write_scene(args.out, scene)
     finally:
         if not args.keep:
             shutil.rmtree(work, ignore_errors=True)

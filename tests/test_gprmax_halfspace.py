@@ -23,18 +23,18 @@ RPM's points come from single range points, not from a coherent sum).
 """
 
 import json
-from pathlib import Path
 
+import gprmax_scenes
 import numpy as np
 import pytest
 
 from rpm_cl.baselines.peaks import image_peaks
 from rpm_cl.io import gprmax as G
 from rpm_cl.io.data import DataWarning
-from rpm_cl.io.formats import load_data, range_compress
+from rpm_cl.io.formats import range_compress
 from rpm_cl.io.medium import Medium, one_way
 
-DATA = Path(__file__).parent / "data" / "gprmax_halfspace"
+DATA = gprmax_scenes.DATA / "gprmax_halfspace"
 TARGETS = DATA / "targets_merged.h5"
 BACKGROUND = DATA / "background_merged.h5"
 SCENE = DATA / "scene.json"
@@ -43,24 +43,19 @@ BAND = (1e9, 3e9)
 
 @pytest.fixture(scope="module")
 def scene():
-    return json.loads(SCENE.read_text())
+    return gprmax_scenes.scene("gprmax_halfspace")
 
 
 @pytest.fixture(scope="module")
 def data(tmp_path_factory):
-    path = tmp_path_factory.mktemp("hs") / "scan.npz"
-    G.save_spectrum(path, G.convert(TARGETS, BACKGROUND, BAND, sidecar=SCENE))
-    return load_data(path)
+    return gprmax_scenes.converted("gprmax_halfspace", BAND, tmp_path_factory.mktemp("hs"))
 
 
 @pytest.fixture(scope="module")
 def rods(scene):
     """(x, y, radius) of each rod in the engine's frame (y down from the
     antennas), m."""
-    ys = scene["scan"]["y"]
-    return np.array(
-        [(c["centre"][0], ys - c["centre"][1], c["radius"]) for c in scene["cylinders"]]
-    )
+    return gprmax_scenes.cylinders(scene)
 
 
 @pytest.fixture(scope="module")
@@ -71,13 +66,7 @@ def medium(scene):
     return m
 
 
-def _to_boundary(points, rods):
-    """Distance (points, rods) of each point to each rod's surface, m."""
-    p = np.asarray(points, np.float64)
-    return np.abs(
-        np.hypot(p[:, None, 0] - rods[None, :, 0], p[:, None, 1] - rods[None, :, 1])
-        - rods[None, :, 2]
-    )
+_to_boundary = gprmax_scenes.to_boundary
 
 
 def _peaks_at_rods(image, x, y, rods, tol):
