@@ -15,7 +15,8 @@ antennas metres away make hundreds of clusters (the default imaging in the
 medium, ``eps_r = 6``: the coupling is removed by the default background).
 Printed: RPs, clusters, each stage's time (``multipath`` covers the point
 filters: reach, coherence, double bounces), the points each filter drops,
-the points and the share within 30 mm of a bar.
+the points, the share within 30 mm of a bar and the points deeper than
+0.5 m (the bars lie 0.11-0.134 m down).
 """
 
 from __future__ import annotations
@@ -74,7 +75,10 @@ def main(argv=None) -> int:
         + ", ".join(f"{k} {1e3 * v:.0f}" for k, v in res.timings.items())
     )
     print("dropped: " + ", ".join(f"{k} {v}" for k, v in res.dropped.items()))
-    print(f"{len(pts)} points, {100 * np.mean(d <= 0.03):.1f} % within 30 mm of a bar")
+    print(
+        f"{len(pts)} points, {100 * np.mean(d <= 0.03):.1f} % within 30 mm of a bar, "
+        f"{int(np.sum(pts[:, 1] > 0.5))} deeper than 0.5 m"
+    )
     return 0
 
 

@@ -155,6 +155,8 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
     # in a medium the method runs on the scene of rpm_cl.io.medium.seen_data
     # (in air: ``data`` itself)
     result = imager.run(seen_data(data, medium), params, engine)
+    if np.size(result.rps.range) == 0:
+        _warn_empty(data, params)
     if not medium.air:  # RPs as measured: air-equivalent ranges
         from dataclasses import replace
 
@@ -195,6 +197,27 @@ def prepared(data: RadarData, params: ImagingParams) -> tuple[RadarData, Imaging
         if power is not None:
             params = replace(params, kspace=replace(params.kspace, noise_power=power))
     return out, params
+
+
+def _warn_empty(data: RadarData, params: ImagingParams) -> None:
+    """One line where the RPM family found no range point in data that hold
+    echoes: where the strongest echo is, and what to try."""
+    import warnings
+
+    from .io.data import DataWarning
+
+    s = np.abs(data.signal.reshape(-1, data.range.size))
+    if not s.max() > 0:
+        return
+    g = int(np.median(s.argmax(axis=1)))
+    warnings.warn(
+        f"no range point passed the thresholds; the strongest echo lies at range "
+        f"{data.range[g]:.3g} m at most antennas (background {params.background!r}): "
+        f"if that is the antennas' coupling or a surface, try --background mean or "
+        f"--time-zero past it, else a lower --peak-threshold-db",
+        DataWarning,
+        stacklevel=3,
+    )
 
 
 def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
