@@ -213,3 +213,18 @@ def test_sum_at_points_follows_the_refracted_paths():
     got = at_points(data, pts, medium=m)
     np.testing.assert_allclose(got, img[i, i], rtol=1e-12)
     assert np.abs(got - at_points(data, pts)).max() > 0.1 * np.abs(got).max()
+
+
+def test_sum_at_points_on_a_long_line_leaves_out_only_silent_antennas():
+    """A 3 m line whose range axis ends at 0.6 m: each point is summed over
+    the antennas within 0.6 m of it only (the others' ranges lie beyond the
+    axis), which must give the written-out sum over every antenna."""
+    rng = np.random.default_rng(17)
+    x = np.linspace(-1.5, 1.5, 60)
+    r = 0.05 + 5e-3 * np.arange(110)  # to 0.595 m
+    sig = rng.normal(size=(60, r.size)) + 1j * rng.normal(size=(60, r.size))
+    data = RadarData(sig, Array(x), r, Waveform(2e9, 1e9))
+    pts = np.column_stack([rng.uniform(-1.6, 1.6, 50), rng.uniform(0.1, 0.5, 50)])
+    got = at_points(data, pts, memory_budget=2e4)  # several chunks
+    want = np.array([_loop_sum(data, p) for p in pts])
+    np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-10 * np.abs(want).max())

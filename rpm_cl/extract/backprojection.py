@@ -112,15 +112,38 @@ def at_points(
     out = np.empty(points.shape[0], np.complex128)
     refr = medium if medium is not None and medium.half_space else None
     per = BYTES_PER_TERM if refr is None else BYTES_PER_TERM_REFRACTED
-    step = max(1, int(memory_budget // (per * len(ant))))
-    a_idx = np.arange(len(ant))[None, :]
-    for lo in range(0, points.shape[0], step):
-        hi = min(points.shape[0], lo + step)
+    for rows, cols in _chunks(p3, ant, float(data.range[-1]), memory_budget, per, refr):
         i, w0, w1 = weights(
-            p3[lo:hi], ant, float(data.range[0]), data.dr, data.range.size, k2, refr
+            p3[rows], ant[cols], float(data.range[0]), data.dr, data.range.size, k2, refr
         )
-        w0 *= sig[a_idx, i]
-        w1 *= sig[a_idx, i + 1]
+        w0 *= sig[cols[None, :], i]
+        w1 *= sig[cols[None, :], i + 1]
         w0 += w1
-        out[lo:hi] = w0.sum(axis=1)
+        out[rows] = w0.sum(axis=1)
+    return out
+
+
+def _chunks(p3: np.ndarray, ant: np.ndarray, r_max: float, budget: float, per: int, refr):
+    """(point rows, antenna columns) chunks of :func:`at_points`, each at
+    most ``budget`` bytes of temporaries.  On a linear array in straight
+    lines the points go in order of x and each chunk takes only the
+    antennas within ``r_max`` (the range axis's end) of one of its points:
+    the others' ranges lie beyond the axis, where their weights are 0, so
+    the sums are those over every antenna (a 2000-trace line with a 1.5 m
+    axis sums a tenth of them)."""
+    n = max(1, int(budget // (per * len(ant))))
+    every = np.arange(len(ant))
+    if refr is not None or ant[:, 2].any():
+        return [(np.arange(lo, min(len(p3), lo + n)), every) for lo in range(0, len(p3), n)]
+    order = np.argsort(p3[:, 0], kind="stable")
+    by_x = np.argsort(ant[:, 0], kind="stable")
+    xs = ant[by_x, 0]
+    out = []
+    for lo in range(0, len(order), n):
+        rows = order[lo : lo + n]
+        a = np.searchsorted(xs, float(p3[rows, 0].min()) - r_max, "left")
+        b = np.searchsorted(xs, float(p3[rows, 0].max()) + r_max, "right")
+        # in the array's order, as the sum over every antenna takes them
+        cols = np.sort(by_x[a:b]) if b > a else every[:1]
+        out.append((rows, cols))
     return out
