@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..extract.backprojection import BYTES_PER_TERM, BYTES_PER_TERM_REFRACTED
+from ..extract.backprojection import BYTES_PER_TERM, BYTES_PER_TERM_REFRACTED, antennas, summed
 from ..extract.backprojection import weights as _weights
 from ..io.data import C0, InputError, RadarData
 from ..io.images import GRID_COORD_MAX, Grid, check_disk, parse_grid, write_image
@@ -68,12 +68,7 @@ def _geometry(data: RadarData, grid: Grid):
     if grid.dim != data.array.dim:
         kind = "planar (3-D)" if data.array.planar else "linear (2-D)"
         raise InputError(f"a {kind} array needs a {data.array.dim}-axis grid, got {grid.dim} axes")
-    pos = data.array.positions()
-    ant = np.zeros((pos.shape[0], 3))
-    ant[:, 0] = pos[:, 0]
-    if data.array.planar:
-        ant[:, 2] = pos[:, 2]
-    return ant
+    return antennas(data.array)
 
 
 #: Largest and smallest nonzero signal amplitude a float32 DAS image holds:
@@ -151,20 +146,14 @@ def das_numpy(
     data, refr = _seen(data, medium)
     ant = _geometry(data, grid)
     sig = np.ascontiguousarray(data.signal.reshape(-1, data.range.size), np.complex128)
-    nr = data.range.size
     k2 = 4 * np.pi * data.waveform.fc / C0
     if out is None:
         out = np.empty(grid.shape, np.complex128)
     flat = out.reshape(-1)
     step = _chunk_voxels(len(ant), memory_budget, _per(refr))
-    a_idx = np.arange(len(ant))[None, :]
     for lo in range(0, grid.size, step):
         hi = min(grid.size, lo + step)
-        i, w0, w1 = _weights(grid.points(lo, hi), ant, float(data.range[0]), data.dr, nr, k2, refr)
-        w0 *= sig[a_idx, i]
-        w1 *= sig[a_idx, i + 1]
-        w0 += w1
-        flat[lo:hi] = w0.sum(axis=1)
+        flat[lo:hi] = summed(grid.points(lo, hi), ant, sig, float(data.range[0]), data.dr, k2, refr)
         if progress:
             progress(hi, grid.size)
     return out

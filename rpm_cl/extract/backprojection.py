@@ -15,7 +15,14 @@ import numpy as np
 
 from ..io.data import C0, InputError, RadarData
 
-__all__ = ["BYTES_PER_TERM", "BYTES_PER_TERM_REFRACTED", "at_points", "weights"]
+__all__ = [
+    "BYTES_PER_TERM",
+    "BYTES_PER_TERM_REFRACTED",
+    "antennas",
+    "at_points",
+    "summed",
+    "weights",
+]
 
 #: Bytes per (point, antenna) of a chunk's temporaries: straight lines
 #: (the measured peak of :func:`weights` and the gather), and refracted
@@ -72,6 +79,29 @@ def weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: f
     return i.astype(np.int64), ph, w1
 
 
+def antennas(array) -> np.ndarray:
+    """The antennas (x, 0, z) of an :class:`rpm_cl.io.data.Array`, m, shape
+    (A, 3) (z = 0 for a linear array)."""
+    pos = array.positions()
+    ant = np.zeros((pos.shape[0], 3))
+    ant[:, 0] = pos[:, 0]
+    if array.planar:
+        ant[:, 2] = pos[:, 2]
+    return ant
+
+
+def summed(p3, ant, sig, r0: float, dr: float, k2: float, medium=None) -> np.ndarray:
+    """I(p) at points ``p3`` (n, 3) over the antennas ``ant`` (A, 3) whose
+    profiles are the rows of ``sig`` (A, nr), complex128: :func:`weights`,
+    the gather of the two samples and the sum, shape (n,)."""
+    i, w0, w1 = weights(p3, ant, r0, dr, sig.shape[1], k2, medium)
+    rows = np.arange(len(ant))[None, :]
+    w0 *= sig[rows, i]
+    w1 *= sig[rows, i + 1]
+    w0 += w1
+    return w0.sum(axis=1)
+
+
 def at_points(
     data: RadarData, points: np.ndarray, memory_budget: float = 2e8, medium=None
 ) -> np.ndarray:
@@ -100,11 +130,7 @@ def at_points(
     points = np.asarray(points, np.float64)
     if points.ndim != 2 or points.shape[1] != data.array.dim:
         raise InputError(f"points must have shape (M, {data.array.dim}), got {points.shape}")
-    pos = data.array.positions()
-    ant = np.zeros((pos.shape[0], 3))
-    ant[:, 0] = pos[:, 0]
-    if data.array.planar:
-        ant[:, 2] = pos[:, 2]
+    ant = antennas(data.array)
     p3 = np.zeros((points.shape[0], 3))
     p3[:, : points.shape[1]] = points
     sig = np.ascontiguousarray(data.signal.reshape(-1, data.range.size), np.complex128)
@@ -113,13 +139,7 @@ def at_points(
     refr = medium if medium is not None and medium.half_space else None
     per = BYTES_PER_TERM if refr is None else BYTES_PER_TERM_REFRACTED
     for rows, cols in _chunks(p3, ant, float(data.range[-1]), memory_budget, per, refr):
-        i, w0, w1 = weights(
-            p3[rows], ant[cols], float(data.range[0]), data.dr, data.range.size, k2, refr
-        )
-        w0 *= sig[cols[None, :], i]
-        w1 *= sig[cols[None, :], i + 1]
-        w0 += w1
-        out[rows] = w0.sum(axis=1)
+        out[rows] = summed(p3[rows], ant[cols], sig[cols], float(data.range[0]), data.dr, k2, refr)
     return out
 
 
