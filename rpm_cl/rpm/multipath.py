@@ -169,7 +169,7 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
     cl_img = np.asarray(image.cluster)
     cl_rp = np.asarray(rps.cluster)
     order = sorted(np.unique(cl_img), key=lambda c: float(np.median(rps.range[cl_rp == c])))
-    accepted, strength = [], []
+    strength = []
     objects = _Objects()
     legs = _Legs(medium)
     for c in order:
@@ -186,21 +186,21 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
         ghost = False
         on_found = objects.covered(mine) > 0.5
         pairs = []
-        if not on_found and len(accepted) > 1:
+        if not on_found and len(legs.clusters) > 1:
             # both legs stronger than the cluster by GHOST_AMP, and two
             # objects, not two parts of one
             strong = amp <= GHOST_AMP * np.asarray(strength)
-            roots = np.array([objects.root(i) for i in range(len(accepted))])
+            roots = np.array([objects.root(i) for i in range(len(legs.clusters))])
             keep = strong[:, None] & strong[None, :] & (roots[:, None] != roots[None, :])
             pairs = legs.candidates(one, rr[k], LEVEL_TOL * resolution, keep)
         for i, j in pairs:
-            g = ghost_points(ant, accepted[i], accepted[j], medium)
+            g = ghost_points(ant, legs.clusters[i], legs.clusters[j], medium)
             if len(g) == 0:
                 continue
             centre = np.median(g, axis=0)
             gap = min(
-                float(np.linalg.norm(centre - np.median(accepted[i], axis=0))),
-                float(np.linalg.norm(centre - np.median(accepted[j], axis=0))),
+                float(np.linalg.norm(centre - legs.medians[i])),
+                float(np.linalg.norm(centre - legs.medians[j])),
             )
             if _median_gap(mine, g, centre_xyz) < GHOST_TOL * gap:
                 ghost = True
@@ -208,10 +208,9 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
         if ghost:
             flags[cl_img == c] = True
         else:
-            accepted.append(_spread(mine, MAX_OBJECT_POINTS))
             strength.append(amp)
             objects.add(mine)
-            legs.add(accepted[-1])
+            legs.add(_spread(mine, MAX_OBJECT_POINTS))
     return flags
 
 
@@ -236,6 +235,10 @@ class _Legs:
     def __init__(self, medium=None):
         self.medium = medium
         self.scale = 1.0 if medium is None else medium.n
+        #: each accepted cluster's points (at most MAX_OBJECT_POINTS), their
+        #: median, and the points stacked (NaN-padded) for the level test
+        self.clusters: list[np.ndarray] = []
+        self.medians: list[np.ndarray] = []
         self.points = np.full((0, MAX_OBJECT_POINTS, 3), np.nan)
         self.gap = np.zeros((0, 0))
 
@@ -262,6 +265,8 @@ class _Legs:
         gap[n, :n] = gap[:n, n] = self.scale * np.nanmin(d, axis=(1, 2)) if n else []
         self.gap = gap
         self.points = np.concatenate([self.points, row])
+        self.clusters.append(points)
+        self.medians.append(np.median(points, axis=0))
 
     def candidates(self, one: np.ndarray, r: float, tol: float, keep) -> list:
         """Pairs (i, j), i < j, that ``keep`` (a (n, n) bool table) allows,
