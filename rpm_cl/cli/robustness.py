@@ -48,7 +48,10 @@ __all__ = [
     "SNRS",
     "Geometry",
     "crb",
+    "direction_cells",
+    "hits",
     "loaded_data",
+    "random_geometry",
     "region",
     "run",
     "synthesize",
@@ -148,6 +151,56 @@ GEOMETRY_3D = Geometry(
     ((-0.10, 0.60, 0.02, 0.06), (0.08, 0.70, -0.05, 0.08), (0.02, 0.55, 0.10, 0.04)),
     tol=0.02,
 )
+
+
+def random_geometry(seed: int, min_separation: float = 0.06) -> Geometry:
+    """A narrow-band 2-D scene drawn at random from the envelope of
+    :data:`GEOMETRIES_2D` (and of the paper's 2-D case): carrier 20-24 GHz,
+    band 0.2-0.25 GHz, 32-128 frequencies, 21-31 antennas at 4-5 mm, three
+    or four point targets at 0.35-0.5 m within +-35 degrees of broadside, at
+    least ``min_separation`` (m) apart.  Targets may lie closer in direction
+    than the k-space window, or than the aperture resolves.
+
+    Parameters
+    ----------
+    seed : int
+        The scene's generator seed (named ``r<seed>``).
+    """
+    rng = np.random.default_rng(seed)
+    fc = rng.uniform(20e9, 24e9)
+    band = rng.uniform(0.2e9, 0.25e9)
+    nf = int(rng.choice([32, 51, 64, 101, 128]))
+    nx, pitch = int(rng.integers(21, 32)), float(rng.uniform(4e-3, 5e-3))
+    nt = int(rng.integers(3, 5))
+    while True:
+        pts = np.array(
+            [_polar(r, a) for r, a in zip(rng.uniform(0.35, 0.5, nt), rng.uniform(-35, 35, nt))]
+        )
+        gap = np.linalg.norm(pts[:, None] - pts[None], axis=2) + np.eye(nt)
+        if gap.min() >= min_separation:
+            break
+    return Geometry(f"r{seed}", fc, band, nf, (nx, pitch), None, tuple(map(tuple, pts)))
+
+
+def direction_cells(g: Geometry) -> np.ndarray:
+    """Per target of a 2-D scene, its direction's distance to the nearest
+    other target's, in the aperture's resolution cells: the two-way
+    wavenumber difference ``2 k_c |sin a - sin b|`` over ``2 pi / L``."""
+    t = np.asarray(g.targets, float)
+    s = t[:, 0] / np.hypot(t[:, 0], t[:, 1])
+    kc = 2 * np.pi * g.fc / C0
+    cell = 2 * np.pi / ((g.x[0] - 1) * g.x[1])
+    d = np.abs(s[:, None] - s[None]) + np.diag(np.full(len(s), np.inf))
+    return 2 * kc * d.min(axis=1) / cell
+
+
+def hits(points: np.ndarray, g: Geometry) -> np.ndarray:
+    """Per target of a 2-D scene, whether a point lies within ``g.tol`` of it."""
+    p = np.asarray(points, float).reshape(-1, 2)
+    c = np.asarray(g.targets, float)
+    if not len(p):
+        return np.zeros(len(c), bool)
+    return np.min(np.linalg.norm(p[:, None] - c[None], axis=2), axis=0) < g.tol
 
 
 def _axis(spec) -> np.ndarray:
@@ -322,10 +375,7 @@ def _score(points: np.ndarray, g: Geometry, boundary: np.ndarray):
     p = np.asarray(points, float)
     d = np.min(np.linalg.norm(p[:, None, :] - boundary[None], axis=2), axis=1)
     if g.dim == 2:
-        centres = np.asarray(g.targets, float)
-        hit = int(
-            np.sum(np.min(np.linalg.norm(p[:, None] - centres[None], axis=2), axis=0) < g.tol)
-        )
+        hit = int(np.sum(hits(p, g)))
     else:
         hit = 0
         for cx, cy, cz, rho in g.targets:

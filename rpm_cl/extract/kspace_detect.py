@@ -94,10 +94,12 @@ def _window_max(a: np.ndarray, at: np.ndarray, size, mode) -> np.ndarray:
     return out
 
 
-def _nms_size(data: RadarData, periods, k_axes):
+def _nms_size(data: RadarData, periods, k_axes, close: bool = False):
     """The non-maximum suppression neighbourhood of the centres (module
     notes, step 2): a quarter window period in k, half a range resolution
-    in R.
+    in R.  ``close`` (``KSpaceParams.close_centres``, linear arrays): in k
+    at most one aperture resolution cell ``2 pi / L``, the closest two
+    directions the aperture tells apart.
 
     Returns
     -------
@@ -114,6 +116,9 @@ def _nms_size(data: RadarData, periods, k_axes):
         2 * int(np.ceil(NMS_K_PERIODS * periods[a] / abs(k_axes[a][1] - k_axes[a][0]))) + 1
         for a in range(n_k)
     ]
+    if close and n_k == 1:
+        cell = 2 * np.pi / max(float(np.ptp(data.array.x)), 1e-12)
+        size[0] = min(size[0], 2 * int(np.ceil(cell / abs(k_axes[0][1] - k_axes[0][0]))) + 1)
     size = [min(s_, len(k)) for s_, k in zip(size, k_axes)]
     half_r = int(np.ceil(0.5 * data.waveform.range_resolution / dr))
     size.append(2 * half_r + 1)

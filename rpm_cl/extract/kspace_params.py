@@ -30,6 +30,14 @@ class KSpaceParams:
         Raised-cosine window period (full width) along k_x, rad/m (paper: 417).
     window_z : float or None
         Same along k_z for planar arrays, rad/m; None = ``window_x``.
+    close_centres : bool or None
+        Keep cluster centres down to one aperture resolution cell ``2 pi /
+        L`` apart in k on linear arrays (step 2 of the module notes), rather
+        than a quarter window period: targets closer in direction than that
+        (7 degrees at broadside for the paper's period at 21 GHz) then get a
+        centre each.  None (default): the method decides: phase-rpm does,
+        kspace-rpm (the paper's method) does not.  Planar arrays keep the
+        quarter period.
     pad : int
         Zero-padding factor of the FFT along each array axis (1 .. PAD_MAX = 64).
     peak_threshold_db : float
@@ -79,6 +87,7 @@ class KSpaceParams:
 
     window_x: float = 417.0
     window_z: float | None = None
+    close_centres: bool | None = None
     pad: int = 4
     peak_threshold_db: float = -20.0
     range_gate: float | None = None
@@ -110,5 +119,9 @@ class KSpaceParams:
             np.isfinite(self.noise_power) and self.noise_power >= 0
         ):
             raise InputError(f"noise_power must be >= 0 or None, got {self.noise_power}")
+        if self.close_centres not in (None, True, False):
+            raise InputError(
+                f"close_centres must be True, False or None, got {self.close_centres!r}"
+            )
         if self.near_field not in (None, True, False):
             raise InputError(f"near_field must be True, False or None, got {self.near_field!r}")

@@ -9,6 +9,7 @@ extraction sees them (:func:`rpm_cl.io.medium.seen_data`) and returns an
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -45,12 +46,15 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     from ..extract.phase import phase_ranges
 
     t0 = time.perf_counter()
+    ks = params.kspace
+    if ks.close_centres is None:  # targets closer in direction than a window
+        ks = replace(ks, close_centres=True)
     plan = segment_plan(data, _strongest_range)
     parts, spent = [], 0.0
     for antennas, kept in plan or [(slice(None), slice(None))]:
         part = data if plan is None else segment_data(data, antennas)
         ta = time.perf_counter()
-        dec = decompose(part, params.kspace, getattr(engine, "env", None))
+        dec = decompose(part, ks, getattr(engine, "env", None))
         spent += time.perf_counter() - ta
         rps = rps_from_decomposition(part, dec, params.rp_threshold_db)
         if not dec.near_field and dec.clusters:
@@ -138,8 +142,6 @@ def _multipath(
     """The image without (``"drop"``) or with flags on (``"flag"``) the
     points of double-bounce clusters (:mod:`rpm_cl.rpm.multipath`); above a
     half-space the double bounces' paths refract (``medium``)."""
-    from dataclasses import replace
-
     from .multipath import flag_multipath
 
     resolution = data.waveform.range_resolution
