@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import math
 import re
 import types
@@ -226,6 +227,10 @@ def _section_classes() -> dict:
 def settings() -> list[Setting]:
     """Every settable field, in section order then field order.
 
+    Read once per process (the dataclasses do not change while it runs;
+    the parser asks for them once per subcommand, 18 times, which took 0.14
+    s of a 0.8 s ``rpm-cl image``).
+
     Raises
     ------
     TypeError
@@ -233,6 +238,11 @@ def settings() -> list[Setting]:
         ``Literal`` of those nor one of them ``| None`` (a programming error,
         found by the tests).
     """
+    return list(_settings())
+
+
+@functools.cache
+def _settings() -> tuple[Setting, ...]:
     out = []
     for section, cls in _section_classes().items():
         hints = typing.get_type_hints(cls)
@@ -254,11 +264,11 @@ def settings() -> list[Setting]:
             )
             out.append(Setting(section, f.name, *kind, default, docs.get(f.name, "")))
     names = [s.name for s in out]
-    return [
+    return tuple(
         dataclasses.replace(
             s,
             flag="--"
             + (s.name if names.count(s.name) == 1 else f"{s.section}_{s.name}").replace("_", "-"),
         )
         for s in out
-    ]
+    )
