@@ -63,6 +63,45 @@ def test_degenerate_tracks_fit_nothing():
     assert np.isnan(e) and n == 0
 
 
+def _short_tracks(rng, n_tracks, eps=8.0, depth=0.08, noise=0.004):
+    """Tracks of bars ``depth`` under ten antennas at 10 mm in ``eps``, as
+    short as shallow bars leave them, the ranges with Gaussian noise (m)."""
+    x = np.arange(10) * 0.01
+    ax, ar, acl = [], [], []
+    for t in range(n_tracks):
+        x0 = x.mean() + rng.uniform(-0.02, 0.02)
+        ar.append(np.sqrt(eps) * np.hypot(x - x0, depth) + rng.normal(0.0, noise, x.size))
+        ax.append(x)
+        acl.append(np.full(x.size, t))
+    xs = np.concatenate(ax)
+    ant = np.round(xs / 0.01).astype(int)
+    rps = RangePoints(ant, xs, None, np.concatenate(ar), np.ones(xs.size), np.concatenate(acl))
+    return np.column_stack([x, np.zeros_like(x)]), rps
+
+
+def test_short_tracks_pool_their_errors():
+    """Four short tracks, none pinning eps_r to 5 % alone (7-15 % each):
+    together they do (the pooled inverse-variance error), and the estimate
+    lies within 10 % of the truth; one such track alone reports nothing."""
+    rng = np.random.default_rng(11)
+    pos, rps = _short_tracks(rng, 4)
+    alone = [
+        track_eps_r(rps.x[rps.cluster == c], None, rps.range[rps.cluster == c]) for c in range(4)
+    ]
+    assert all(se > 0.05 * e for e, se in alone)
+    fitted, n = fit_eps_r(pos, rps)
+    assert n == 4 and fitted == pytest.approx(8.0, rel=0.1)
+    one = RangePoints(
+        *(np.asarray(a)[rps.cluster == 0] for a in (rps.antenna, rps.x)),
+        None,
+        rps.range[rps.cluster == 0],
+        rps.amp[rps.cluster == 0],
+        rps.cluster[rps.cluster == 0],
+    )
+    e, n = fit_eps_r(pos, one)
+    assert np.isnan(e) and n == 0
+
+
 def test_tracks_follow_each_echo():
     """The linker gives each target one track over the whole array, its
     ranges within a tenth of the range resolution of the true ones."""
