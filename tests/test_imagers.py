@@ -84,6 +84,33 @@ def test_default_grid_covers_the_echoes(paper2d):
     assert default_grid(paper2d).size <= 1_000_000
 
 
+@pytest.mark.parametrize("offset", [0.0, 0.05])
+def test_echo_span_of_a_wrapped_main_lobe(offset):
+    """A 0.2 GHz sweep (64 samples) of point targets 0.4-0.5 m away,
+    compressed over its whole 47 m unambiguous range: the Hann main lobe
+    (1.5 m) of the nearest echo wraps to the axis' far end, which is not
+    an echo 47 m away.  The span stays at the scene; with the axis
+    shifted off 0 it is no compressed circle and keeps the plain rule."""
+    from dataclasses import replace
+
+    from rpm_cl.cli.robustness import GEOMETRIES_2D, loaded_data, synthesize
+
+    g = GEOMETRIES_2D[0]
+    spec, f, _ = synthesize(g, None)
+    data = loaded_data(g, spec, f)
+    assert data.range[-1] > 40
+    power = np.sum(np.abs(data.signal) ** 2, axis=0)
+    assert power[-1] > 1e-3 * power.max()  # the wrapped lobe is there
+    if offset:
+        data = replace(data, range=data.range + offset)
+        lo, hi = echo_span(data)
+        assert hi == pytest.approx(data.range[-1])
+        return
+    lo, hi = echo_span(data)
+    assert lo == data.range[0]
+    assert 0.5 < hi < 0.5 + 2.5 * data.waveform.range_resolution
+
+
 def test_reach_filter():
     pos = np.array([[-0.05, 0.0], [0.05, 0.0]])
     pts = np.array([[0.0, 0.1], [0.05, 0.001], [0.5, 0.1], [-0.05 - 0.09, 0.1]])

@@ -58,15 +58,52 @@ ECHO_SPAN_DB = -30.0
 def echo_span(data: RadarData, floor_db: float = ECHO_SPAN_DB) -> tuple[float, float]:
     """The air-equivalent ranges (first, last) where the profile power
     summed over the antennas reaches ``floor_db`` of its peak, widened by
-    one range resolution each way and clipped to the range axis, m."""
+    one range resolution each way and clipped to the range axis, m.
+
+    A spectrum compressed over its whole unambiguous range (the axis from 0
+    to ``c / 2 df``, as :func:`rpm_cl.io.compress.spectrum_data` makes it)
+    is circular: an echo within a range resolution of 0 has its main lobe's
+    near side at the axis' far end.  There the span is the complement of
+    the longest run of gates below the floor, taken round the circle, and
+    what wraps past the end counts as ranges below 0 (a 0.25 GHz sweep of
+    objects at 0.3-0.6 m spanned its whole 38 m axis, and DAS imaged the
+    wrapped lobe at 37 m).
+    """
     power = profile_power(data.signal, data.range.size)
     if not power.max() > 0:
         return float(data.range[0]), float(data.range[-1])
-    on = np.nonzero(power >= power.max() * 10.0 ** (floor_db / 10.0))[0]
+    above = power >= power.max() * 10.0 ** (floor_db / 10.0)
+    on = np.nonzero(above)[0]
     res = data.waveform.range_resolution
-    lo = max(float(data.range[on[0]]) - res, float(data.range[0]))
-    hi = min(float(data.range[on[-1]]) + res, float(data.range[-1]))
+    first, last = int(on[0]), int(on[-1])
+    if _circular(data) and above[0] and above[-1] and not above.all():
+        # the longest run below the floor, round the circle: the span is
+        # what follows it up to where it starts
+        n = above.size
+        edges = np.diff(np.concatenate([[0], np.tile(~above, 2).astype(np.int8), [0]]))
+        starts, ends = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+        k = int(np.argmax(ends - starts))
+        best, best_end = min(int(ends[k] - starts[k]), n), int(ends[k]) - 1
+        first = (best_end + 1) % n
+        last = (best_end - best) % n
+        if first > last:  # the span wraps: its start is a range below 0
+            first = 0
+    lo = max(float(data.range[first]) - res, float(data.range[0]))
+    hi = min(float(data.range[last]) + res, float(data.range[-1]))
     return lo, hi
+
+
+def _circular(data: RadarData) -> bool:
+    """Whether the range axis is a compressed spectrum's whole unambiguous
+    range ``[0, c / 2 df)`` (within half a gate)."""
+    spec = data.spectrum
+    if spec is None or spec.frequency.size < 2 or data.range.size < 2:
+        return False
+    from ..io.model import C0
+
+    df = abs(float(spec.frequency[1] - spec.frequency[0]))
+    span = float(data.range[-1] - data.range[0]) + data.dr
+    return abs(float(data.range[0])) < 0.5 * data.dr and abs(span - C0 / (2 * df)) < 0.5 * data.dr
 
 
 def _depth(medium: Medium, r: float) -> float:
