@@ -84,31 +84,45 @@ def test_default_grid_covers_the_echoes(paper2d):
     assert default_grid(paper2d).size <= 1_000_000
 
 
-@pytest.mark.parametrize("offset", [0.0, 0.05])
-def test_echo_span_of_a_wrapped_main_lobe(offset):
-    """A 0.2 GHz sweep (64 samples) of point targets 0.4-0.5 m away,
-    compressed over its whole 47 m unambiguous range: the Hann main lobe
-    (1.5 m) of the nearest echo wraps to the axis' far end, which is not
-    an echo 47 m away.  The span stays at the scene; with the axis
-    shifted off 0 it is no compressed circle and keeps the plain rule."""
+def _circle_data(echoes, offset=0.0):
+    """A 1-4 GHz sweep of 101 samples (unambiguous range 5 m) of echoes
+    ``(range m, amplitude)`` seen alike by 5 antennas, loaded as a spectrum
+    file loads (the Hann compression over the whole axis); ``offset`` moves
+    the range axis off 0 (then it is no compressed circle)."""
     from dataclasses import replace
 
-    from rpm_cl.cli.robustness import GEOMETRIES_2D, loaded_data, synthesize
+    from rpm_cl.cli.robustness import Geometry, loaded_data
 
-    g = GEOMETRIES_2D[0]
-    spec, f, _ = synthesize(g, None)
-    data = loaded_data(g, spec, f)
-    assert data.range[-1] > 40
+    g = Geometry("circle", 2.5e9, 3e9, 101, (5, 0.01), None, ((0.0, 1.0),))
+    f = g.fc - g.band / 2 + np.arange(g.nf) * g.band / (g.nf - 1)
+    y = sum(a * np.exp(-4j * np.pi * f * r / 299_792_458.0) for r, a in echoes)
+    data = loaded_data(g, np.tile(y, (5, 1)), f)
+    return replace(data, range=data.range + offset) if offset else data
+
+
+def test_echo_span_of_a_wrapped_main_lobe():
+    """An echo 20 mm away: its Hann main lobe wraps to the far end of the
+    5 m axis, which is not an echo there; the span stays at the scene.  An
+    axis moved off 0 is no compressed circle and keeps the plain rule."""
+    data = _circle_data([(0.02, 1.0)])
+    assert data.range[-1] > 4.9
     power = np.sum(np.abs(data.signal) ** 2, axis=0)
     assert power[-1] > 1e-3 * power.max()  # the wrapped lobe is there
-    if offset:
-        data = replace(data, range=data.range + offset)
-        lo, hi = echo_span(data)
-        assert hi == pytest.approx(data.range[-1])
-        return
+    res = data.waveform.range_resolution
     lo, hi = echo_span(data)
-    assert lo == data.range[0]
-    assert 0.5 < hi < 0.5 + 2.5 * data.waveform.range_resolution
+    assert lo == data.range[0] and hi < 0.02 + 2.5 * res < 1.0
+    lo, hi = echo_span(_circle_data([(0.02, 1.0)], offset=0.05))
+    assert hi == pytest.approx(data.range[-1] + 0.05)
+
+
+@pytest.mark.parametrize("far", [2.6, 4.0])
+def test_echo_span_keeps_far_echoes_on_a_circle(far):
+    """Beside an echo near 0 whose lobe wraps, a weaker echo farther out
+    (2.6 m, or 4 m: 1 m from the axis' end, beyond a wrapped lobe) stays in
+    the span."""
+    data = _circle_data([(0.01, 1.0), (far, 0.3)])
+    lo, hi = echo_span(data)
+    assert lo == data.range[0] and hi > far
 
 
 def test_reach_filter():

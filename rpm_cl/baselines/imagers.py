@@ -63,34 +63,34 @@ def echo_span(data: RadarData, floor_db: float = ECHO_SPAN_DB) -> tuple[float, f
     A spectrum compressed over its whole unambiguous range (the axis from 0
     to ``c / 2 df``, as :func:`rpm_cl.io.compress.spectrum_data` makes it)
     is circular: an echo within a range resolution of 0 has its main lobe's
-    near side at the axis' far end.  There the span is the complement of
-    the longest run of gates below the floor, taken round the circle, and
-    what wraps past the end counts as ranges below 0 (a 0.25 GHz sweep of
-    objects at 0.3-0.6 m spanned its whole 38 m axis, and DAS imaged the
-    wrapped lobe at 37 m).
+    near side at the axis' far end.  Where the gates above the floor touch
+    both ends of such an axis, the run at the far end, when it is no longer
+    than :data:`WRAPPED_LOBE` range resolutions, is that wrapped lobe (ranges
+    below 0) and is left out; every other echo counts (a 0.25 GHz sweep of
+    objects at 0.3-0.6 m otherwise spanned its whole 38 m axis, and DAS
+    imaged the wrapped lobe at 37 m).
     """
     power = profile_power(data.signal, data.range.size)
     if not power.max() > 0:
         return float(data.range[0]), float(data.range[-1])
     above = power >= power.max() * 10.0 ** (floor_db / 10.0)
-    on = np.nonzero(above)[0]
     res = data.waveform.range_resolution
-    first, last = int(on[0]), int(on[-1])
     if _circular(data) and above[0] and above[-1] and not above.all():
-        # the longest run below the floor, round the circle: the span is
-        # what follows it up to where it starts
-        n = above.size
-        edges = np.diff(np.concatenate([[0], np.tile(~above, 2).astype(np.int8), [0]]))
-        starts, ends = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
-        k = int(np.argmax(ends - starts))
-        best, best_end = min(int(ends[k] - starts[k]), n), int(ends[k]) - 1
-        first = (best_end + 1) % n
-        last = (best_end - best) % n
-        if first > last:  # the span wraps: its start is a range below 0
-            first = 0
-    lo = max(float(data.range[first]) - res, float(data.range[0]))
-    hi = min(float(data.range[last]) + res, float(data.range[-1]))
+        tail = int(np.nonzero(~above)[0][-1]) + 1  # the far end's run starts here
+        if data.range[-1] - data.range[tail] <= WRAPPED_LOBE * res:
+            above = above.copy()
+            above[tail:] = False
+    on = np.nonzero(above)[0]
+    lo = max(float(data.range[on[0]]) - res, float(data.range[0]))
+    hi = min(float(data.range[on[-1]]) + res, float(data.range[-1]))
     return lo, hi
+
+
+#: The longest run above the floor at a circular axis' far end that
+#: :func:`echo_span` takes for the wrapped main lobe of an echo near 0,
+#: range resolutions (a Hann main lobe reaches about 1.3 resolutions either
+#: side of its echo at -30 dB).
+WRAPPED_LOBE = 2.0
 
 
 def _circular(data: RadarData) -> bool:
