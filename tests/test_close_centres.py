@@ -48,10 +48,22 @@ def _index(k_axis, k):
 
 
 def test_planar_arrays_keep_the_quarter_period():
-    arr = Array(np.arange(5) * 5e-3, np.arange(4) * 5e-3)
-    data = RadarData(np.zeros((5, 4, 30), complex), arr, np.linspace(0, 1, 30), Waveform(20e9, 3e9))
-    ka = (np.linspace(-600, 600, 20), np.linspace(-600, 600, 16))
-    assert _nms_size(data, (60.0, 60.0), ka, close=True) == _nms_size(data, (60.0, 60.0), ka)
+    """A planar array whose cell (2 pi / 0.05 m = 126 rad/m) is narrower
+    than a quarter of a 600 rad/m window: a linear array of the same
+    extent would shrink the neighbourhood, the planar one does not."""
+    arr = Array(np.arange(11) * 5e-3, np.arange(11) * 5e-3)
+    data = RadarData(
+        np.zeros((11, 11, 30), complex), arr, np.linspace(0, 1, 30), Waveform(20e9, 3e9)
+    )
+    ka = (np.arange(-600, 600, 4.0), np.arange(-600, 600, 4.0))
+    assert _nms_size(data, (600.0, 600.0), ka, close=True) == _nms_size(data, (600.0, 600.0), ka)
+    line = RadarData(
+        np.zeros((11, 30), complex), Array(np.arange(11) * 5e-3), data.range, data.waveform
+    )
+    assert (
+        _nms_size(line, (600.0,), ka[:1], close=True)[0][0]
+        < _nms_size(line, (600.0,), ka[:1])[0][0]
+    )
 
 
 def test_suppression_shrinks_to_one_resolution_cell():
@@ -126,12 +138,11 @@ def test_random_geometry_is_in_the_envelope():
     assert random_geometry(3) == random_geometry(3)
 
 
-def test_random_scenes_benchmark_runs(capsys):
+def test_random_scenes_benchmark_runs(capsys, monkeypatch):
     """``benchmarks/random_scenes.py`` on one scene prints its table."""
-    import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
     import random_scenes
 
     assert random_scenes.main(["--scenes", "1", "--snr", "inf"]) == 0

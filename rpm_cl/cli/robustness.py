@@ -172,13 +172,15 @@ def random_geometry(seed: int, min_separation: float = 0.06) -> Geometry:
     nf = int(rng.choice([32, 51, 64, 101, 128]))
     nx, pitch = int(rng.integers(21, 32)), float(rng.uniform(4e-3, 5e-3))
     nt = int(rng.integers(3, 5))
-    while True:
+    for _ in range(10_000):
         pts = np.array(
             [_polar(r, a) for r, a in zip(rng.uniform(0.35, 0.5, nt), rng.uniform(-35, 35, nt))]
         )
         gap = np.linalg.norm(pts[:, None] - pts[None], axis=2) + np.eye(nt)
         if gap.min() >= min_separation:
             break
+    else:
+        raise ValueError(f"no layout of {nt} targets keeps {min_separation} m apart")
     return Geometry(f"r{seed}", fc, band, nf, (nx, pitch), None, tuple(map(tuple, pts)))
 
 

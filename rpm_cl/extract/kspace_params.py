@@ -37,7 +37,8 @@ class KSpaceParams:
         (7 degrees at broadside for the paper's period at 21 GHz) then get a
         centre each.  None (default): the method decides: phase-rpm does,
         kspace-rpm (the paper's method) does not.  Planar arrays keep the
-        quarter period.
+        quarter period, and the near-field decomposition of sparse arrays
+        (``near_field``) has its own search.
     pad : int
         Zero-padding factor of the FFT along each array axis (1 .. PAD_MAX = 64).
     peak_threshold_db : float
