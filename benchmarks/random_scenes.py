@@ -47,7 +47,8 @@ def main(argv=None):
     snrs = [None if s.strip() == "inf" else float(s) for s in args.snr.split(",")]
     env = create_env()
     engine, das = DeviceRPM(env), DeviceDAS(env)
-    labels = [m[0] for m in METHODS] + ["das peaks"]
+    runs = [*METHODS, ("das peaks", "das", None)]
+    labels = [r[0] for r in runs]
     tally = {}  # (snr, label) -> [within, points, hit, targets, scenes ok, missed cells]
     for seed in range(args.first, args.first + args.scenes):
         g = rb.random_geometry(seed)
@@ -57,11 +58,10 @@ def main(argv=None):
             spec, f, _ = rb.synthesize(g, snr, seed)
             data = rb.loaded_data(g, spec, f)
             row = []
-            for label in labels:
-                if label == "das peaks":
+            for label, method, kw in runs:
+                if kw is None:  # DAS: the peaks of its image, as the robustness benchmark
                     pts = rb._das_points(das, data, g)
                 else:
-                    _, method, kw = next(m for m in METHODS if m[0] == label)
                     params = default_params(data, max_range=rb.region(g), **kw)
                     pts = imaging.run_method(method, data, params, engine).image.points
                 frac, _, _, n = rb._score(pts, g, boundary)

@@ -29,7 +29,6 @@ from rpm_cl.rpm.params import default_params
 PITCH = 4.5e-3
 N = 25
 L = (N - 1) * PITCH
-K_PERIOD = 2 * np.pi / PITCH
 
 
 def _data(nr=40):
@@ -41,10 +40,6 @@ def _data(nr=40):
 def _k_axis(pad=4):
     n = N * pad
     return (np.fft.fftshift(np.fft.fftfreq(n, PITCH)) * 2 * np.pi,)
-
-
-def _index(k_axis, k):
-    return int(np.argmin(np.abs(k_axis - k)))
 
 
 def test_planar_arrays_keep_the_quarter_period():
