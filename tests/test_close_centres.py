@@ -144,3 +144,22 @@ def test_random_scenes_benchmark_runs(capsys, monkeypatch):
     out = capsys.readouterr().out
     assert "r1000 S/N None" in out
     assert out.count("| inf |") == len(random_scenes.METHODS) + 1
+
+
+def test_cluster_subtraction_benchmark_runs(capsys, monkeypatch):
+    """``benchmarks/cluster_subtraction.py`` on one scene prints both rows;
+    its phase-rpm row is the random-scenes benchmark's (the same scene,
+    noise and scoring)."""
+    from pathlib import Path
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import cluster_subtraction
+    import random_scenes
+
+    assert cluster_subtraction.main(["--scenes", "1", "--snr", "inf", "--passes", "1"]) == 0
+    rows = [r for r in capsys.readouterr().out.splitlines() if r.startswith("| inf |")]
+    assert len(rows) == 2 and "others subtracted, 1 passes" in rows[1]
+    assert random_scenes.main(["--scenes", "1", "--snr", "inf"]) == 0
+    ref = [r for r in capsys.readouterr().out.splitlines() if r.startswith("| inf | phase-rpm |")]
+    # within 50 mm, targets hit, scenes all hit: the same in both tables
+    assert rows[0].split("|")[3:6] == ref[0].split("|")[3:6]
