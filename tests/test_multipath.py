@@ -140,9 +140,11 @@ def test_cli_writes_the_flag_column(tmp_path):
 
 
 def test_parts_of_one_object_are_not_each_others_double_bounce(dev32, monkeypatch):
-    """The three spheres on 64 x 64 antennas at 7.5 mm: the decomposition
-    splits each sphere into several clusters, which meet on its surface, and
-    there is no double bounce in the data.  No point is flagged; with every
+    """The three spheres on 64 x 64 antennas at 7.5 mm, decomposed whole
+    (``segments`` off: the whole aperture's decomposition splits each sphere
+    into several clusters, which meet on its surface) and in tiles (one
+    cluster per sphere and tile); there is no double bounce in the data.  No
+    point is flagged; decomposed whole, with every
     accepted cluster its own object (a cube of touching too small to join
     any two) the sphere's parts predict "double bounces" onto its other
     parts, and hundreds of points on the spheres are flagged."""
@@ -154,7 +156,9 @@ def test_parts_of_one_object_are_not_each_others_double_bounce(dev32, monkeypatc
     g = replace(R.GEOMETRY_3D, x=(64, 7.5e-3), z=(64, 7.5e-3))
     spec, f, _ = R.synthesize(g, None, 0)
     data = R.radar_data(g, spec, f)
-    params = default_params(data, multipath="flag")
+    tiled = imaging.run_method("phase-rpm", data, default_params(data, multipath="flag"), dev32)
+    assert len(np.unique(tiled.rps.cluster)) >= 30 and not tiled.image.multipath.any()
+    params = default_params(data, multipath="flag", segments=False)
     res = imaging.run_method("phase-rpm", data, params, dev32)
     assert len(res.image.points) > 20000 and not res.image.multipath.any()
     monkeypatch.setattr(multipath, "TOUCH", 1e-9)

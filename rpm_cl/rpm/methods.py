@@ -49,9 +49,13 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     ks = params.kspace
     if ks.close_centres is None:  # targets closer in direction than a window
         ks = replace(ks, close_centres=True)
-    plan = segment_plan(data, _strongest_range)
+    plan = (
+        segment_plan(data, _strongest_range, min(ks.window_x, ks.window_z or ks.window_x))
+        if params.segments
+        else None
+    )
     parts, spent = [], 0.0
-    for antennas, kept in plan or [(slice(None), slice(None))]:
+    for antennas, kept in plan or [(None, None)]:
         part = data if plan is None else segment_data(data, antennas)
         ta = time.perf_counter()
         dec = decompose(part, ks, getattr(engine, "env", None))
@@ -59,7 +63,7 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
         rps = rps_from_decomposition(part, dec, params.rp_threshold_db)
         if not dec.near_field and dec.clusters:
             rps, _ = phase_ranges(part, rps, np.array([c.k for c in dec.clusters]))
-        parts.append(rps if plan is None else kept_rps(rps, antennas, kept))
+        parts.append(rps if plan is None else kept_rps(rps, antennas, kept, data.array.shape))
     rps = parts[0] if plan is None else joined_rps(parts)
     t1 = t0 + spent
     t2 = time.perf_counter()

@@ -236,6 +236,7 @@ class ImagingParams:
     reach_deg: float = REACH_DEG_DEFAULT
     coherence: bool = True
     coherence_db: float = COHERENCE_DB_DEFAULT
+    segments: bool = True
     background: Literal["auto", "none", "mean", "median"] = "auto"
     time_zero: float = 0.0
     gain_db_per_m: float = 0.0
