@@ -156,8 +156,8 @@ def test_planar_arrays_whose_tiles_cannot_resolve_the_window_are_whole():
 def test_kept_rps_map_a_tiles_antennas_to_the_arrays(rng):
     from rpm_cl.extract.rangepoints import RangePoints
 
-    shape, tile, kept = (40, 30), (slice(10, 27), slice(5, 22)), (slice(14, 23), slice(9, 18))
-    sub = (17, 17)
+    shape, tile, kept = (40, 30), (slice(10, 27), slice(5, 25)), (slice(14, 23), slice(9, 18))
+    sub = (17, 20)
     k = 200
     ix, iz = rng.integers(0, sub[0], k), rng.integers(0, sub[1], k)
     rps = RangePoints(
@@ -204,3 +204,16 @@ def test_a_planar_array_in_tiles_images_the_spheres(dev32):
     assert per_antenna <= 3.05 and share >= 0.97
     _, whole = within(default_params(data, max_range=rb.region(g), segments=False))
     assert whole < share - 0.1
+
+
+def test_a_moved_planar_array_is_cut_the_same():
+    """The cut counts antennas, so the array's positions as recorded (7.5 m
+    and -3.2 m off) cut the same tiles as the array centred."""
+    import dataclasses
+
+    data = _planar(64)
+    moved = dataclasses.replace(
+        data, array=Array(np.asarray(data.array.x) + 7.5, np.asarray(data.array.z) - 3.2)
+    )
+    a = segments.segment_plan(data, lambda d: 0.55, 60.0)
+    assert a is not None and a == segments.segment_plan(moved, lambda d: 0.55, 60.0)
