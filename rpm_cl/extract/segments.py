@@ -37,11 +37,11 @@ away, whose focus fits the whole aperture).  A planar window of 60 rad/m
 holds the echoes of a small patch of directions; over an aperture as wide
 as the range, a sphere's directions sweep across many windows, each with
 one wavefront model for the whole array: three spheres 0.55-0.7 m before a
-128 x 128 array at 7.5 mm gave 126 clusters, 13 RPs per antenna where each
-sees three echoes, and 61 % of the points within 20 mm; in tiles of 0.3 R
-it gives three RPs per antenna and every point within 20 mm, at a third of
-the time (``benchmarks/planar_tiles.py``, docs/benchmarks.md, "Large planar
-arrays in tiles").  The human body's array (0.12 m) and the robustness
+128 x 128 array at 7.5 mm gave 15 RPs per antenna where each sees three
+echoes, and 61 % of the points within 20 mm; in tiles of 0.3 R it gives
+three RPs per antenna and every point within 20 mm, in a third of the
+engine time (``benchmarks/planar_tiles.py``, docs/benchmarks.md, "Large
+planar arrays in tiles").  The human body's array (0.12 m) and the robustness
 benchmark's (0.1 m) are whole.
 """
 
