@@ -24,7 +24,7 @@ from rpm_cl.cl import create_env
 from rpm_cl.cli import robustness as rb
 from rpm_cl.extract import segments
 from rpm_cl.heap import keep_freed_memory
-from rpm_cl.imaging import run_method
+from rpm_cl.imaging import prepared, run_method
 from rpm_cl.rpm import DeviceRPM
 from rpm_cl.rpm.params import _strongest_range, default_params
 
@@ -55,8 +55,10 @@ def main(argv=None) -> int:
             for tiled in (True,) if args.no_whole else (False, True):
                 params = default_params(data, max_range=rb.region(g), segments=tiled)
                 ks = params.kspace
+                # the plan phase_rpm makes: of the data as run_method prepares them
+                ready, _ = prepared(data, params)
                 plan = (
-                    segments.segment_plan(data, _strongest_range, min(ks.window_x, ks.window_z))
+                    segments.segment_plan(ready, _strongest_range, min(ks.window_x, ks.window_z))
                     if tiled
                     else None
                 )

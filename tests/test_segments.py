@@ -1,6 +1,7 @@
-"""Long linear scans are decomposed in overlapping segments
-(:mod:`rpm_cl.extract.segments`): which scans, how they are cut, and that
-the targets near a long line's ends are imaged."""
+"""Long linear scans are decomposed in overlapping segments and large planar
+arrays in overlapping tiles (:mod:`rpm_cl.extract.segments`): which arrays,
+how they are cut, and that the targets near a long line's ends and the
+spheres before a wide planar array are imaged."""
 
 import itertools
 

@@ -126,8 +126,9 @@ def segment_plan(data: RadarData, strongest_range, window: float | None = None) 
     strongest_range : callable
         ``strongest_range(data)``: the strongest echo's range, m, or None
         where the data hold no echo (no segments); not called for a planar
-        array shorter along both axes than two tiles that resolve
-        ``window`` (its profile power is read for nothing otherwise).
+        array no longer along either axis than :data:`TILES_ABOVE` of the
+        shortest tiles that resolve ``window`` (its profile power is read
+        for nothing otherwise).
     window : float, optional
         Planar arrays: the decomposition's window period, rad/m (the
         narrower of ``window_x`` and ``window_z``); a tile is at least
