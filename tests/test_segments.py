@@ -218,3 +218,15 @@ def test_a_moved_planar_array_is_cut_the_same():
     )
     a = segments.segment_plan(data, lambda d: 0.55, 60.0)
     assert a is not None and a == segments.segment_plan(moved, lambda d: 0.55, 60.0)
+
+
+def test_a_long_line_of_fewer_antennas_than_a_segment_is_whole():
+    """Three antennas 1 m apart over an echo at 0.3 m: longer than two
+    segments, but a segment would need four antennas; the line is decomposed
+    whole (the cut's start list was empty, and indexing it raised)."""
+    from rpm_cl.io.data import RadarData
+
+    data = RadarData(
+        np.zeros((3, 8), complex), Array(np.arange(3.0)), np.arange(8) * 0.1, Waveform(1e9, 0.5e9)
+    )
+    assert segments.segment_plan(data, lambda d: 0.3) is None
