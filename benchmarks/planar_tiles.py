@@ -26,7 +26,8 @@ from rpm_cl.extract import segments
 from rpm_cl.heap import keep_freed_memory
 from rpm_cl.imaging import prepared, run_method
 from rpm_cl.rpm import DeviceRPM
-from rpm_cl.rpm.params import _strongest_range, default_params
+from rpm_cl.rpm.methods import phase_plan
+from rpm_cl.rpm.params import default_params
 
 
 def main(argv=None) -> int:
@@ -54,14 +55,8 @@ def main(argv=None) -> int:
             data = rb.loaded_data(g, spec, f)
             for tiled in (True,) if args.no_whole else (False, True):
                 params = default_params(data, max_range=rb.region(g), segments=tiled)
-                ks = params.kspace
-                # the plan phase_rpm makes: of the data as run_method prepares them
-                ready, _ = prepared(data, params)
-                plan = (
-                    segments.segment_plan(ready, _strongest_range, min(ks.window_x, ks.window_z))
-                    if tiled
-                    else None
-                )
+                # the plan phase_rpm makes, of the data as run_method prepares them
+                plan = phase_plan(*prepared(data, params))
                 res = run_method("phase-rpm", data, params, engine)
                 p = res.image.points
                 # distance to the nearest sphere's surface, m

@@ -22,7 +22,15 @@ from ..result import Image, ImageResult
 from .params import ImagingParams, _strongest_range
 from .pipeline import rpm_image
 
-__all__ = ["capon_rpm", "in_reach", "kspace_rpm", "mf_rpm", "phase_rpm", "reach_angles"]
+__all__ = [
+    "capon_rpm",
+    "in_reach",
+    "kspace_rpm",
+    "mf_rpm",
+    "phase_plan",
+    "phase_rpm",
+    "reach_angles",
+]
 
 
 def kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
@@ -42,6 +50,17 @@ def kspace_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     )
 
 
+def phase_plan(data: RadarData, params: ImagingParams) -> list | None:
+    """The segments or tiles phase-rpm decomposes ``data`` in
+    (:func:`rpm_cl.extract.segments.segment_plan`; planar tiles resolve the
+    narrower window), or None where it decomposes them whole (also with
+    ``params.segments`` off); ``data`` as the method sees them."""
+    if not params.segments:
+        return None
+    ks = params.kspace
+    return segment_plan(data, _strongest_range, min(ks.window_x, ks.window_z or ks.window_x))
+
+
 def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     from ..extract.phase import phase_ranges
 
@@ -49,11 +68,7 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     ks = params.kspace
     if ks.close_centres is None:  # targets closer in direction than a window
         ks = replace(ks, close_centres=True)
-    plan = (
-        segment_plan(data, _strongest_range, min(ks.window_x, ks.window_z or ks.window_x))
-        if params.segments
-        else None
-    )
+    plan = phase_plan(data, params)
     parts, spent = [], 0.0
     for antennas, kept in plan or [(None, None)]:
         part = data if plan is None else segment_data(data, antennas)
