@@ -380,3 +380,55 @@ def test_device_refuses_clusters_outside_the_rps(dev32):
         dev32.meanshift_spheres(x, z[:5], r, amp, st, ct, p0, SD, SR, 1)
     with pytest.raises(InputError, match="every cluster must lie within the RPs"):
         dev32.rpm_circles(x, r, amp, st, bad, 6, SD, SR)
+
+
+def test_clusters_whose_sample_does_not_move_keep_the_list_argmax(dev64, rng):
+    """``meanshift_sample``: a cluster of exact ranges to one point (every
+    triplet meets at it, so the list's argmax is the mode and the steps move
+    nothing) keeps the list's argmax and takes the steps only on its sample;
+    a noisy cluster, whose points the steps move by a good fraction of
+    sigma_r, gets exactly the points of a run without sampling."""
+    from dataclasses import replace
+
+    from rpm_cl.extract.rangepoints import RangePoints
+    from rpm_cl.rpm import pipeline
+    from rpm_cl.rpm.pipeline import MS_SAMPLE_MIN, rpm_image
+
+    target, xe, ze, re, ampe, _, _ = exact_scene(rng, m=48)
+    xn, zn, rn, ampn, _, _, _ = planar_cluster(rng, [48], noise=3e-3, dup=False)
+    x, z, r, amp = (np.r_[a, b] for a, b in ((xe, xn), (ze, zn), (re, rn), (ampe, ampn)))
+    rps = RangePoints(np.arange(96), x, z, r, amp, np.repeat([0, 1], 48))
+    base = RPMParams(sigma_x=SD, sigma_r=SR, meanshift_iters=3, max_neighbours=10)
+    ran = []
+    steps = dev64.meanshift_spheres
+
+    def counted(*a):
+        ran.append(a[-1])  # main RPs of the call
+        return steps(*a)
+
+    dev64.meanshift_spheres = counted
+    try:
+        sampled = rpm_image(rps, base, dev64)
+        n_sampled = sum(ran)
+        ran.clear()
+        every = rpm_image(rps, replace(base, meanshift_sample=0), dev64)
+        n_every = sum(ran)
+    finally:
+        del dev64.meanshift_spheres
+    off = rpm_image(rps, replace(base, meanshift_iters=0), dev64)
+    exact = sampled.cluster == 0
+    assert exact.sum() == 48 and (~exact).sum() == 48
+    # the exact cluster: the list's argmax (at the target), not stepped
+    np.testing.assert_array_equal(sampled.points[exact], off.points[exact])
+    np.testing.assert_allclose(sampled.points[exact], np.tile(target, (48, 1)), atol=1e-9)
+    # the noisy one moves (the test would pass vacuously otherwise) and is
+    # stepped in full: the same points as without sampling
+    moves = np.linalg.norm(every.points[~exact] - off.points[~exact], axis=1)
+    assert np.median(moves) > pipeline.MS_SAMPLE_TOL * SR
+    np.testing.assert_array_equal(sampled.points[~exact], every.points[~exact])
+    # steps: both samples (48 / 16 -> at least MS_SAMPLE_MIN each) and the
+    # noisy cluster, against both clusters without sampling
+    assert n_every == 96
+    assert n_sampled == 2 * MS_SAMPLE_MIN + 48
+    with pytest.raises(InputError):
+        RPMParams(meanshift_sample=-1)

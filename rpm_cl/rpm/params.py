@@ -166,6 +166,17 @@ class RPMParams:
         "sphere": the mode put back on the main RP's sphere (radially from
         its antenna); "nearest": the candidate nearest to the start of the
         last step; "mode": the mode itself.
+    meanshift_sample : int
+        3-D, with mean shift: each cluster's steps first run on every
+        ``meanshift_sample``-th of its main RPs (at least 8); where the
+        median distance they move the point is below a twentieth of
+        ``sigma_r`` (:data:`rpm_cl.rpm.pipeline.MS_SAMPLE_TOL`), the list's argmax already sits at
+        the exhaustive mode and the cluster keeps it without the steps
+        (:func:`rpm_cl.rpm.pipeline._moving`).  On the human body every
+        cluster's points move (median 0.2 sigma_r) and every cluster takes
+        the steps; on phase-rpm's clusters of spheres they move about 1e-4
+        sigma_r, and the steps are skipped.  Clusters of fewer than 32 main
+        RPs are not sampled; 0: every cluster takes the steps.
     """
 
     sigma_x: float = 0.10
@@ -181,6 +192,7 @@ class RPMParams:
     meanshift_max_rps: int = 512
     meanshift_neighbours: int | None = 12
     meanshift_point: Literal["argmax", "sphere", "nearest", "mode"] = "argmax"
+    meanshift_sample: int = 16
 
     def __post_init__(self):
         for name in ("sigma_x", "sigma_r"):
@@ -210,6 +222,10 @@ class RPMParams:
             raise InputError(f"meanshift_iters must be in 0..1000, got {self.meanshift_iters}")
         if self.meanshift_max_rps < 0:
             raise InputError(f"meanshift_max_rps must be >= 0, got {self.meanshift_max_rps}")
+        if not (0 <= self.meanshift_sample <= 1 << 20):
+            raise InputError(
+                f"meanshift_sample must be in 0..{1 << 20}, got {self.meanshift_sample}"
+            )
         if self.meanshift_point not in ("argmax", "sphere", "nearest", "mode"):
             raise InputError(
                 "meanshift_point must be 'argmax', 'sphere', 'nearest' or 'mode', got "
