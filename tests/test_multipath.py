@@ -285,3 +285,54 @@ def test_leg_pairs_are_those_the_exact_level_test_keeps(half_space):
     keep[0, :] = keep[:, 0] = False
     got = legs.candidates(one, float(np.median(list(ranges.values()))), 10.0, keep)
     assert got == [p for p in all_pairs if 0 not in p]
+
+
+def test_legs_from_another_tile_are_compared_as_the_clusters_antennas_see_them():
+    """Planar tiles: two point objects found by one tile's antennas (1.0
+    each) and a cluster imaged exactly where their double bounce would image
+    from another tile 0.4 m aside.  In one decomposition a cluster at 0.45
+    of the legs is their double bounce (below GHOST_AMP = 0.7).  Found in
+    another tile, the legs were seen from 0.505 and 0.467 m (median ranges)
+    where the cluster's median antenna sees them from 0.680 and 0.547 m, so
+    there they give (0.505 / 0.680)^2 = 0.55 and 0.73 of their amplitude, and
+    0.45 is above 0.7 x 0.55: no double bounce (with 1 / R instead of two-way
+    spherical spreading, 0.7 x 0.74 = 0.52, it would be); a cluster at 0.2
+    still is."""
+    from rpm_cl.extract.rangepoints import RangePoints
+    from rpm_cl.result import Image
+    from rpm_cl.rpm import multipath
+
+    g = (np.arange(8) - 3.5) * 0.02
+    gx, gz = (v.ravel() for v in np.meshgrid(g, g, indexing="ij"))
+    near = np.column_stack([gx, 0 * gx, gz])
+    far = near + [0.4, 0.0, 0.0]
+    ant = np.concatenate([near, far])
+    a, b = np.array([[-0.05, 0.5, 0.0]]), np.array([[0.1, 0.45, 0.05]])
+    ghost = ghost_points(far, a, b)
+    assert len(ghost) == len(far)
+    n = len(near)
+
+    def scene(ghost_amp):
+        pts = [np.repeat(a, n, 0), np.repeat(b, n, 0), ghost]
+        rng_ = [np.linalg.norm(near - a, axis=1), np.linalg.norm(near - b, axis=1)]
+        rng_.append(double_bounce(far, a, b))
+        amp = [np.ones(n), np.ones(n), np.full(n, ghost_amp)]
+        antenna = np.concatenate([np.arange(n), np.arange(n), n + np.arange(n)])
+        cl = np.repeat([0, 1, 2], n)
+        p = ant[antenna]
+        rps = RangePoints(antenna, p[:, 0], p[:, 2], np.concatenate(rng_), np.concatenate(amp), cl)
+        image = Image(np.concatenate(pts), cl, np.ones(cl.size), np.arange(cl.size))
+        return rps, image
+
+    res = 0.05
+    positions = ant  # (x, y = 0, z), as Array.positions() gives a planar array
+    tiles = np.repeat([0, 0, 1], n)
+    for ghost_amp, whole, tiled in ((0.45, True, False), (0.2, True, True)):
+        rps, image = scene(ghost_amp)
+        one = multipath.flag_multipath(positions, rps, image, res)
+        apart = multipath.flag_multipath(positions, rps, image, res, parts=tiles)
+        same = multipath.flag_multipath(positions, rps, image, res, parts=np.zeros(3 * n, int))
+        assert not one[image.cluster < 2].any() and not apart[image.cluster < 2].any()
+        assert one[image.cluster == 2].all() == whole
+        assert same[image.cluster == 2].all() == whole
+        assert apart[image.cluster == 2].all() == tiled and apart[image.cluster == 2].any() == tiled

@@ -80,6 +80,8 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
             rps, _ = phase_ranges(part, rps, np.array([c.k for c in dec.clusters]))
         parts.append(rps if plan is None else kept_rps(rps, antennas, kept, data.array.shape))
     rps = parts[0] if plan is None else joined_rps(parts)
+    # the part (segment or tile) each RP was found in, for the double-bounce test
+    part_of = None if plan is None else np.repeat(np.arange(len(parts)), [len(p) for p in parts])
     t1 = t0 + spent
     t2 = time.perf_counter()
     image = _rpm(rps, params, engine)
@@ -93,7 +95,7 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     n_reach = len(image.points)
     image = coherent(data, rps, image, params)
     n_coherent = len(image.points)
-    image = _multipath(data, rps, image, params.multipath, params.medium)
+    image = _multipath(data, rps, image, params.multipath, params.medium, part_of)
     t4 = time.perf_counter()
     return ImageResult(
         "phase-rpm",
@@ -156,11 +158,17 @@ def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
 
 
 def _multipath(
-    data: RadarData, rps: RangePoints, image: Image, mode: str, medium: Medium | None = None
+    data: RadarData,
+    rps: RangePoints,
+    image: Image,
+    mode: str,
+    medium: Medium | None = None,
+    parts=None,
 ) -> Image:
     """The image without (``"drop"``) or with flags on (``"flag"``) the
     points of double-bounce clusters (:mod:`rpm_cl.rpm.multipath`); above a
-    half-space the double bounces' paths refract (``medium``)."""
+    half-space the double bounces' paths refract (``medium``); ``parts``:
+    per RP, the segment or tile it was found in (None: one decomposition)."""
     from .multipath import flag_multipath
 
     resolution = data.waveform.range_resolution
@@ -174,6 +182,7 @@ def _multipath(
         image,
         resolution,
         medium if medium is not None and medium.half_space else None,
+        parts,
     )
     if mode == "flag":
         return replace(image, multipath=flags)

@@ -25,6 +25,23 @@ alone fails where the ghost's cluster also holds the ends of its legs'
 stronger echoes, whose wavenumbers reach into its window; RPM's density
 leaves those out of the points.)
 
+On a planar array decomposed in tiles (:mod:`rpm_cl.extract.segments`) a
+leg found in another tile than the cluster was seen from other antennas,
+and its amplitude is compared as the cluster's antennas would see it: times
+``(R_leg / R)^2``, its median range over the range from the antenna of the
+cluster's median-range RP to its nearest point (two-way spherical
+spreading).  Three
+spheres before a 128 x 128 array at 7.5 mm (+-0.48 m, 0.55-0.7 m away):
+a patch of one sphere, seen from a corner tile at 0.79 m, has 0.66 of the
+amplitude nearer tiles measured on that sphere and on another (median
+ranges 0.63 and 0.55 m), lies where a double bounce between those two
+would image, and was dropped; seen from the corner (0.81 and 0.64 m) those
+legs give 0.61 and 0.74 of their amplitude, and 0.66 is above 0.7 times
+that.  Linear arrays keep the amplitudes as measured: on the rebar line,
+decomposed in segments, the double bounces are weaker than their legs only
+as the legs' own antennas see them (rescaled from another segment by the
+2-D spreading, ``tests/test_gprmax_rebar.py`` loses them).
+
 Above a dielectric half-space (:class:`rpm_cl.io.medium.Medium` with an
 antenna height) the legs from and to the antenna are refracted optical
 paths (:func:`rpm_cl.io.medium.one_way`), the leg between the objects is ``n``
@@ -137,7 +154,9 @@ def _xyz(p: np.ndarray) -> np.ndarray:
     return np.column_stack([p, np.zeros(len(p))])
 
 
-def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=None) -> np.ndarray:
+def flag_multipath(
+    positions: np.ndarray, rps, image, resolution: float, medium=None, parts=None
+) -> np.ndarray:
     """Which image points come from double-bounce clusters (module notes).
 
     Parameters
@@ -153,6 +172,12 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
     medium : rpm_cl.io.medium.Medium, optional
         A half-space below the antennas (module notes); None: air (or a
         homogeneous medium's equivalent air scene).
+    parts : ndarray of int, shape (N,), optional
+        Per RP, the segment or tile whose decomposition found it
+        (:mod:`rpm_cl.extract.segments`); None: one decomposition.  On a
+        planar array a leg found in another tile than the cluster was seen
+        from other antennas, and its amplitude is moved to the cluster's by
+        the spreading loss (module notes); linear arrays ignore it.
 
     Returns
     -------
@@ -169,7 +194,9 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
     cl_img = np.asarray(image.cluster)
     cl_rp = np.asarray(rps.cluster)
     order = sorted(np.unique(cl_img), key=lambda c: float(np.median(rps.range[cl_rp == c])))
-    strength = []
+    strength, reach, seen_by = [], [], []
+    # planar arrays only (module notes)
+    parts = None if parts is None or rps.z is None else np.asarray(parts)
     objects = _Objects()
     legs = _Legs(medium)
     for c in order:
@@ -189,7 +216,16 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
         if not on_found and len(legs.clusters) > 1:
             # both legs stronger than the cluster by GHOST_AMP, and two
             # objects, not two parts of one
-            strong = amp <= GHOST_AMP * np.asarray(strength)
+            # a leg that none of the cluster's antennas saw (found in another
+            # tile or segment) was seen from nearer or farther: its amplitude
+            # is moved to the cluster's antennas by the spreading (module notes)
+            if parts is None:
+                scale = 1.0
+            else:
+                apart = np.asarray(seen_by) != parts[cl_rp == c][0]
+                # two-way spherical spreading: amplitude as 1 / R^2
+                scale = np.where(apart, np.asarray(reach) / legs.nearest(one), 1.0) ** 2
+            strong = amp <= GHOST_AMP * np.asarray(strength) * scale
             roots = np.array([objects.root(i) for i in range(len(legs.clusters))])
             keep = strong[:, None] & strong[None, :] & (roots[:, None] != roots[None, :])
             pairs = legs.candidates(one, rr[k], LEVEL_TOL * resolution, keep)
@@ -209,6 +245,8 @@ def flag_multipath(positions: np.ndarray, rps, image, resolution: float, medium=
             flags[cl_img == c] = True
         else:
             strength.append(amp)
+            reach.append(float(np.median(rr)))
+            seen_by.append(None if parts is None else parts[cl_rp == c][0])
             objects.add(mine)
             legs.add(_spread(mine, MAX_OBJECT_POINTS))
     return flags
@@ -267,6 +305,11 @@ class _Legs:
         self.points = np.concatenate([self.points, row])
         self.clusters.append(points)
         self.medians.append(np.median(points, axis=0))
+
+    def nearest(self, one: np.ndarray) -> np.ndarray:
+        """Per accepted cluster, the one-way range from ``one`` (1, 3) to
+        its nearest point, m (air-equivalent in a half-space)."""
+        return np.maximum(self._one_way(one).min(axis=1), 1e-12)
 
     def candidates(self, one: np.ndarray, r: float, tol: float, keep) -> list:
         """Pairs (i, j), i < j, that ``keep`` (a (n, n) bool table) allows,
