@@ -82,7 +82,7 @@ _EXTRA_DOCS = {
     "coherence": "phase-rpm, linear arrays: drop the points that sit beside a peak of the "
     "coherent (DAS) image rather than on it (rpm_cl.rpm.coherence); false keeps all.",
     "segments": "phase-rpm: decompose a long linear scan in overlapping segments and a "
-    "large planar array in overlapping tiles (rpm_cl.extract.segments); false decomposes "
+    "large planar array in tiles (rpm_cl.extract.segments); false decomposes "
     "every array whole.",
     "coherence_db": "How far below the largest DAS magnitude within 1.2 cross-range "
     "resolutions a point's own may lie and the point be kept, dB in [-60, 0).",

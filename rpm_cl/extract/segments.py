@@ -1,5 +1,5 @@
 """Long linear scans decomposed in overlapping segments, large planar arrays
-in overlapping tiles.
+in tiles.
 
 A GPR line is often many times as long as its targets are deep (4 m over
 rebar 0.3 m down).  The k-space decomposition of the whole line then puts
@@ -27,22 +27,27 @@ clusters stay apart (:func:`joined_rps`); RPM then images all RPs as one
 set.  The paper's scenes and the gprMax fixture are not long by this
 measure and are decomposed whole.
 
-A planar array is cut the same way along each axis longer than
-:data:`TILES_ABOVE` tiles of :data:`TILE_PER_RANGE` times the strongest
-echo's range, but only where such a tile is at least ``2 pi / window``
-long (the decomposition's window period, 60 rad/m by default: 0.105 m), so
-that its aperture resolves the window; shorter tiles cannot be decomposed,
-and the array is decomposed whole (the near-field scan of a surface 0.1 m
-away, whose focus fits the whole aperture).  A planar window of 60 rad/m
-holds the echoes of a small patch of directions; over an aperture as wide
-as the range, a sphere's directions sweep across many windows, each with
-one wavefront model for the whole array: three spheres 0.55-0.7 m before a
-128 x 128 array at 7.5 mm gave 15 RPs per antenna where each sees three
-echoes, and 61 % of the points within 20 mm; in tiles of 0.3 R it gives
-three RPs per antenna and every point within 20 mm, in a third of the
-engine time (``benchmarks/planar_tiles.py``, docs/benchmarks.md, "Large
-planar arrays in tiles").  The human body's array (0.12 m) and the robustness
-benchmark's (0.1 m) are whole.
+A planar array is cut along each axis longer than :data:`TILES_ABOVE`
+tiles of :data:`TILE_PER_RANGE` times the strongest echo's range, but only
+where such a tile is at least ``2 pi / window`` long (the decomposition's
+window period, 60 rad/m by default: 0.105 m), so that its aperture
+resolves the window; shorter tiles cannot be decomposed, and the array is
+decomposed whole (the near-field scan of a surface 0.1 m away, whose focus
+fits the whole aperture).  A planar window of 60 rad/m holds the echoes of
+a small patch of directions; over an aperture as wide as the range, a
+sphere's directions sweep across many windows, each with one wavefront
+model for the whole array: three spheres 0.55-0.7 m before a 128 x 128
+array at 7.5 mm gave 15 RPs per antenna where each sees three echoes, and
+61 % of the points within 20 mm; in tiles of 0.3 R it gives three RPs per
+antenna and every point within 20 mm (``benchmarks/planar_tiles.py``,
+docs/benchmarks.md, "Large planar arrays in tiles").  An axis takes the
+fewest tiles that cover it, spread evenly (:func:`_tiles`), each keeping
+its antennas up to the middle of its overlaps: tiles overlapping by half,
+as the segments of a line do, decompose each antenna about four times and
+measured the same share within 20 mm (the kept antennas at a tile's edge
+are no worse placed than the array's own edges) in about twice the time
+(``python benchmarks/planar_tiles.py --overlap half``).  The human body's
+array (0.12 m) and the robustness benchmark's (0.1 m) are whole.
 """
 
 from __future__ import annotations
@@ -78,8 +83,12 @@ SEGMENTS_ABOVE = 2.0
 #: Tile side of a planar array as a multiple of the strongest echo's range
 #: (module notes).  Three spheres before a 128 x 128 array at 7.5 mm,
 #: noise-free (``python benchmarks/planar_tiles.py --sizes 128 --snr inf
-#: --no-whole --tile-per-range F``): points within 20 mm 88.2 / 99.9 / 100 /
-#: 100 % at F = 0.5 / 0.4 / 0.3 / 0.2, engine 42 / 47 / 34 / 44 s.
+#: --no-whole --tile-per-range F``): points within 20 mm 93.0 / 100 / 100 /
+#: 100 % at F = 0.5 / 0.4 / 0.3 / 0.2, medians 0.30 / 0.23 / 0.17 / 0.16 mm,
+#: engine 12.0 / 9.3 / 8.7 / 8.2 s.  0.2 does as well here, but its tiles
+#: fall below ``2 pi / window`` (0.105 m) wherever the strongest echo is
+#: nearer than 0.53 m, and such arrays would be decomposed whole; at 0.3
+#: below 0.35 m.
 TILE_PER_RANGE = 0.3
 #: A planar array is tiled along an axis where it is longer than this many
 #: tiles (``benchmarks/planar_tiles.py``, noise-free, 20 and 10 dB: 45 x 45,
@@ -104,6 +113,23 @@ def _cuts(n: int, m: int) -> list:
     for i, s0 in enumerate(starts):
         lo = 0 if i == 0 else (s0 + starts[i - 1] + m) // 2
         hi = n if i == len(starts) - 1 else (starts[i + 1] + s0 + m) // 2
+        out.append((slice(s0, s0 + m), slice(lo, hi)))
+    return out
+
+
+def _tiles(n: int, m: int) -> list:
+    """One axis of ``n`` antennas cut into the fewest runs of ``m`` that
+    cover it, spread evenly (neighbours overlap by what the division leaves,
+    less than a run); as :func:`_cuts`, per run its antennas and those whose
+    RPs it keeps, split at the middle of each overlap."""
+    if m >= n:
+        return [(slice(0, n), slice(0, n))]
+    k = -(-n // m)
+    starts = [int(s) for s in np.round(np.linspace(0, n - m, k))]
+    out = []
+    for i, s0 in enumerate(starts):
+        lo = 0 if i == 0 else (s0 + starts[i - 1] + m) // 2
+        hi = n if i == k - 1 else (starts[i + 1] + s0 + m) // 2
         out.append((slice(s0, s0 + m), slice(lo, hi)))
     return out
 
@@ -167,7 +193,7 @@ def segment_plan(data: RadarData, strongest_range, window: float | None = None) 
     for ax, ext, pitch in zip(axes, extent, pitches):
         m = _run_length(length, pitch)
         if ext > above * length and m < ax.size:
-            per_axis.append(_cuts(ax.size, m))
+            per_axis.append((_tiles if arr.planar else _cuts)(ax.size, m))
             cut = True
         else:
             per_axis.append([(slice(0, ax.size), slice(0, ax.size))])
