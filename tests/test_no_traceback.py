@@ -367,3 +367,40 @@ def test_control_hz_loads_quietly(tmp_path, domain, recwarn):
     data = load_data(src)
     assert data.waveform.fc == pytest.approx(20e9)
     assert not [w for w in recwarn if issubclass(w.category, DataWarning)]
+
+
+def test_sigint_in_a_finalizer_is_delivered_again_after_it(monkeypatch):
+    """A KeyboardInterrupt raised inside ``__del__`` cannot leave it: Python
+    prints it as "Exception ignored" with a traceback (a progress bar
+    collected as Ctrl-C lands).  There the handler sends SIGINT again a
+    moment later; anywhere else it raises KeyboardInterrupt."""
+    import threading
+
+    from rpm_cl.cli import errors
+
+    sent = []
+    done = threading.Event()
+
+    def kill(pid, sig):
+        sent.append((pid, sig))
+        done.set()
+
+    monkeypatch.setattr("os.kill", kill)
+    monkeypatch.setattr(errors, "_SIGINT_SEEN", [])
+    seen = 0
+
+    class Finalized:
+        def __del__(self):
+            errors._on_sigint(signal.SIGINT, sys._getframe())
+
+    def deep():
+        return Finalized()
+
+    obj = deep()
+    del obj  # runs __del__: no exception escapes, a second SIGINT is on its way
+    assert done.wait(5.0)
+    assert sent == [(os.getpid(), signal.SIGINT)]
+    assert len(errors._SIGINT_SEEN) == seen
+    with pytest.raises(KeyboardInterrupt):
+        errors._on_sigint(signal.SIGINT, sys._getframe())
+    assert len(errors._SIGINT_SEEN) == seen + 1

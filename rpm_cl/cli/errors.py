@@ -92,9 +92,36 @@ def _user_error(exc: Exception) -> bool:
 _SIGINT_SEEN = []
 
 
+#: Seconds after which a SIGINT that landed in a finalizer is delivered again.
+SIGINT_RETRY_S = 0.05
+
+
+def _in_finalizer(frame) -> bool:
+    """Whether ``frame`` or a caller is an object's ``__del__``."""
+    while frame is not None:
+        if frame.f_code.co_name == "__del__":
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _on_sigint(signum, frame):
     """SIGINT on the command line: KeyboardInterrupt, remembered (an import
-    interrupted inside a C extension can turn it into an ImportError)."""
+    interrupted inside a C extension can turn it into an ImportError).
+
+    An exception raised in a finalizer (``__del__``, e.g. a progress bar
+    collected while it runs) cannot leave it: Python prints it with its
+    traceback as "Exception ignored" and goes on.  There the signal is sent
+    again :data:`SIGINT_RETRY_S` later instead, when the finalizer has
+    returned."""
+    if _in_finalizer(frame):
+        import os
+        import threading
+
+        t = threading.Timer(SIGINT_RETRY_S, os.kill, (os.getpid(), signum))
+        t.daemon = True
+        t.start()
+        return
     _SIGINT_SEEN.append(True)
     raise KeyboardInterrupt
 
