@@ -5,12 +5,17 @@
 For each scene: the human body (the engine's simulator, noise-free and 20
 dB) and the robustness benchmark's three spheres (independently
 synthesised, ``rpm_cl.cli.robustness.GEOMETRY_3D``) on 15 x 15 and, in
-tiles, 45 x 45 arrays (noise-free and 10 dB in-band), imaged by phase-rpm:
+3 x 3 tiles, 64 x 64 arrays (noise-free and 10 dB in-band; a 45 x 45
+array's 2 x 2 tiles give clusters of 484-529 RPs, one tile's over
+``meanshift_max_rps``), imaged by phase-rpm:
 
 - with every refined cluster stepped (``meanshift_sample = 0``), the median
   per cluster of the distance the steps move a point from the list's argmax,
   in units of sigma_r (the 10th, 50th and 90th percentile over clusters), and
-  the clusters whose median lies below ``MS_SAMPLE_TOL``;
+  the clusters whose median lies below ``MS_SAMPLE_TOL``: over the clusters
+  the sample is drawn from (at least ``4 * MS_SAMPLE_MIN`` main RPs) and
+  their points with a list argmax (a step that finds no candidate leaves
+  its point, a move of 0);
 - with the default ``meanshift_sample`` and with 0: the points within the
   scene's tolerance, the median error (the body: Err_RPM against the true
   surface; spheres: distance to the nearest sphere's surface), how many
@@ -48,7 +53,7 @@ def _scenes():
             0.01,
             (lambda p, t=data.truth: err_rpm(p, t)),
         )
-    for n in (15, 45):
+    for n in (15, 64):
         g = replace(rb.GEOMETRY_3D, x=(n, rb.GEOMETRY_3D.x[1]), z=(n, rb.GEOMETRY_3D.z[1]))
         spheres = np.asarray(g.targets, float)
 
@@ -74,8 +79,9 @@ def _moves(data, params, engine):
         before = np.concatenate([q[2] for q in parts], axis=1).copy()
         out = inner(parts, x, z, r, amp, start, count, p, eng)
         move = np.linalg.norm(out[0][2] - before, axis=0)
-        refined = pipeline._refined(count, p)
-        seen.append([np.median(move[refined & (start == s)]) for s in np.unique(start[refined])])
+        refined = pipeline._refined(count, p) & (count >= 4 * pipeline.MS_SAMPLE_MIN)
+        valid = refined & (out[0][0] >= 0)
+        seen.append([np.median(move[valid & (start == s)]) for s in np.unique(start[valid])])
         return out
 
     pipeline._meanshift = spy

@@ -372,8 +372,11 @@ def test_control_hz_loads_quietly(tmp_path, domain, recwarn):
 def test_sigint_in_a_finalizer_is_delivered_again_after_it(monkeypatch):
     """A KeyboardInterrupt raised inside ``__del__`` cannot leave it: Python
     prints it as "Exception ignored" with a traceback (a progress bar
-    collected as Ctrl-C lands).  There the handler sends SIGINT again a
-    moment later; anywhere else it raises KeyboardInterrupt."""
+    collected as Ctrl-C lands).  There the handler delivers SIGINT to the
+    main thread again a moment later (while it is still the handler);
+    anywhere else, or after SIGINT_RETRIES such delays in a row (a finalizer
+    that hangs), it raises KeyboardInterrupt."""
+    import _thread
     import threading
 
     from rpm_cl.cli import errors
@@ -381,13 +384,14 @@ def test_sigint_in_a_finalizer_is_delivered_again_after_it(monkeypatch):
     sent = []
     done = threading.Event()
 
-    def kill(pid, sig):
-        sent.append((pid, sig))
+    def interrupt(sig):
+        sent.append(sig)
         done.set()
 
-    monkeypatch.setattr("os.kill", kill)
+    monkeypatch.setattr(_thread, "interrupt_main", interrupt)
     monkeypatch.setattr(errors, "_SIGINT_SEEN", [])
-    seen = 0
+    monkeypatch.setattr(errors, "_SIGINT_PUT_OFF", [0])
+    monkeypatch.setattr(signal, "getsignal", lambda sig: errors._on_sigint)
 
     class Finalized:
         def __del__(self):
@@ -399,8 +403,27 @@ def test_sigint_in_a_finalizer_is_delivered_again_after_it(monkeypatch):
     obj = deep()
     del obj  # runs __del__: no exception escapes, a second SIGINT is on its way
     assert done.wait(5.0)
-    assert sent == [(os.getpid(), signal.SIGINT)]
-    assert len(errors._SIGINT_SEEN) == seen
+    assert sent == [signal.SIGINT] and errors._SIGINT_SEEN == []
     with pytest.raises(KeyboardInterrupt):
         errors._on_sigint(signal.SIGINT, sys._getframe())
-    assert len(errors._SIGINT_SEEN) == seen + 1
+    assert errors._SIGINT_SEEN == [True]
+    # released: the delayed delivery does nothing
+    monkeypatch.setattr(signal, "getsignal", lambda sig: signal.default_int_handler)
+    errors._interrupt_again(signal.SIGINT)
+    assert sent == [signal.SIGINT]
+
+    # a finalizer that takes every delay: the last one raises in it
+    raised = []
+
+    class Hanging:
+        def __del__(self):
+            try:
+                for _ in range(errors.SIGINT_RETRIES + 1):
+                    errors._on_sigint(signal.SIGINT, sys._getframe())
+            except KeyboardInterrupt:
+                raised.append(True)
+
+    monkeypatch.setattr(errors, "SIGINT_RETRY_S", 60.0)  # the timers do not fire here
+    h = Hanging()
+    del h
+    assert raised == [True]

@@ -398,7 +398,11 @@ def test_clusters_whose_sample_does_not_move_keep_the_list_argmax(dev64, rng):
     xn, zn, rn, ampn, _, _, _ = planar_cluster(rng, [48], noise=3e-3, dup=False)
     x, z, r, amp = (np.r_[a, b] for a, b in ((xe, xn), (ze, zn), (re, rn), (ampe, ampn)))
     rps = RangePoints(np.arange(96), x, z, r, amp, np.repeat([0, 1], 48))
-    base = RPMParams(sigma_x=SD, sigma_r=SR, meanshift_iters=3, max_neighbours=10)
+    # one list length with steps and without (meanshift_neighbours None):
+    # the skipped cluster keeps the argmax the steps would start from
+    base = RPMParams(
+        sigma_x=SD, sigma_r=SR, meanshift_iters=3, max_neighbours=10, meanshift_neighbours=None
+    )
     ran = []
     steps = dev64.meanshift_spheres
 

@@ -94,6 +94,11 @@ _SIGINT_SEEN = []
 
 #: Seconds after which a SIGINT that landed in a finalizer is delivered again.
 SIGINT_RETRY_S = 0.05
+#: Most times in a row a SIGINT is put off because it landed in a finalizer;
+#: then it is raised there all the same (a finalizer that hangs stays
+#: interruptible).
+SIGINT_RETRIES = 20
+_SIGINT_PUT_OFF = [0]
 
 
 def _in_finalizer(frame) -> bool:
@@ -105,23 +110,38 @@ def _in_finalizer(frame) -> bool:
     return False
 
 
+def _interrupt_again(signum) -> None:
+    """Deliver ``signum`` to the main thread again, if :func:`_on_sigint`
+    still handles it (not after :func:`_release_signals`)."""
+    import _thread
+    import signal
+
+    if signal.getsignal(signum) is _on_sigint:
+        _thread.interrupt_main(signum)
+
+
 def _on_sigint(signum, frame):
     """SIGINT on the command line: KeyboardInterrupt, remembered (an import
     interrupted inside a C extension can turn it into an ImportError).
 
     An exception raised in a finalizer (``__del__``, e.g. a progress bar
     collected while it runs) cannot leave it: Python prints it with its
-    traceback as "Exception ignored" and goes on.  There the signal is sent
-    again :data:`SIGINT_RETRY_S` later instead, when the finalizer has
-    returned."""
-    if _in_finalizer(frame):
-        import os
+    traceback as "Exception ignored" and goes on.  There the signal is
+    delivered again :data:`SIGINT_RETRY_S` later instead, when the finalizer
+    has returned, at most :data:`SIGINT_RETRIES` times in a row."""
+    if _in_finalizer(frame) and _SIGINT_PUT_OFF[0] < SIGINT_RETRIES:
         import threading
 
-        t = threading.Timer(SIGINT_RETRY_S, os.kill, (os.getpid(), signum))
+        t = threading.Timer(SIGINT_RETRY_S, _interrupt_again, (signum,))
         t.daemon = True
-        t.start()
-        return
+        try:
+            t.start()
+        except RuntimeError:  # no new thread at interpreter shutdown
+            pass
+        else:
+            _SIGINT_PUT_OFF[0] += 1
+            return
+    _SIGINT_PUT_OFF[0] = 0
     _SIGINT_SEEN.append(True)
     raise KeyboardInterrupt
 

@@ -214,17 +214,17 @@ def flag_multipath(
         on_found = objects.covered(mine) > 0.5
         pairs = []
         if not on_found and len(legs.clusters) > 1:
-            # both legs stronger than the cluster by GHOST_AMP, and two
-            # objects, not two parts of one
-            # a leg that none of the cluster's antennas saw (found in another
-            # tile or segment) was seen from nearer or farther: its amplitude
-            # is moved to the cluster's antennas by the spreading (module notes)
+            # a leg found in another tile was seen from other antennas,
+            # nearer or farther: its amplitude is moved to the cluster's
+            # antennas by the spreading (module notes)
             if parts is None:
                 scale = 1.0
             else:
                 apart = np.asarray(seen_by) != parts[cl_rp == c][0]
                 # two-way spherical spreading: amplitude as 1 / R^2
                 scale = np.where(apart, np.asarray(reach) / legs.nearest(one), 1.0) ** 2
+            # both legs stronger than the cluster by GHOST_AMP, and two
+            # objects, not two parts of one
             strong = amp <= GHOST_AMP * np.asarray(strength) * scale
             roots = np.array([objects.root(i) for i in range(len(legs.clusters))])
             keep = strong[:, None] & strong[None, :] & (roots[:, None] != roots[None, :])

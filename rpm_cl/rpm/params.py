@@ -170,13 +170,17 @@ class RPMParams:
         3-D, with mean shift: each cluster's steps first run on every
         ``meanshift_sample``-th of its main RPs (at least 8); where the
         median distance they move the point is below a twentieth of
-        ``sigma_r`` (:data:`rpm_cl.rpm.pipeline.MS_SAMPLE_TOL`), the list's argmax already sits at
-        the exhaustive mode and the cluster keeps it without the steps
-        (:func:`rpm_cl.rpm.pipeline._moving`).  On the human body every
-        cluster's points move (median 0.2 sigma_r) and every cluster takes
-        the steps; on phase-rpm's clusters of spheres they move about 1e-4
-        sigma_r, and the steps are skipped.  Clusters of fewer than 32 main
-        RPs are not sampled; 0: every cluster takes the steps.
+        ``sigma_r`` (:data:`rpm_cl.rpm.pipeline.MS_SAMPLE_TOL`), the list's
+        argmax already sits at the exhaustive mode and the cluster keeps it
+        without the steps (:func:`rpm_cl.rpm.pipeline._moving`).  On the
+        human body every cluster's points move (median 0.2 sigma_r) and
+        every cluster takes the steps; on phase-rpm's clusters of spheres
+        they move 0.014 sigma_r or less (nine clusters of ten), and the
+        steps are skipped.  A
+        skipped cluster's scores are the list's eq. 10 ones, as those of
+        clusters over ``meanshift_max_rps``; a stepped cluster's are the
+        exhaustive density.  Clusters of fewer than 32 main RPs are not
+        sampled; 0: every cluster takes the steps.
     """
 
     sigma_x: float = 0.10

@@ -18,12 +18,12 @@ from .reference import MS_DENSITY_T
 #: Fewest main RPs of a cluster's sample (:func:`_moving`).
 MS_SAMPLE_MIN = 8
 #: A cluster whose sample's median move is below ``MS_SAMPLE_TOL * sigma_r``
-#: keeps the list's argmax (:func:`_moving`).  Measured medians
-#: (``RPMParams.meanshift_sample``): the human body's clusters 0.20-0.21
-#: sigma_r, noise-free and at 20 dB; phase-rpm's clusters of three spheres
-#: below 1e-3 sigma_r on 15 x 15 and 45 x 45 arrays, up to 0.013 sigma_r on a
-#: few clusters at tile edges.  A twentieth of the kernel width lies between
-#: them with a factor 4 either side.
+#: keeps the list's argmax (:func:`_moving`).  Measured per-cluster medians
+#: with every cluster stepped (``python benchmarks/meanshift_sample.py``):
+#: the human body's 0.20-0.21 sigma_r, noise-free and at 20 dB; phase-rpm's
+#: clusters of three spheres below 1e-4 sigma_r on 15 x 15 and up to 0.014
+#: sigma_r (90th percentile over clusters) on 64 x 64 in tiles.  A twentieth
+#: of the kernel width lies between them with a factor 3.5 to 4 either side.
 MS_SAMPLE_TOL = 0.05
 
 __all__ = ["Image", "pair_windows", "rpm_image"]
@@ -201,7 +201,7 @@ def _meanshift(parts, x, z, r, amp, start, count, params: RPMParams, engine):
     exhaustive argmax among the candidates nearest the mode, see
     :func:`_argmax_near`); the score becomes the exhaustive density there.
     Clusters whose sample does not move (:func:`_moving`) keep the list's
-    argmax."""
+    argmax and its score (the list's eq. 10, not the exhaustive density)."""
     best = np.concatenate([p[0] for p in parts])
     score = np.concatenate([p[1] for p in parts]).astype(np.float64)
     local = np.concatenate([p[2] for p in parts], axis=1).astype(np.float64)
