@@ -253,6 +253,26 @@ def test_touching_does_not_depend_on_where_cells_end():
     assert not joined([[0, 1, 0]], [[7 * t, 1, 0]], bridge)
 
 
+@pytest.mark.parametrize("far", [0.0, 20e3])
+def test_objects_answer_alike_beyond_the_packed_cells_reach(far):
+    """The cells are packed into int64 codes counted from the first point's
+    cell; a point 20 km off (beyond 2^20 cells) moves them to tuples, with
+    the same answers: the touching pair joins across a cell's edge, the
+    distant cluster stays its own object, and covered counts the same."""
+    from rpm_cl.rpm import multipath
+    from rpm_cl.rpm.multipath import TOUCH, _Objects
+
+    t = TOUCH
+    objects = _Objects()
+    objects.add(np.array([[t - 1e-6, 1.0, 0.0], [0.5 * t, 1.0, 0.0]]))
+    objects.add(np.array([[far, 1.0, 0.0]]) if far else np.zeros((0, 3)))
+    objects.add(np.array([[t + 1e-6, 1.0, 0.0]]))
+    assert (objects.cells is not None) == (far > multipath._CELL_REACH * t)
+    assert objects.same(0, 2) and not objects.same(0, 1)
+    pts = np.array([[2.5 * t, 1.0, 0.0], [4.5 * t, 1.0, 0.0], [0.0, 1.0, -0.5 * t], [far, 1.0, t]])
+    assert objects.covered(pts) == pytest.approx(3 / 4)
+
+
 @pytest.mark.parametrize("half_space", [False, True])
 def test_leg_pairs_are_those_the_exact_level_test_keeps(half_space):
     """The stacked level test (multipath._Legs) returns exactly the pairs,

@@ -345,19 +345,74 @@ class _Legs:
 _BESIDE = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), -1).reshape(-1, 3)
 
 
+#: Cells are packed into one int64, :data:`_CELL_BITS` bits an axis, counted
+#: from the cell of the first point accepted; where a point lies farther
+#: than :data:`_CELL_REACH` cells from it on an axis (10.5 km at 10 mm), the
+#: cells are held as tuples in a dict instead (the same answers, slower).
+_CELL_BITS = 21
+_CELL_REACH = (1 << (_CELL_BITS - 1)) - 2
+#: The packed offsets of :data:`_BESIDE`: a cell's and its neighbours' codes
+#: are its code plus these (within the reach no axis leaves its bits).
+_BESIDE_CODES = (_BESIDE[:, 0] << (2 * _CELL_BITS)) + (_BESIDE[:, 1] << _CELL_BITS) + _BESIDE[:, 2]
+
+
 class _Objects:
     """Accepted clusters grouped into objects by touching points (union-find
-    over the :data:`TOUCH` cells their points occupy)."""
+    over the :data:`TOUCH` cells their points occupy; the cells held as
+    sorted packed codes, each with the first cluster that occupied it, or
+    as a dict of tuples where the points spread beyond the packing's
+    reach)."""
 
     def __init__(self):
         self.parent: list[int] = []
-        self.cells: dict = {}
+        self.origin = None
+        self.codes = np.zeros(0, np.int64)
+        self.owner = np.zeros(0, np.int64)
+        self.cells: dict | None = None  # the tuple cells, once beyond the reach
 
     def _root(self, i: int) -> int:
         while self.parent[i] != i:
             self.parent[i] = self.parent[self.parent[i]]
             i = self.parent[i]
         return i
+
+    def _keys(self, points: np.ndarray) -> np.ndarray:
+        """The cells of ``points`` (M, 3), shape (M, 3), int64; switches to
+        the tuple cells where one lies beyond the packing's reach."""
+        keys = np.floor(np.asarray(points, np.float64) / TOUCH).astype(np.int64)
+        if self.origin is None:
+            self.origin = keys[0].copy()
+        if self.cells is None and np.any(np.abs(keys - self.origin) > _CELL_REACH):
+            half = 1 << (_CELL_BITS - 1)
+            mask = (1 << _CELL_BITS) - 1
+            rel = (
+                np.stack(
+                    [
+                        (self.codes >> (2 * _CELL_BITS)) & mask,
+                        (self.codes >> _CELL_BITS) & mask,
+                        self.codes & mask,
+                    ],
+                    axis=1,
+                )
+                - half
+            )
+            self.cells = {
+                tuple(k): int(o) for k, o in zip((rel + self.origin).tolist(), self.owner.tolist())
+            }
+        return keys
+
+    def _pack(self, keys: np.ndarray) -> np.ndarray:
+        """Packed codes of cells within the reach, shape (M,)."""
+        k = keys - self.origin + (1 << (_CELL_BITS - 1))
+        return (k[:, 0] << (2 * _CELL_BITS)) | (k[:, 1] << _CELL_BITS) | k[:, 2]
+
+    def _held(self, codes: np.ndarray) -> np.ndarray:
+        """Per code (any shape), the index of its cell in ``self.codes``, -1
+        where no accepted cluster occupies it."""
+        if not self.codes.size:
+            return np.full(np.shape(codes), -1, np.intp)
+        at = np.minimum(np.searchsorted(self.codes, codes), self.codes.size - 1)
+        return np.where(self.codes[at] == codes, at, -1)
 
     def add(self, points: np.ndarray) -> None:
         """The next accepted cluster, by its image points (M, 3): joined to
@@ -366,24 +421,45 @@ class _Objects:
         cells' edges fall)."""
         me = len(self.parent)
         self.parent.append(me)
-        keys = np.unique(np.floor(points / TOUCH).astype(np.int64), axis=0)
-        near = {tuple(k) for k in np.unique((keys[:, None, :] + _BESIDE).reshape(-1, 3), axis=0)}
-        for key in near:
-            other = self.cells.get(key)
-            if other is not None:
+        if len(points) == 0:
+            return
+        keys = self._keys(points)
+        if self.cells is not None:
+            keys = np.unique(keys, axis=0)
+            near = {
+                tuple(k) for k in np.unique((keys[:, None, :] + _BESIDE).reshape(-1, 3), axis=0)
+            }
+            for key in near:
+                other = self.cells.get(key)
+                if other is not None:
+                    self.parent[self._root(other)] = self._root(me)
+            for key in map(tuple, keys.tolist()):
+                self.cells.setdefault(key, me)
+            return
+        codes = np.unique(self._pack(keys))
+        if self.codes.size:
+            near = self._held(np.unique(codes[:, None] + _BESIDE_CODES))
+            for other in np.unique(self.owner[near[near >= 0]]).tolist():
                 self.parent[self._root(other)] = self._root(me)
-        for key in map(tuple, keys):
-            self.cells.setdefault(key, me)
+            codes = codes[self._held(codes) < 0]  # a cell keeps its first cluster
+        order = np.argsort(np.concatenate([self.codes, codes]), kind="stable")
+        self.codes = np.concatenate([self.codes, codes])[order]
+        self.owner = np.concatenate([self.owner, np.full(codes.size, me, np.int64)])[order]
 
     def covered(self, points: np.ndarray) -> float:
         """The share of ``points`` (M, 3) in a cell of an accepted cluster or
         a neighbouring one (0 with none accepted)."""
-        if not self.cells or len(points) == 0:
+        if not self.parent or len(points) == 0:
             return 0.0
-        keys, inv = np.unique(
-            np.floor(points / TOUCH).astype(np.int64), axis=0, return_inverse=True
-        )
-        hit = np.array([any(tuple(k) in self.cells for k in key + _BESIDE) for key in keys])
+        keys = self._keys(points)
+        if self.cells is not None:
+            keys, inv = np.unique(keys, axis=0, return_inverse=True)
+            hit = np.array(
+                [any(tuple(k) in self.cells for k in (key + _BESIDE).tolist()) for key in keys]
+            )
+        else:
+            codes, inv = np.unique(self._pack(keys), return_inverse=True)
+            hit = np.any(self._held(codes[:, None] + _BESIDE_CODES) >= 0, axis=1)
         return float(np.mean(hit[inv.ravel()]))
 
     def same(self, i: int, j: int) -> bool:
