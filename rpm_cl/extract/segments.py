@@ -97,18 +97,12 @@ TILE_PER_RANGE = 0.3
 TILES_ABOVE = 1.5
 
 
-def _cuts(n: int, m: int) -> list:
-    """One axis of ``n`` antennas cut into runs of ``m`` overlapping by
-    half: per run, its antennas and the antennas whose RPs it keeps (from
-    the middle of the overlap with the previous run to the middle of the
-    overlap with the next; the first and last runs to the axis's ends), so
-    that the kept parts tile the axis."""
-    if m >= n:
-        return [(slice(0, n), slice(0, n))]
-    step = max(1, m // 2)
-    starts = list(range(0, n - m + 1, step))
-    if starts[-1] + m < n:
-        starts.append(n - m)
+def _kept(n: int, m: int, starts: list) -> list:
+    """Runs of ``m`` antennas at ``starts`` on an axis of ``n``: per run, its
+    antennas and the antennas whose RPs it keeps (from the middle of the
+    overlap with the previous run to the middle of the overlap with the
+    next; the first and last runs to the axis's ends), so that the kept
+    parts tile the axis."""
     out = []
     for i, s0 in enumerate(starts):
         lo = 0 if i == 0 else (s0 + starts[i - 1] + m) // 2
@@ -117,21 +111,26 @@ def _cuts(n: int, m: int) -> list:
     return out
 
 
+def _cuts(n: int, m: int) -> list:
+    """One axis of ``n`` antennas cut into runs of ``m`` overlapping by
+    half (:func:`_kept`)."""
+    if m >= n:
+        return [(slice(0, n), slice(0, n))]
+    step = max(1, m // 2)
+    starts = list(range(0, n - m + 1, step))
+    if starts[-1] + m < n:
+        starts.append(n - m)
+    return _kept(n, m, starts)
+
+
 def _tiles(n: int, m: int) -> list:
     """One axis of ``n`` antennas cut into the fewest runs of ``m`` that
     cover it, spread evenly (neighbours overlap by what the division leaves,
-    less than a run); as :func:`_cuts`, per run its antennas and those whose
-    RPs it keeps, split at the middle of each overlap."""
+    less than a run; :func:`_kept`)."""
     if m >= n:
         return [(slice(0, n), slice(0, n))]
     k = -(-n // m)
-    starts = [int(s) for s in np.round(np.linspace(0, n - m, k))]
-    out = []
-    for i, s0 in enumerate(starts):
-        lo = 0 if i == 0 else (s0 + starts[i - 1] + m) // 2
-        hi = n if i == k - 1 else (starts[i + 1] + s0 + m) // 2
-        out.append((slice(s0, s0 + m), slice(lo, hi)))
-    return out
+    return _kept(n, m, [int(s) for s in np.round(np.linspace(0, n - m, k))])
 
 
 def _run_length(length: float, pitch: float) -> int:

@@ -207,6 +207,7 @@ def flag_multipath(
         rr = np.asarray(rps.range, float)[cl_rp == c]
         k = int(np.argsort(rr)[len(rr) // 2])
         one = positions[np.asarray(rps.antenna)[cl_rp == c][k]][None]
+        part = None if parts is None else parts[cl_rp == c][0]
         # a cluster whose points lie on surfaces already found images those
         # surfaces (more of a sphere seen by a large array), not the empty
         # space a double bounce is imaged in
@@ -220,7 +221,7 @@ def flag_multipath(
             if parts is None:
                 scale = 1.0
             else:
-                apart = np.asarray(seen_by) != parts[cl_rp == c][0]
+                apart = np.asarray(seen_by) != part
                 # two-way spherical spreading: amplitude as 1 / R^2
                 scale = np.where(apart, np.asarray(reach) / legs.nearest(one), 1.0) ** 2
             # both legs stronger than the cluster by GHOST_AMP, and two
@@ -246,7 +247,7 @@ def flag_multipath(
         else:
             strength.append(amp)
             reach.append(float(np.median(rr)))
-            seen_by.append(None if parts is None else parts[cl_rp == c][0])
+            seen_by.append(part)
             objects.add(mine)
             legs.add(_spread(mine, MAX_OBJECT_POINTS))
     return flags

@@ -277,13 +277,12 @@ def _moving(mains, best, local, x, z, r, amp, start, count, params: RPMParams, e
     RPs (at least :data:`MS_SAMPLE_MIN`, evenly spread); where the median
     distance those moved is below ``MS_SAMPLE_TOL * sigma_r``, the list's
     argmax already sits at the exhaustive density's mode and the cluster
-    keeps it.  Clusters of fewer than
-    ``4 * MS_SAMPLE_MIN`` main RPs are not sampled (the sample would be a
-    quarter of them or more): they take the steps.  The
-    sample runs on copies of its main RPs appended after the others (a main
-    RP's own sphere is left out of its triplets by its position, not its
-    index), so the steps of the clusters that move are the ones
-    :func:`_meanshift` runs without a sample."""
+    keeps it.  Clusters of fewer than ``4 * MS_SAMPLE_MIN`` main RPs are
+    not sampled (the sample would be a quarter of them or more): they take
+    the steps.  The sample runs on copies of its main RPs appended after
+    the others (a main RP's own sphere is left out of its triplets by its
+    position, not its index), so the steps of the clusters that move are
+    the ones :func:`_meanshift` runs without a sample."""
     firsts, sizes = np.unique(start[mains], return_counts=True)
     every = int(params.meanshift_sample)
     big = sizes >= 4 * MS_SAMPLE_MIN
@@ -302,18 +301,16 @@ def _moving(mains, best, local, x, z, r, amp, start, count, params: RPMParams, e
         j = slice(i0 - total, i0 - total + n)
         moved, _, new = _steps(*ext, ext_best[j], ext_local[:, j], params, engine, i0, n)
         move[j] = np.where(moved, np.linalg.norm(new - ext_local[:, j], axis=0), np.nan)
-    still = set()
-    tol = MS_SAMPLE_TOL * params.sigma_r
-    for f, idx in zip(
-        firsts[big], np.split(np.arange(sample.size), np.cumsum([len(p) for p in picks])[:-1])
-    ):
-        m = move[idx]
-        m = m[np.isfinite(m)]
-        if m.size and np.median(m) < tol:
-            still.add(int(f))
-    if not still:
-        return mains
-    return mains[~np.isin(start[mains], np.fromiter(still, np.int64))]
+    # per sampled cluster (by its first RP), the median move of its sample
+    owner = np.repeat(firsts[big], [p.size for p in picks])
+    ok = np.isfinite(move)
+    still = [
+        f
+        for f in firsts[big]
+        if np.any(ok & (owner == f))
+        and np.median(move[ok & (owner == f)]) < MS_SAMPLE_TOL * params.sigma_r
+    ]
+    return mains[~np.isin(start[mains], still)] if still else mains
 
 
 def _argmax_near(mode, near, cnt, engine, x, z, r, amp, start, count, params, i0, n):
