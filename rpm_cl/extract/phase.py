@@ -58,6 +58,7 @@ not a measured one, and are left as they are.
 from __future__ import annotations
 
 import heapq
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -188,29 +189,35 @@ def _links(grid, r_env, slope, steps, gap) -> np.ndarray:
 
 def _unwrap(grid, phase, amp, links, kvec, steps) -> np.ndarray:
     """Phase unwrapped over the links, strongest RP first (module notes, step
-    2): returns the residual phase after the plane wave ``kvec . X``, rad."""
+    2): returns the residual phase after the plane wave ``kvec . X``, rad.
+
+    The walk is a Python heap over Python floats (a cluster's few hundred
+    RPs: NumPy scalars would cost several times more per step, with the
+    same IEEE arithmetic)."""
     k = len(phase)
     nbr = [[] for _ in range(k)]
-    for i, j in links:
+    for i, j in np.asarray(links, np.int64).reshape(-1, 2).tolist():
         nbr[i].append(j)
         nbr[j].append(i)
-    out = np.full(k, np.nan)
     pos = grid * np.asarray(steps)[None, :]
-    resid = phase - pos @ kvec
+    resid = (phase - pos @ kvec).tolist()
+    w = np.asarray(amp, np.float64).tolist()
+    out = [None] * k
     start = int(np.argmax(amp))
     out[start] = resid[start]
-    heap = [(-min(amp[start], amp[j]), start, j) for j in nbr[start]]
+    heap = [(-min(w[start], w[j]), start, j) for j in nbr[start]]
     heapq.heapify(heap)
+    two_pi = 2 * math.pi
     while heap:
         _, i, j = heapq.heappop(heap)
-        if not np.isnan(out[j]):
+        if out[j] is not None:
             continue
-        d = resid[j] - resid[i]
-        out[j] = out[i] + (d + np.pi) % (2 * np.pi) - np.pi
+        out[j] = out[i] + (resid[j] - resid[i] + math.pi) % two_pi - math.pi
+        wj = w[j]
         for n in nbr[j]:
-            if np.isnan(out[n]):
-                heapq.heappush(heap, (-min(amp[j], amp[n]), j, n))
-    return out
+            if out[n] is None:
+                heapq.heappush(heap, (-min(wj, w[n]), j, n))
+    return np.array([np.nan if v is None else v for v in out], np.float64)
 
 
 def phase_ranges(
