@@ -21,7 +21,11 @@ surface) the track is Fermat's path (:func:`rpm_cl.io.medium.one_way`), and
 the homogeneous fit.
 
 Only tracks that pin the curvature take part: at least :data:`MIN_RPS` RPs,
-a relative standard error of ``eps_r`` at most :data:`TRACK_REL_ERROR`; and
+a relative standard error of ``eps_r`` at most :data:`TRACK_REL_ERROR`, a
+value the engine takes as a medium (at most ``EPS_R_MAX``: beyond it the
+track is not one point's hyperbola but peaks of overlapping echoes linked
+across antennas, which a dense array at a coarse range resolution lets the
+tracker hop between); and
 the estimate (their inverse-variance weighted median) is reported only
 where the tracks' pooled error, ``1 / sqrt(sum 1 / se^2)``, is at most
 :data:`MAX_REL_ERROR` of it.  A flat track (a plate, a planar surface) has
@@ -243,7 +247,10 @@ def fit_eps_r(positions, rps, medium: Medium | None = None) -> tuple[float, int]
         e, se = track_eps_r(rps.x[sl], z, r)
         if half and np.isfinite(e) and se <= 2 * TRACK_REL_ERROR * e:
             e, se = _halfspace_track(pos_all[sl], r, medium.antenna_height, e)
-        if np.isfinite(e) and e > 0 and se <= TRACK_REL_ERROR * e:
+        # a fit beyond the media the engine takes (EPS_R_MAX) is not the
+        # hyperbola of a point: a track that hops between the peaks of
+        # overlapping echoes bends sharply and fits hundreds
+        if np.isfinite(e) and 0 < e <= EPS_R_MAX and se <= TRACK_REL_ERROR * e:
             est.append(e)
             err.append(se)
     if not est:
