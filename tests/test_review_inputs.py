@@ -364,6 +364,39 @@ def test_huge_near_field_search_is_refused_at_once(wide_sparse, tmp_path, capsys
     assert out.exists()
 
 
+def test_automatic_near_field_gives_way_to_the_plane_wave_path(tmp_path, capsys):
+    """128 antennas at 1.5 wavelengths (77 GHz, 0.74 m: within 1.2 range
+    resolutions of a 0.2 GHz band) are what the near-field search is chosen
+    for, but its map would hold 3025 directions x 128 antennas x ~250 range
+    samples.  By default the plane-wave path images the file (exit 0);
+    asked for, the search is refused in one line."""
+    from rpm_cl.extract import nearfield
+    from rpm_cl.io.data import Array, Waveform
+    from rpm_cl.io.formats import save_data
+    from rpm_cl.simulate import simulate
+    from rpm_cl.simulate.scene import PointTarget, Scene
+
+    targets = np.array([(0.1, 0.5), (-0.3, 1.0), (0.2, 1.9)])
+    data = simulate(
+        Scene(tuple(PointTarget(tuple(t)) for t in targets), "dense aperture"),
+        Array((np.arange(128) - 63.5) * 5.84e-3),
+        Waveform(77e9, 0.2e9),
+        np.arange(0.0, 2.5, 5e-3),
+    )
+    assert nearfield.near_field_wanted(data)
+    path, out = tmp_path / "wide77.npz", tmp_path / "o.npz"
+    save_data(path, data)
+    assert main(["image", str(path), "-o", str(out), "-q"]) == 0
+    got = np.load(out)["points"]
+    # the nearest, strongest target at least (an aperture sampled at 1.5
+    # wavelengths aliases the plane-wave path's k axis: what that path makes
+    # of the farther ones is the pitch's limit, not this test's subject)
+    assert np.min(np.linalg.norm(got - targets[0], axis=1)) < 0.05
+    out.unlink()
+    line = _one_error(capsys, ["image", str(path), "-o", str(out), "--near-field", "true", "-q"])
+    assert "too large" in line and not out.exists()
+
+
 def test_paper_sparse_map_is_far_inside_the_bound():
     """The bound must not touch the paper's sparse case: its map has 441
     directions x 21 antennas x 104 samples, under a sixteenth of the bound

@@ -122,6 +122,9 @@ decomposition of :mod:`rpm_cl.extract.nearfield` for it (automatically by defaul
 where the aperture is also at most about a range resolution long: a longer
 one resolves each target's range walk, and the alignment of step 4 tells the
 aliases apart by it; see :func:`rpm_cl.extract.nearfield.near_field_wanted`).
+Chosen automatically, it gives way to the plane-wave path where its focused
+map would exceed ``MAP_TERMS_MAX`` terms (an aperture of hundreds of
+wavelengths over many gates); asked for, that is an error.
 """
 
 from __future__ import annotations
@@ -137,6 +140,7 @@ from .kspace_detect import _nms_size, _ranked_centres, _regimes, _runs
 from .kspace_geometry import _align_on, _dechirp_gates, _fresnel
 from .kspace_params import KSpaceParams
 from .nearfield import decompose_near_field, near_field_wanted
+from .nearfield_map import MapTooLarge
 from .types import Cluster, Decomposition
 
 # isort: split
@@ -417,8 +421,16 @@ def decompose(
 def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition:
     arr = data.array
     n_k = arr.dim - 1
-    if params.near_field or (params.near_field is None and near_field_wanted(data)):
+    if params.near_field:
         return _near_field(data, params, env)
+    if params.near_field is None and near_field_wanted(data):
+        try:
+            return _near_field(data, params, env)
+        except MapTooLarge:
+            # chosen, not asked for: an aperture of so many wavelengths over
+            # so many gates takes the plane-wave path, whose cost does not
+            # grow with the directions x antennas x gates of one map
+            pass
     gate = params.range_gate or data.waveform.range_resolution
     dr = data.dr
     nr = data.range.size

@@ -60,7 +60,9 @@ class KSpaceParams:
         Use the near-field decomposition (:mod:`rpm_cl.extract.nearfield`, linear
         arrays only); None = where the pitch exceeds half a wavelength and
         the aperture is at most 1.2 range resolutions long
-        (:func:`rpm_cl.extract.nearfield.near_field_wanted`).
+        (:func:`rpm_cl.extract.nearfield.near_field_wanted`) and its focused
+        map fits ``MAP_TERMS_MAX`` terms (else the plane-wave path; True
+        refuses such a map).
     focus : bool or None
         Remove each aligned cluster's wavefront curvature (step 5 of the
         module notes).  None (default): where the curvature phase at the

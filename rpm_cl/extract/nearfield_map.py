@@ -70,6 +70,12 @@ def _peaks(fmap, size, floor, count):
     return out
 
 
+class MapTooLarge(InputError):
+    """The near-field search's focused map would exceed MAP_TERMS_MAX terms:
+    an error where the search was asked for, the plane-wave path where it
+    was the automatic choice (:func:`rpm_cl.extract.kspace.decompose`)."""
+
+
 class _FocusMap:
     """The focused map of the search's data and the candidate centres it gives.
 
@@ -101,11 +107,11 @@ class _FocusMap:
         self.gmax = float(self.focus_map(self.s_det).max())
 
     def _check_size(self, data, n_dirs: int) -> None:
-        """InputError when one focused map of ``n_dirs`` directions exceeds
+        """MapTooLarge when one focused map of ``n_dirs`` directions exceeds
         MAP_TERMS_MAX terms (checked before the directions are allocated)."""
         terms = n_dirs * self.n * self.r_det.size
         if terms > MAP_TERMS_MAX:
-            raise InputError(
+            raise MapTooLarge(
                 f"the near-field search of this sparse array is too large: a focused map of "
                 f"{terms:.3g} terms ({n_dirs} directions x {self.n} antennas x "
                 f"{self.r_det.size} range samples; at most {MAP_TERMS_MAX:.3g}), as the "
