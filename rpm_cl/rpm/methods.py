@@ -62,7 +62,7 @@ def phase_plan(data: RadarData, params: ImagingParams) -> list | None:
 
 
 def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
-    from ..extract.phase import phase_ranges
+    from ..extract.phase import phase_ranges, spherical_ranges
 
     t0 = time.perf_counter()
     ks = params.kspace
@@ -76,7 +76,9 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
         dec = decompose(part, ks, getattr(engine, "env", None))
         spent += time.perf_counter() - ta
         rps = rps_from_decomposition(part, dec, params.rp_threshold_db)
-        if not dec.near_field and dec.clusters:
+        if dec.near_field and dec.clusters:
+            rps, _ = spherical_ranges(part, rps, dec.clusters)
+        elif dec.clusters:
             rps, _ = phase_ranges(part, rps, np.array([c.k for c in dec.clusters]))
         parts.append(rps if plan is None else kept_rps(rps, antennas, kept, data.array.shape))
     rps = parts[0] if plan is None else joined_rps(parts)
