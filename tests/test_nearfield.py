@@ -7,7 +7,7 @@ from rpm_cl.extract import nearfield
 from rpm_cl.extract.kspace import KSpaceParams, decompose
 from rpm_cl.extract.rangepoints import rps_from_decomposition
 from rpm_cl.imaging import run_method
-from rpm_cl.io.data import Array, InputError, RadarData, Waveform
+from rpm_cl.io.data import C0, Array, InputError, RadarData, Waveform
 from rpm_cl.metrics import err_range, summary
 from rpm_cl.rpm import reference
 from rpm_cl.rpm.params import default_params
@@ -85,6 +85,26 @@ def test_switch_follows_the_pitch():
     assert nearfield.near_field_wanted(sparse)  # 20 mm > lambda/2
     # the plane-wave decomposition stays available on request
     assert len(decompose(sparse, KSpaceParams(near_field=False)).clusters) == 1
+
+
+def test_switch_takes_exactly_half_a_wavelength_as_dense():
+    """A pitch computed as lambda / 2 from the carrier of a frequency grid is
+    the Nyquist pitch (not sparse), whichever way its last bit rounds: the
+    path must not flip on 1e-17 m."""
+    f = 24e9 - 0.125e9 + (np.arange(64) + 0.5) * 0.25e9 / 64
+    fc = 0.5 * (f[0] + f[-1])
+    half = 0.5 * C0 / fc
+    for pitch in (half, np.nextafter(half, 1.0), half * (1 + 1e-12)):
+        arr = Array((np.arange(32) - 15.5) * pitch)
+        data = RadarData(
+            np.ones((32, 8), complex), arr, 0.5 + np.arange(8) * 0.01, Waveform(fc, 0.25e9)
+        )
+        assert not nearfield.near_field_wanted(data)
+    arr = Array((np.arange(32) - 15.5) * half * 1.01)
+    data = RadarData(
+        np.ones((32, 8), complex), arr, 0.5 + np.arange(8) * 0.01, Waveform(fc, 0.25e9)
+    )
+    assert nearfield.near_field_wanted(data)
 
 
 @pytest.mark.parametrize(

@@ -244,7 +244,9 @@ def near_field_wanted(data) -> bool:
     off broadside through the near-field path and none through the other.
     """
     arr = data.array
-    if arr.planar or arr.n < 4 or arr.dx <= 0.5 * data.waveform.wavelength:
+    # a pitch of exactly half a wavelength is not sparse, however its last
+    # bit rounds (x from c / (2 fc) and fc from a frequency grid)
+    if arr.planar or arr.n < 4 or arr.dx <= 0.5 * data.waveform.wavelength * (1 + 1e-9):
         return False
     aperture = float(arr.x[-1] - arr.x[0])
     return aperture <= MAX_APERTURE_RESOLUTIONS * data.waveform.range_resolution
