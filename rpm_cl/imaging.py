@@ -220,26 +220,51 @@ def _warn_empty(data: RadarData, params: ImagingParams) -> None:
     )
 
 
+#: Windows the sidelobe warning names, lowest sidelobes last, with their
+#: levels over 81 samples (dB; :func:`rpm_cl.io.compress.range_sidelobe_db`),
+#: used where the data keep no frequency samples to measure them on.
+SIDELOBE_WINDOWS = (("hann", -31.5), ("hamming", -42.6), ("blackman", -58.2))
+
+
 def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
     """Warn when the range sidelobes reach above the k-space peak threshold.
 
-    The fix named is a window with lower sidelobes: a threshold raised above
-    them removes the sidelobes' clusters too, but with them every target
-    weaker than the sidelobes of the strongest."""
+    The fix named is a window with lower sidelobes, below the threshold
+    (measured on the data's own frequency samples where it has them): a
+    threshold raised above them removes the sidelobes' clusters too, but
+    with them every target weaker than the sidelobes of the strongest.
+    Where no window's lie below it, the threshold is what to change."""
     import warnings
 
     from .io.data import DataWarning
 
     sl = data.range_sidelobe_db
-    if sl is not None and threshold_db < sl:
-        warnings.warn(
-            f"the range compression's sidelobes reach {sl:.1f} dB, above the k-space "
-            f"peak threshold {threshold_db:g} dB: each strong echo's sidelobes become "
-            f"clusters of spurious points; use a window with lower sidelobes "
-            f"(range_window='hann', --range-window hann: -31.5 dB)",
-            DataWarning,
-            stacklevel=3,
+    if sl is None or threshold_db >= sl:
+        return
+    levels = dict(SIDELOBE_WINDOWS)
+    if data.spectrum is not None:
+        from .io.compress import range_sidelobe_db, window_bandwidth
+
+        f = data.spectrum.frequency
+        for w in levels:
+            level = range_sidelobe_db(f, w, window_bandwidth(f, w))
+            levels[w] = -np.inf if level is None else level
+    fits = [f"{w} ({lv:.1f} dB)" for w, lv in levels.items() if lv < threshold_db]
+    if fits:
+        names = " or ".join(f"--range-window {f}" for f in fits[:2])
+        fix = f"use a window with lower sidelobes: {names}"
+    else:
+        fix = (
+            f"no window's sidelobes lie below it (blackman {levels['blackman']:.1f} dB): "
+            f"raise --peak-threshold-db above {sl:.1f}"
         )
+    warnings.warn(
+        f"the range compression's sidelobes reach {sl:.1f} dB, above the k-space "
+        f"peak threshold {threshold_db:g} dB: each strong echo's sidelobes become "
+        f"clusters of spurious points; {fix}",
+        DataWarning,
+        stacklevel=3,
+    )
 
 
 def timed_run(name: str, data: RadarData, params: ImagingParams, engine, repeats: int = 1):

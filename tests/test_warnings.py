@@ -213,9 +213,12 @@ def test_rect_window_warns_and_hann_is_silent(tmp_path, capsys):
     with pytest.warns(
         DataWarning,
         match=r"sidelobes reach -31\.5 dB, above the k-space peak "
-        r"threshold -40 dB",
+        r"threshold -40 dB.*--range-window hamming \(-4\d\.\d dB\) or --range-window "
+        r"blackman \(-5\d\.\d dB\)",
     ):
-        _image(hann, peak_threshold_db=-40.0)
+        _image(hann, peak_threshold_db=-40.0)  # names windows below -40 dB, not hann
+    with pytest.warns(DataWarning, match=r"threshold -60 dB.*raise --peak-threshold-db"):
+        _image(hann, peak_threshold_db=-60.0)  # below every window's sidelobes
     assert main(["image", str(path), "-o", str(tmp_path / "o.npz"), "--range-window", "rect"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("rpm-cl: warning: the range compression's")
