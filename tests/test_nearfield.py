@@ -87,24 +87,24 @@ def test_switch_follows_the_pitch():
     assert len(decompose(sparse, KSpaceParams(near_field=False)).clusters) == 1
 
 
-def test_switch_takes_exactly_half_a_wavelength_as_dense():
-    """A pitch computed as lambda / 2 from the carrier of a frequency grid is
-    the Nyquist pitch (not sparse), whichever way its last bit rounds: the
-    path must not flip on 1e-17 m."""
+def test_switch_takes_half_a_wavelength_as_coarse_whatever_the_rounding():
+    """A pitch computed as lambda / 2 from the carrier of a frequency grid
+    takes the near-field path whichever way its last bit rounds (the path
+    must not flip on 1e-17 m); a pitch 1 % finer takes the plane-wave one."""
     f = 24e9 - 0.125e9 + (np.arange(64) + 0.5) * 0.25e9 / 64
     fc = 0.5 * (f[0] + f[-1])
     half = 0.5 * C0 / fc
-    for pitch in (half, np.nextafter(half, 1.0), half * (1 + 1e-12)):
+
+    def wanted(pitch):
         arr = Array((np.arange(32) - 15.5) * pitch)
-        data = RadarData(
-            np.ones((32, 8), complex), arr, 0.5 + np.arange(8) * 0.01, Waveform(fc, 0.25e9)
+        rng = 0.5 + np.arange(8) * 0.01
+        return nearfield.near_field_wanted(
+            RadarData(np.ones((32, 8), complex), arr, rng, Waveform(fc, 0.25e9))
         )
-        assert not nearfield.near_field_wanted(data)
-    arr = Array((np.arange(32) - 15.5) * half * 1.01)
-    data = RadarData(
-        np.ones((32, 8), complex), arr, 0.5 + np.arange(8) * 0.01, Waveform(fc, 0.25e9)
-    )
-    assert nearfield.near_field_wanted(data)
+
+    for pitch in (half, np.nextafter(half, 0.0), np.nextafter(half, 1.0), half * (1 - 1e-12)):
+        assert wanted(pitch)
+    assert not wanted(0.99 * half)
 
 
 @pytest.mark.parametrize(

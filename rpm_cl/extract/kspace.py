@@ -115,7 +115,7 @@
    with a point's Fresnel term only, 91.3 % with the exact point focus of
    step 5 alone); on 32 x 32 no cluster gains the margin.
 
-A linear array sampled coarser than half a wavelength (the paper's sparse
+A linear array sampled at half a wavelength or coarser (the paper's sparse
 case) aliases the k axis and bends each target's wave across the aperture
 beyond what a window in k can hold; ``near_field`` selects the spherical-wave
 decomposition of :mod:`rpm_cl.extract.nearfield` for it (automatically by default,

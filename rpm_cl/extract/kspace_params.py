@@ -58,7 +58,7 @@ class KSpaceParams:
         through interpolation and leakage, than it gains.
     near_field : bool or None
         Use the near-field decomposition (:mod:`rpm_cl.extract.nearfield`, linear
-        arrays only); None = where the pitch exceeds half a wavelength and
+        arrays only); None = where the pitch is half a wavelength or more and
         the aperture is at most 1.2 range resolutions long
         (:func:`rpm_cl.extract.nearfield.near_field_wanted`) and its focused
         map fits ``MAP_TERMS_MAX`` terms (else the plane-wave path; True

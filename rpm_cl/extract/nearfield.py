@@ -223,8 +223,8 @@ FLOOR_REL = 1e-3
 
 
 def near_field_wanted(data) -> bool:
-    """True where the array is linear, sampled coarser than half a wavelength
-    (the paper's Nyquist criterion, Section III-A) and at most
+    """True where the array is linear, sampled at half a wavelength or
+    coarser (the paper's Nyquist criterion, Section III-A) and at most
     ``MAX_APERTURE_RESOLUTIONS`` range resolutions long.
 
     The second condition is the model's own: the envelope across X is a
@@ -244,9 +244,12 @@ def near_field_wanted(data) -> bool:
     off broadside through the near-field path and none through the other.
     """
     arr = data.array
-    # a pitch of exactly half a wavelength is not sparse, however its last
-    # bit rounds (x from c / (2 fc) and fc from a frequency grid)
-    if arr.planar or arr.n < 4 or arr.dx <= 0.5 * data.waveform.wavelength * (1 + 1e-9):
+    # a pitch of half a wavelength counts as coarse, however its last bit
+    # rounds (x from c / (2 fc), fc from a frequency grid): a monostatic
+    # array's two-way phase aliases beyond 30 degrees there, and three
+    # targets in one cell of a 0.25-1 GHz band put 70-88 % of the points
+    # within 50 mm through the plane-wave path against 100 % through this one
+    if arr.planar or arr.n < 4 or arr.dx < 0.5 * data.waveform.wavelength * (1 - 1e-9):
         return False
     aperture = float(arr.x[-1] - arr.x[0])
     return aperture <= MAX_APERTURE_RESOLUTIONS * data.waveform.range_resolution
