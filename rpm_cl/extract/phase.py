@@ -35,10 +35,13 @@ Per cluster of a k-space decomposition (one echo per antenna and direction,
    one constant.  Where the array is coarser than a quarter wavelength the
    cluster's k is ambiguous by ``2 pi / d`` per axis; the alias whose range
    walk best fits the envelope ranges (weighted least squares) is taken,
-   but in place of the principal alias only where it leaves at most
-   :data:`ALIAS_GAIN` of the principal one's misfit: the other echoes of a
-   resolution cell bend the envelopes too, and where the aliases' walks
-   differ by a fraction of a resolution the two misfits come out alike.
+   but on an array of half a wavelength or finer (where the principal
+   alias spans +-30 degrees or more) in place of the principal alias only
+   where it leaves at most :data:`ALIAS_GAIN` of the principal one's
+   misfit: the other echoes of a resolution cell bend the envelopes too,
+   and where the aliases' walks differ by a fraction of a resolution the two
+   misfits come out alike.  On a coarser array the principal alias is one
+   narrow band of directions among several, and the least misfit decides.
    32 antennas at half a wavelength (6 cm at 77 GHz) under a 0.25 GHz band
    put three targets in one cell; their envelopes fitted the alias of a
    point at 15 degrees at 0.73 of the principal's misfit, and drew it at
@@ -515,9 +518,15 @@ def _absolute(grid, psi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
                 principal = (cost, rel + c)
             elif best is None or cost < best[0]:
                 best = (cost, rel + c)
-    # another alias only where it explains most of the principal one's misfit
-    # (module notes, step 3)
-    if principal is not None and (best is None or best[0] > ALIAS_GAIN * principal[0]):
+    # another alias only where it explains most of the principal one's misfit,
+    # where the principal alias spans +-30 degrees or more (a pitch of half
+    # a wavelength or finer); on a coarser array it is one narrow band of
+    # directions among several, the least misfit decides (module notes, step 3)
+    moved = [a for a in range(2) if span[a].size > 1]
+    wide = bool(moved) and all(periods[a] >= 2 * kc * (1 - 1e-9) for a in moved)
+    if wide and principal is not None and (best is None or best[0] > ALIAS_GAIN * principal[0]):
+        return principal[1]
+    if principal is not None and (best is None or principal[0] <= best[0]):
         return principal[1]
     if best is None:  # no alias is a physical direction: keep the envelope
         return r_env
