@@ -214,6 +214,39 @@ def test_three_targets_in_one_cell_under_a_short_half_wavelength_array(dev32):
     assert np.mean(d.min(axis=1) < 0.05) >= 0.9
 
 
+@pytest.mark.parametrize("deg", [35.0, 55.0])
+def test_steep_target_on_a_sparse_plane_wave_line(dev32, deg):
+    """Independently synthesised: 21 antennas at 20 mm (1.33 wavelengths at
+    20 GHz), a 1 GHz sweep (the aperture is 1.3 resolutions: the plane-wave
+    path), one point 0.8 m away at 35 or 55 degrees, 30 dB.  Its direction
+    lies two or three aliases from the principal one: the phase walk must
+    take the alias the range-walk alignment found, or search every physical
+    alias, not the principal one and its two neighbours (14 % of the RPs
+    within 10 mm and no point within 50 mm)."""
+    from rpm_cl.extract.nearfield import near_field_wanted
+
+    fc, band, nf = 20e9, 1e9, 64
+    x = (np.arange(21) - 10) * 0.02
+    th = np.radians(deg)
+    tg = np.array([0.8 * np.sin(th), 0.8 * np.cos(th)])
+    f = fc - band / 2 + np.arange(nf) * band / (nf - 1)
+    r_t = np.hypot(x - tg[0], tg[1])
+    y = np.exp(-4j * np.pi * f[None, :] * r_t[:, None] / C0)
+    peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
+    sigma2 = peak / 10 ** (30.0 / 10) * nf
+    g = np.random.default_rng(int(deg))
+    y = y + np.sqrt(sigma2 / 2) * (g.standard_normal(y.shape) + 1j * g.standard_normal(y.shape))
+    s, rng_axis = range_compress(y, f, 0.5 * (f[0] + f[-1]), "hann")
+    keep = rng_axis < 2.0
+    data = RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(0.5 * (f[0] + f[-1]), band / 2))
+    assert not near_field_wanted(data)
+    res = imaging.run_method("phase-rpm", data, default_params(data), dev32)
+    d = np.linalg.norm(res.image.points - tg, axis=1)
+    assert len(d) and np.mean(d < 0.05) >= 0.9
+    rp_err = np.abs(res.rps.range - r_t[res.rps.antenna])
+    assert np.mean(rp_err < 0.01) >= 0.9
+
+
 def test_two_echoes_in_one_cluster_are_two_tracks():
     x = (np.arange(15) - 7) * 5e-3
     data = _data(x, bandwidth=1e9)  # resolution 0.15 m

@@ -79,7 +79,7 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
         if dec.near_field and dec.clusters:
             rps, _ = spherical_ranges(part, rps, dec.clusters)
         elif dec.clusters:
-            rps, _ = phase_ranges(part, rps, np.array([c.k for c in dec.clusters]))
+            rps, _ = phase_ranges(part, rps, _phase_k(part, dec.clusters))
         parts.append(rps if plan is None else kept_rps(rps, antennas, kept, data.array.shape))
     rps = parts[0] if plan is None else joined_rps(parts)
     # the part (segment or tile) each RP was found in, for the double-bounce test
@@ -115,6 +115,20 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
             "coherence": n_reach - n_coherent,
             "multipath": n_coherent - len(image.points),
         },
+    )
+
+
+def _phase_k(data: RadarData, clusters) -> np.ndarray:
+    """Each cluster's wavenumber for the phase refinement, rad/m, shape
+    (n_clusters, n_k_axes): where the range-walk alignment ran, the alias it
+    chose (``-2 k_c u`` of its range slopes ``u``), else the window's centre
+    (the principal alias)."""
+    kc = data.waveform.kc
+    return np.array(
+        [
+            -2.0 * kc * np.asarray(c.direction, np.float64) if np.any(c.direction) else c.k
+            for c in clusters
+        ]
     )
 
 
