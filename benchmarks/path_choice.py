@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/path_choice.py [--bandwidths 0.2,0.3,0.4,0.5,1,3] [--pitch-mm 20] [--antennas 21]
+        [--method kspace-rpm|phase-rpm]
 
 For one point target and one 50 mm circle at 0.8 m, 0 to 65 degrees off
 broadside, S/N 20 dB (seed 0), images each scene through both decompositions
@@ -30,11 +31,11 @@ from rpm_cl.simulate import simulate
 from rpm_cl.simulate.scene import Ellipsoid, PointTarget, Scene
 
 
-def figures(data, near_field, engine):
+def figures(data, near_field, engine, method="kspace-rpm"):
     """(RPs, RP <= 10 mm share, RPM <= 50 mm share) with one decomposition."""
     p = default_params(data)
     p = replace(p, kspace=replace(p.kspace, near_field=near_field))
-    res = run_method("kspace-rpm", data, p, engine)
+    res = run_method(method, data, p, engine)
     s = summary(res.rps, res.image, data.truth)
     return (
         s["rp_total"],
@@ -49,12 +50,18 @@ def main():
     ap.add_argument("--pitch-mm", type=float, default=20.0)
     ap.add_argument("--antennas", type=int, default=21)
     ap.add_argument("--fc-ghz", type=float, default=20.0)
+    ap.add_argument(
+        "--method",
+        default="kspace-rpm",
+        choices=("kspace-rpm", "phase-rpm"),
+        help="the imaging method",
+    )
     args = ap.parse_args()
     engine = DeviceRPM(create_env(), "float32")
     n, pitch = args.antennas, args.pitch_mm * 1e-3
     arr = Array((np.arange(n) - (n - 1) / 2) * pitch)
     print(
-        f"{n} antennas at {args.pitch_mm:g} mm, {args.fc_ghz:g} GHz; "
+        f"{args.method}, {n} antennas at {args.pitch_mm:g} mm, {args.fc_ghz:g} GHz; "
         "columns: RPs found (true), RP<=10mm, RPM<=50mm"
     )
     print(
@@ -74,7 +81,7 @@ def main():
                 )
                 cols = []
                 for nf in (True, False):
-                    k, rp, rpm = figures(data, nf, engine)
+                    k, rp, rpm = figures(data, nf, engine, args.method)
                     cols.append(f"{k:3d} ({data.truth.rp_range.size}) {rp:4.0%} {rpm:4.0%}")
                 path = "near" if near_field_wanted(data) else "plane"
                 ratio = float(arr.x[-1] - arr.x[0]) / wf.range_resolution
