@@ -27,12 +27,15 @@ Per cluster of a k-space decomposition (one echo per antenna and direction,
    RP outwards over a maximum spanning tree of the amplitudes (quality-guided
    unwrapping: a weak, noisy RP is reached last and cannot break the path to
    the others).  Each step adds the wrapped difference of the phases after
-   the cluster's plane wave ``exp(j k . X)`` is taken out, which keeps every
-   step well inside +-pi (the window of the decomposition holds wavenumbers
-   within half its period of the centre).
-3. *Relative ranges.*  ``r_phase(X) = -phi(X) / (2 k_c)`` plus the plane
-   wave's ``-k . X / (2 k_c)``: the range walk across the track, exact up to
-   one constant.  Where the array is coarser than a quarter wavelength the
+   the cluster's wavefront is taken out (:func:`_wavefront`: the spherical
+   wave of the point at the cluster's range in its direction ``k``), which
+   keeps every step well inside +-pi: the window of the decomposition holds
+   wavenumbers within half its period of the centre, and the curvature of a
+   near target's wavefront, which a plane wave ``exp(j k . X)`` would leave
+   in, turns by 4 rad per antenna at the ends of 21 antennas at 20 mm for a
+   point 0.8 m away (whole cycles slipped: RPs 7 and 15 mm off).
+3. *Relative ranges.*  ``r_phase(X) = -phi(X) / (2 k_c)``, the wavefront
+   added back: the range walk across the track, exact up to one constant.  Where the array is coarser than a quarter wavelength the
    cluster's k is ambiguous by ``2 pi / d`` per axis.  The walk starts from
    the alias the decomposition's range-walk alignment chose (``-2 k_c u``,
    where it ran; else the window's centre), and every alias that is a
@@ -113,6 +116,9 @@ TRACK_GAP = 0.5
 #: envelope ranges' misfit to its walk is at most this fraction of their
 #: misfit to the principal walk (module notes, step 3).
 ALIAS_GAIN = 0.25
+#: Most aliases of a cluster's k tried along an array axis (module notes,
+#: step 3): every physical one up to a pitch of 8 wavelengths.
+ALIASES_AXIS = 33
 #: Fewest RPs in a track whose ranges the phase refines (a range walk needs
 #: two, a check of it three).
 MIN_TRACK = 3
@@ -225,9 +231,10 @@ def _links(grid, r_env, slope, steps, gap) -> np.ndarray:
     return np.concatenate(out)
 
 
-def _unwrap(grid, phase, amp, links, kvec, steps) -> np.ndarray:
+def _unwrap(phase, amp, links, model) -> np.ndarray:
     """Phase unwrapped over the links, strongest RP first (module notes, step
-    2): returns the residual phase after the plane wave ``kvec . X``, rad.
+    2): returns the residual phase after the cluster's wavefront ``model``
+    (:func:`_wavefront`), rad.
 
     The walk is a Python heap over Python floats (a cluster's few hundred
     RPs: NumPy scalars would cost several times more per step, with the
@@ -237,8 +244,7 @@ def _unwrap(grid, phase, amp, links, kvec, steps) -> np.ndarray:
     for i, j in np.asarray(links, np.int64).reshape(-1, 2).tolist():
         nbr[i].append(j)
         nbr[j].append(i)
-    pos = grid * np.asarray(steps)[None, :]
-    resid = (phase - pos @ kvec).tolist()
+    resid = (phase - model).tolist()
     w = np.asarray(amp, np.float64).tolist()
     out = [None] * k
     start = int(np.argmax(amp))
@@ -259,7 +265,11 @@ def _unwrap(grid, phase, amp, links, kvec, steps) -> np.ndarray:
 
 
 def phase_ranges(
-    data: RadarData, rps: RangePoints, cluster_k: np.ndarray, params: PhaseParams = PhaseParams()
+    data: RadarData,
+    rps: RangePoints,
+    cluster_k: np.ndarray,
+    params: PhaseParams = PhaseParams(),
+    cluster_r: np.ndarray | None = None,
 ) -> tuple[RangePoints, np.ndarray]:
     """Refine the ranges of a decomposition's RPs by their carrier phase.
 
@@ -275,6 +285,10 @@ def phase_ranges(
         (module notes, step 3), e.g. ``Cluster.k``, or ``-2 k_c u`` of an
         aligned cluster's range slopes ``Cluster.direction``.
     params : PhaseParams
+    cluster_r : ndarray, shape (n_clusters,), optional
+        Each cluster's range (``Cluster.r_centre``), m: the phase is unwrapped
+        after the spherical wave of that range (:func:`_wavefront`); None:
+        after the plane wave.
 
     Returns
     -------
@@ -298,6 +312,8 @@ def phase_ranges(
     phase_all = np.angle(rps.sample)
     amp_all = np.asarray(rps.amp, np.float64)
     cl = np.asarray(rps.cluster)
+    # the array's centre in the grid's positions (index times pitch)
+    centre = 0.5 * (np.asarray(arr.shape + (1,))[:2] - 1) * np.asarray(steps)
     for m in np.unique(cl):
         sel = np.nonzero(cl == m)[0]
         if sel.size < params.min_track:
@@ -316,11 +332,12 @@ def phase_ranges(
             g, re_, a = grid[mem], r_env[mem], amp[mem]
             place[mem] = np.arange(mem.size)
             own = place[links[label[links[:, 0]] == t]].tolist()  # a link joins one track
-            psi = _unwrap(g, phase_all[sel][mem], a, own, kvec, steps)
+            model = _wavefront(g, steps, centre, kvec, cluster_r, m, kc)
+            psi = _unwrap(phase_all[sel][mem], a, own, model)
             ok = np.isfinite(psi)
             if np.count_nonzero(ok) < params.min_track:
                 continue
-            r_fit = _absolute(g[ok], psi[ok], re_[ok], a[ok], kvec, steps, periods, kc)
+            r_fit = _absolute(g[ok], psi[ok] + model[ok], re_[ok], a[ok], kvec, steps, periods, kc)
             idx = sel[mem[ok]]
             if params.coherent_level:
                 r_fit = r_fit + _coherent_level(data, np.asarray(rps.antenna)[idx], g[ok], r_fit)
@@ -502,17 +519,39 @@ def _spectral_profile(data: RadarData, antenna: np.ndarray, r_fit: np.ndarray, w
     return profile
 
 
-def _absolute(grid, psi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
-    """Ranges of one unwrapped track (module notes, steps 3-4): the phase's
-    range walk, the alias of ``kvec`` that fits the envelope ranges best, and
-    the constant from the envelope ranges, m."""
+def _wavefront(grid, steps, centre, kvec, cluster_r, m, kc) -> np.ndarray:
+    """The phase a cluster's wave puts on the antennas ``grid`` (module notes,
+    step 2), rad: the spherical wave of the point at the cluster's range
+    ``cluster_r[m]`` whose range slopes at the array's ``centre`` are
+    ``u = -kvec / (2 k_c)``, ``-2 k_c (|X - p| - R)``; the plane wave
+    ``kvec . X`` without a range.  A sparse array's steps of a near target's
+    wavefront exceed pi at its ends (21 antennas at 20 mm, 0.8 m: 4 rad), so
+    the plane wave left whole cycles there."""
+    d = grid * np.asarray(steps)[None, :] - centre
+    if cluster_r is None:
+        return d @ kvec
+    r = float(cluster_r[m])
+    u = -kvec / (2 * kc)
+    q = r * r + 2 * r * (d @ u) + np.sum(d * d, axis=1)
+    return -2 * kc * (np.sqrt(np.maximum(q, 0.0)) - r)
+
+
+def _absolute(grid, phi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
+    """Ranges of one unwrapped track (module notes, steps 3-4): the range walk
+    of its unwrapped phase ``phi`` (the cluster's wavefront included), of the
+    alias of ``kvec`` that fits the envelope ranges best (an alias adds
+    ``n 2 pi / d`` per axis to the phase slope), and the constant from the
+    envelope ranges, m."""
     pos = grid * np.asarray(steps)[None, :]
     w = (amp / amp.max()) ** 2  # relative: the data's own scale may square beyond float64
     w = w / w.sum()
     best, principal = None, None
     # every alias that can be a physical direction (|u| < 1), along each axis
-    # the track extends over
+    # the track extends over; beyond ALIASES_AXIS of them (a pitch over 8
+    # wavelengths; x in mm read as m gives a million) only the starting one
+    # and its neighbours, so that a track's cost stays bounded
     most = np.ceil(2 * kc / periods).astype(int) + 1
+    most = np.where(2 * most + 1 > ALIASES_AXIS, 1, most)
     span = [
         np.arange(-most[a], most[a] + 1) if np.ptp(grid[:, a]) > 0 else np.zeros(1, int)
         for a in range(2)
@@ -522,7 +561,7 @@ def _absolute(grid, psi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
             kv = kvec + np.array([nx, nz]) * periods
             if np.hypot(*(kv / (2 * kc))) >= 1.0:
                 continue
-            rel = -(psi + pos @ kv) / (2 * kc)
+            rel = -(phi + pos @ (kv - kvec)) / (2 * kc)
             c = float(np.sum(w * (r_env - rel)))
             cost = float(np.sum(w * (r_env - rel - c) ** 2))
             if nx == 0 and nz == 0:

@@ -79,7 +79,8 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
         if dec.near_field and dec.clusters:
             rps, _ = spherical_ranges(part, rps, dec.clusters)
         elif dec.clusters:
-            rps, _ = phase_ranges(part, rps, _phase_k(part, dec.clusters))
+            r_c = np.array([c.r_centre for c in dec.clusters])
+            rps, _ = phase_ranges(part, rps, _phase_k(part, dec.clusters), cluster_r=r_c)
         parts.append(rps if plan is None else kept_rps(rps, antennas, kept, data.array.shape))
     rps = parts[0] if plan is None else joined_rps(parts)
     # the part (segment or tile) each RP was found in, for the double-bounce test
