@@ -95,14 +95,22 @@ def test_steep_walk_needs_the_cluster_wavenumber():
     assert np.max(np.abs(wrong.range - r_true)) > 1e-3
 
 
-def test_planar_unwrap_over_the_grid():
-    rng = np.random.default_rng(5)
+def _planar_point():
+    """An 11 x 9 array at 7.5 mm (3 GHz band) and the exact ranges of a point
+    at (0.05, 0.6, -0.08) m: (data, r_true (99,), the cluster's k (1, 2))."""
     x = (np.arange(11) - 5) * 7.5e-3
     z = (np.arange(9) - 4) * 7.5e-3
     data = _data(x, z, bandwidth=3e9)
-    target = (0.05, 0.6, -0.08)
     gx, gz = np.meshgrid(x, z, indexing="ij")
-    r_true = _point_ranges(gx.ravel(), target, gz.ravel())
+    r_true = _point_ranges(gx.ravel(), (0.05, 0.6, -0.08), gz.ravel())
+    sx = np.mean(np.gradient(r_true.reshape(gx.shape), x, axis=0))
+    sz = np.mean(np.gradient(r_true.reshape(gx.shape), z, axis=1))
+    return data, r_true, np.array([[_k(sx), _k(sz)]])
+
+
+def test_planar_unwrap_over_the_grid():
+    rng = np.random.default_rng(5)
+    data, r_true, k = _planar_point()
     ant = np.arange(r_true.size)
     keep = rng.random(ant.size) > 0.15  # missing antennas: the tree goes around them
     err = rng.normal(0.0, 2e-3, ant.size)
@@ -114,9 +122,7 @@ def test_planar_unwrap_over_the_grid():
         np.ones(keep.sum()),
         np.zeros(keep.sum(), int),
     )
-    sx = np.mean(np.gradient(r_true.reshape(gx.shape), x, axis=0))
-    sz = np.mean(np.gradient(r_true.reshape(gx.shape), z, axis=1))
-    out, refined = phase_ranges(data, rps, np.array([[_k(sx), _k(sz)]]))
+    out, refined = phase_ranges(data, rps, k)
     assert refined.all()
     off = out.range - r_true[keep]
     assert np.ptp(off) < 1e-9
@@ -129,21 +135,14 @@ def test_unwrap_reaches_weak_rps_last():
     is reached over strong links and keeps the exact range walk; a walk that
     passes through the weak ones (any other order) carries their half cycle
     on as whole-cycle jumps to the RPs beyond them."""
-    x = (np.arange(11) - 5) * 7.5e-3
-    z = (np.arange(9) - 4) * 7.5e-3
-    data = _data(x, z, bandwidth=3e9)
-    target = (0.05, 0.6, -0.08)
-    gx, gz = np.meshgrid(x, z, indexing="ij")
-    r_true = _point_ranges(gx.ravel(), target, gz.ravel())
+    data, r_true, k = _planar_point()
     ant = np.arange(r_true.size)
     weak = np.isin(ant, [3 * 9 + 4, 5 * 9 + 2, 5 * 9 + 6, 7 * 9 + 4])
     amp = np.where(weak, 0.05, 1.0)
     rps = _rps(data, ant, r_true, r_true, amp, np.zeros(ant.size, int))
     # the weak RPs' samples half a cycle off
     rps = replace(rps, sample=np.where(weak, -rps.sample, rps.sample))
-    sx = np.mean(np.gradient(r_true.reshape(gx.shape), x, axis=0))
-    sz = np.mean(np.gradient(r_true.reshape(gx.shape), z, axis=1))
-    out, refined = phase_ranges(data, rps, np.array([[_k(sx), _k(sz)]]))
+    out, refined = phase_ranges(data, rps, k)
     assert refined.all()
     off = out.range - r_true
     assert np.ptp(off[~weak]) < 1e-9
@@ -203,11 +202,7 @@ def test_three_targets_in_one_cell_under_a_short_half_wavelength_array(dev32):
     rr = np.array([0.6, 0.8, 1.0])
     tg = np.stack([rr * np.sin(ang), rr * np.cos(ang)], 1)
     f = fc - band / 2 + (np.arange(nf) + 0.5) * band / nf
-    rng_t = np.hypot(x[:, None] - tg[None, :, 0], tg[None, :, 1])
-    y = np.sum(np.exp(-4j * np.pi * f[None, None, :] * rng_t[:, :, None] / C0), axis=1)
-    s, rng_axis = range_compress(y, f, 0.5 * (f[0] + f[-1]), "hann")
-    keep = rng_axis < 3.0
-    data = RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(0.5 * (f[0] + f[-1]), band / 2))
+    data = _line_data(x, f, tg, band / 2, rmax=3.0)
     res = imaging.run_method("phase-rpm", data, default_params(data), dev32)
     d = np.linalg.norm(res.image.points[:, None, :] - tg[None], axis=2)
     assert np.all(d.min(axis=0) < 0.05)
@@ -235,14 +230,7 @@ def test_steep_target_on_a_sparse_plane_wave_line(dev32, deg):
     tg = np.array([0.8 * np.sin(th), 0.8 * np.cos(th)])
     f = fc - band / 2 + np.arange(nf) * band / (nf - 1)
     r_t = np.hypot(x - tg[0], tg[1])
-    y = np.exp(-4j * np.pi * f[None, :] * r_t[:, None] / C0)
-    peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
-    sigma2 = peak / 10 ** (30.0 / 10) * nf
-    g = np.random.default_rng(int(deg))
-    y = y + np.sqrt(sigma2 / 2) * (g.standard_normal(y.shape) + 1j * g.standard_normal(y.shape))
-    s, rng_axis = range_compress(y, f, 0.5 * (f[0] + f[-1]), "hann")
-    keep = rng_axis < 2.0
-    data = RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(0.5 * (f[0] + f[-1]), band / 2))
+    data = _line_data(x, f, tg[None], band / 2, 30.0, int(deg))
     assert not near_field_wanted(data)
     res = imaging.run_method("phase-rpm", data, default_params(data), dev32)
     d = np.linalg.norm(res.image.points - tg, axis=1)
@@ -298,6 +286,29 @@ def test_phase_params_validation():
 # --- end to end, on data rpm_cl.simulate did not make ---------------------------
 
 
+def _line_data(x, f, tg, bandwidth, snr_db=None, seed=0, spread=False, rmax=2.0):
+    """Range-compressed data of point targets ``tg`` (K, 2) seen by antennas
+    ``x`` over the frequencies ``f``, synthesised here: exact two-way phases
+    (amplitudes 1 / R with ``spread``), white noise in the frequency samples
+    at ``snr_db`` (S/N = peak compressed power / mean compressed noise power;
+    a rect compression's noise power is sigma^2 / nf), the Hann compression,
+    ranges below ``rmax``."""
+    nf = f.size
+    rng_t = np.hypot(x[:, None] - tg[None, :, 0], tg[None, :, 1])
+    y = np.exp(-4j * np.pi * f[None, None, :] * rng_t[:, :, None] / C0)
+    y = np.sum(y / rng_t[:, :, None] if spread else y, axis=1)
+    if snr_db is not None:
+        peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
+        sigma2 = peak / 10 ** (snr_db / 10) * nf
+        g = np.random.default_rng(seed)
+        y = y + np.sqrt(sigma2 / 2) * (g.standard_normal(y.shape) + 1j * g.standard_normal(y.shape))
+    s, rng_axis = range_compress(y, f, 0.5 * (f[0] + f[-1]), "hann")
+    keep = rng_axis < rmax
+    return RadarData(
+        s[:, keep], Array(x), rng_axis[keep], Waveform(0.5 * (f[0] + f[-1]), bandwidth)
+    )
+
+
 def _independent_scene(seed, snr_db):
     """Point targets at 0.35-0.5 m seen by 21-31 antennas at 4-5 mm, a 0.2-0.25
     GHz stepped-frequency sweep at 20-24 GHz, noise added to the frequency
@@ -316,19 +327,22 @@ def _independent_scene(seed, snr_db):
     x = (np.arange(nx) - (nx - 1) / 2) * d
     nf = 64
     f = fc - band / 2 + np.arange(nf) * band / (nf - 1)
-    rng_t = np.hypot(x[:, None] - tg[None, :, 0], tg[None, :, 1])
-    y = np.sum(
-        np.exp(-4j * np.pi * f[None, None, :] * rng_t[:, :, None] / C0) / rng_t[:, :, None], axis=1
-    )
-    if snr_db is not None:
-        peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
-        sigma2 = peak / 10 ** (snr_db / 10) * nf
-        g = np.random.default_rng(1000 + seed)
-        y = y + np.sqrt(sigma2 / 2) * (g.standard_normal(y.shape) + 1j * g.standard_normal(y.shape))
-    s, rng_axis = range_compress(y, f, 0.5 * (f[0] + f[-1]), "hann")
-    keep = rng_axis < 2.0
-    data = RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(0.5 * (f[0] + f[-1]), band / 2))
+    data = _line_data(x, f, tg, band / 2, snr_db, 1000 + seed, spread=True)
     return data, tg
+
+
+def _phase_rpm_hits_and_beats_kspace_rpm(data, tg, engine):
+    """phase-rpm puts >= 90 % of its points within 50 mm of the targets
+    ``tg`` and hits each; kspace-rpm, on the same decomposition, puts a
+    smaller share there."""
+    params = default_params(data)
+    res = imaging.run_method("phase-rpm", data, params, engine)
+    d = np.linalg.norm(res.image.points[:, None, :] - tg[None], axis=2)
+    assert np.mean(d.min(axis=1) < 0.05) >= 0.9
+    assert np.all(d.min(axis=0) < 0.05)
+    base = imaging.run_method("kspace-rpm", data, params, engine)
+    db = np.linalg.norm(base.image.points[:, None, :] - tg[None], axis=2)
+    assert np.mean(d.min(axis=1) < 0.05) > np.mean(db.min(axis=1) < 0.05)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -337,14 +351,7 @@ def test_phase_rpm_on_independent_narrow_band_data(dev32, seed):
     within 50 mm and every target hit; the paper's range-only RPM placed
     14-50 % of them there on these scenes."""
     data, tg = _independent_scene(seed, 30.0)
-    params = default_params(data)
-    res = imaging.run_method("phase-rpm", data, params, dev32)
-    d = np.linalg.norm(res.image.points[:, None, :] - tg[None], axis=2)
-    assert np.mean(d.min(axis=1) < 0.05) >= 0.9
-    assert np.all(d.min(axis=0) < 0.05)
-    base = imaging.run_method("kspace-rpm", data, params, dev32)
-    db = np.linalg.norm(base.image.points[:, None, :] - tg[None], axis=2)
-    assert np.mean(d.min(axis=1) < 0.05) > np.mean(db.min(axis=1) < 0.05)
+    _phase_rpm_hits_and_beats_kspace_rpm(data, tg, dev32)
 
 
 def _independent_sparse_scene(seed, snr_db):
@@ -364,15 +371,7 @@ def _independent_sparse_scene(seed, snr_db):
     x = (np.arange(21) - 10) * d
     nf = 64
     f = fc - band / 2 + np.arange(nf) * band / (nf - 1)
-    rng_t = np.hypot(x[:, None] - tg[None, :, 0], tg[None, :, 1])
-    y = np.sum(np.exp(-4j * np.pi * f[None, None, :] * rng_t[:, :, None] / C0), axis=1)
-    peak = np.max(np.abs(np.fft.ifft(y, 4096, axis=1) * 4096 / nf)) ** 2
-    sigma2 = peak / 10 ** (snr_db / 10) * nf
-    g = np.random.default_rng(2000 + seed)
-    y = y + np.sqrt(sigma2 / 2) * (g.standard_normal(y.shape) + 1j * g.standard_normal(y.shape))
-    s, rng_axis = range_compress(y, f, 0.5 * (f[0] + f[-1]), "hann")
-    keep = rng_axis < 2.0
-    data = RadarData(s[:, keep], Array(x), rng_axis[keep], Waveform(0.5 * (f[0] + f[-1]), band / 2))
+    data = _line_data(x, f, tg, band / 2, snr_db, 2000 + seed)
     return data, tg
 
 
@@ -387,14 +386,7 @@ def test_phase_rpm_puts_near_field_clusters_on_their_spherical_waves(dev32, seed
 
     data, tg = _independent_sparse_scene(seed, 30.0)
     assert near_field_wanted(data)
-    params = default_params(data)
-    res = imaging.run_method("phase-rpm", data, params, dev32)
-    d = np.linalg.norm(res.image.points[:, None, :] - tg[None], axis=2)
-    assert np.mean(d.min(axis=1) < 0.05) >= 0.9
-    assert np.all(d.min(axis=0) < 0.05)
-    base = imaging.run_method("kspace-rpm", data, params, dev32)
-    db = np.linalg.norm(base.image.points[:, None, :] - tg[None], axis=2)
-    assert np.mean(d.min(axis=1) < 0.05) > np.mean(db.min(axis=1) < 0.05)
+    _phase_rpm_hits_and_beats_kspace_rpm(data, tg, dev32)
 
 
 def test_spherical_ranges_follow_the_centre_and_keep_the_envelope_level():
