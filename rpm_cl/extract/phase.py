@@ -86,7 +86,7 @@ their circles: on independently synthesised sparse scenes (16-32 antennas at
 0.5-2 wavelengths, 0.2-0.4 GHz) the mean share of points within 50 mm rises
 from 0.59 / 0.55 / 0.22 to 0.74 / 0.75 / 0.47 noise-free / 30 / 20 dB, and
 on the paper's sparse array at 30 dB from 25-75 % to 100 %.  The coherent
-level of step 4 is not taken: over an array coarser than half a wavelength
+level of step 4 is not taken: over an array of half a wavelength or coarser
 the other targets' aliases add into the coherent sum (8-16 mm off on the
 paper's sparse scene noise-free), while the joint fit has already taken them
 out of each cluster's envelope (docs/decisions.md).
