@@ -246,14 +246,18 @@ def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
         from .io.compress import range_sidelobe_db, window_bandwidth
 
         f = data.spectrum.frequency
-        for w in levels:
-            level = range_sidelobe_db(f, w, window_bandwidth(f, w))
-            levels[w] = -np.inf if level is None else level
-    fits = [f"{w} ({lv:.1f} dB)" for w, lv in levels.items() if lv < threshold_db]
+        # a window with no sidelobe beyond half a resolution (a handful of
+        # samples) has none to name a level for
+        levels = {w: range_sidelobe_db(f, w, window_bandwidth(f, w)) for w in levels}
+    fits = [
+        f"{w} ({lv:.1f} dB)" if lv is not None else w
+        for w, lv in levels.items()
+        if lv is None or lv < threshold_db
+    ]
     if fits:
         names = " or ".join(f"--range-window {f}" for f in fits[:2])
         fix = f"use a window with lower sidelobes: {names}"
-    else:
+    else:  # every level is a number here: a window without one fits
         fix = (
             f"no window's sidelobes lie below it (blackman {levels['blackman']:.1f} dB): "
             f"raise --peak-threshold-db above {sl:.1f}"

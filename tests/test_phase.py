@@ -8,6 +8,7 @@ The end-to-end tests image data synthesised here in the frequency domain,
 independently of rpm_cl.simulate, with noise in the frequency samples.
 """
 
+import dataclasses
 from dataclasses import replace
 
 import numpy as np
@@ -193,9 +194,10 @@ def test_alias_the_envelope_barely_prefers_is_not_taken():
 def test_three_targets_in_one_cell_under_a_short_half_wavelength_array(dev32):
     """Independently synthesised: 32 antennas at half a wavelength (77 GHz,
     6 cm), a 0.25 GHz sweep, points at 0.6 / 0.8 / 1.0 m and -10 / 5 / 15
-    degrees, all in one range cell.  Every target is hit and >= 90 % of the
-    points lie within 50 mm (the alias the envelopes barely preferred put the
-    15-degree point at -48 degrees)."""
+    degrees, all in one range cell, through the plane-wave path (the default
+    takes the near-field one at this pitch).  Every target is hit and >= 90 %
+    of the points lie within 50 mm (the alias the envelopes barely preferred
+    put the 15-degree point at -48 degrees)."""
     fc, band, nf = 77e9, 0.25e9, 64
     x = (np.arange(32) - 15.5) * 0.5 * C0 / fc
     ang = np.radians([-10.0, 5.0, 15.0])
@@ -203,10 +205,43 @@ def test_three_targets_in_one_cell_under_a_short_half_wavelength_array(dev32):
     tg = np.stack([rr * np.sin(ang), rr * np.cos(ang)], 1)
     f = fc - band / 2 + (np.arange(nf) + 0.5) * band / nf
     data = _line_data(x, f, tg, band / 2, rmax=3.0)
-    res = imaging.run_method("phase-rpm", data, default_params(data), dev32)
+    params = default_params(data)
+    params = dataclasses.replace(
+        params, kspace=dataclasses.replace(params.kspace, near_field=False)
+    )
+    res = imaging.run_method("phase-rpm", data, params, dev32)
     d = np.linalg.norm(res.image.points[:, None, :] - tg[None], axis=2)
     assert np.all(d.min(axis=0) < 0.05)
     assert np.mean(d.min(axis=1) < 0.05) >= 0.9
+
+
+def test_walk_from_a_far_alias_takes_the_true_one_with_its_own_curvature():
+    """21 antennas at 20 mm (20 GHz), exact RPs of a point 0.5 m away at 50
+    degrees, the walk started from the principal alias (three aliases from
+    the true one) with the cluster's range: the true alias is found and the
+    track unwrapped again after its own wavefront, which curves otherwise
+    than the start's (scored on the start's unwrapping it was 7-30 mm off).
+    And a plane wave of slope 0.95 started from its alias of slope -0.92,
+    at the other end of the physical band: the alias five periods away is
+    reached."""
+    x = (np.arange(21) - 10) * 0.02
+    data = _data(x, bandwidth=1e9)
+    th = np.radians(50.0)
+    r_true = _point_ranges(x, (0.5 * np.sin(th), 0.5 * np.cos(th)))
+    ant = np.arange(x.size)
+    rps = _rps(data, ant, r_true, r_true, np.ones(x.size), np.zeros(x.size, int))
+    period = 2 * np.pi / 0.02
+    k0 = (_k(np.mean(np.gradient(r_true, x))) + period / 2) % period - period / 2
+    out, refined = phase_ranges(data, rps, np.array([[k0]]), cluster_r=np.array([0.5]))
+    assert refined.all()
+    np.testing.assert_allclose(out.range, r_true, atol=1e-9)
+    plane = 0.6 + 0.95 * x
+    rps = _rps(data, ant, plane, plane, np.ones(x.size), np.zeros(x.size, int))
+    start = _k(0.95) + 5 * period  # slope 0.95 - 5 x 0.375 = -0.92
+    assert -start / (2 * KC) == pytest.approx(0.95 - 5 * C0 / FC / (2 * 0.02))
+    out, refined = phase_ranges(data, rps, np.array([[start]]))
+    assert refined.all()
+    np.testing.assert_allclose(out.range, plane, atol=1e-9)
 
 
 @pytest.mark.parametrize("deg", [0.0, 35.0, 55.0])

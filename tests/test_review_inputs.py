@@ -395,6 +395,10 @@ def test_automatic_near_field_gives_way_to_the_plane_wave_path(tmp_path, capsys)
     out.unlink()
     line = _one_error(capsys, ["image", str(path), "-o", str(out), "--near-field", "true", "-q"])
     assert "too large" in line and not out.exists()
+    # the k-space figure names the path that ran
+    from rpm_cl.viz.decomposition import kspace_map
+
+    assert not kspace_map(data).near_field
 
 
 def test_paper_sparse_map_is_far_inside_the_bound():

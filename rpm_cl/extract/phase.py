@@ -35,25 +35,28 @@ Per cluster of a k-space decomposition (one echo per antenna and direction,
    in, turns by 4 rad per antenna at the ends of 21 antennas at 20 mm for a
    point 0.8 m away (whole cycles slipped: RPs 7 and 15 mm off).
 3. *Relative ranges.*  ``r_phase(X) = -phi(X) / (2 k_c)``, the wavefront
-   added back: the range walk across the track, exact up to one constant.  Where the array is coarser than a quarter wavelength the
-   cluster's k is ambiguous by ``2 pi / d`` per axis.  The walk starts from
-   the alias the decomposition's range-walk alignment chose (``-2 k_c u``,
-   where it ran; else the window's centre), and every alias that is a
-   physical direction is tried: on 20 mm at 20 GHz a point at 35-65 degrees
-   lies two or three aliases from the principal one, and the principal one
-   with its two neighbours put none of its points within 50 mm.  The alias
+   added back: the range walk across the track, exact up to one constant.
+   Where the array is coarser than a quarter wavelength the cluster's k is
+   ambiguous by ``2 pi / d`` per axis.  The walk starts from the alias the
+   decomposition's range-walk alignment chose (``-2 k_c u``, where it ran;
+   else the window's centre), and every alias that is a physical direction
+   is tried (up to :data:`ALIASES_AXIS` per axis): on 20 mm at 20 GHz a
+   point at 35-65 degrees lies two or three aliases from the principal
+   one.  The alias
    whose range walk best fits the envelope ranges (weighted least squares)
-   is taken, but on an array of half a wavelength or finer (where the principal
-   alias spans +-30 degrees or more) in place of the starting alias only
-   where it leaves at most :data:`ALIAS_GAIN` of the starting one's
-   misfit: the other echoes of a resolution cell bend the envelopes too,
-   and where the aliases' walks differ by a fraction of a resolution the two
-   misfits come out alike.  On a coarser array the principal alias is one
-   narrow band of directions among several, and the least misfit decides.
-   32 antennas at half a wavelength (6 cm at 77 GHz) under a 0.25 GHz band
-   put three targets in one cell; their envelopes fitted the alias of a
-   point at 15 degrees at 0.73 of the principal's misfit, and drew it at
-   -48 degrees.  A lone steep target's envelope fits its alias exactly.
+   is taken, but on an array of half a wavelength or finer (where the
+   starting alias spans +-30 degrees or more) in place of the starting
+   alias only where it leaves at most :data:`ALIAS_GAIN` of the starting
+   one's misfit: the other echoes of a resolution cell bend the envelopes
+   too, and where the aliases' walks differ by a fraction of a resolution
+   the two misfits come out alike (on the plane-wave path, 32 antennas at
+   half a wavelength, 6 cm at 77 GHz, with three points in one 0.25 GHz
+   cell: the alias of the 15-degree point fits at 0.73 of the starting
+   one's misfit, and drawn there it lies at -48 degrees).  On a coarser
+   array the starting alias is one narrow band of directions among several,
+   and the least misfit decides.  A lone steep target's envelope fits its
+   alias exactly.  Where another alias wins, the track is unwrapped again
+   after that alias's own wavefront (its curvature differs).
 4. *Absolute range.*  A first constant is the amplitude-weighted mean of
    ``r_envelope - r_phase`` over the track (whatever the scatterer's own
    reflection phase is, it cancels).  Then the data's own range profiles
@@ -78,18 +81,19 @@ nothing to unwrap, but the fit itself is the phase information.  Its centre
 curvature pinning it) gives the range walk ``|X - p|`` exactly where a
 point or a circle about ``p`` echoes, and the envelope ranges give the one
 constant (their amplitude-weighted mean offset from the walk: a circle's
-radius, 0 for a point).  :func:`spherical_ranges` puts each cluster's RPs on
-that walk.  The envelope ranges of the sparse array's clusters wander a few
-mm from antenna to antenna already at 40 dB (the envelope polynomial follows
-noise), enough to tilt the range walk and slide the points tens of mm along
-their circles: on independently synthesised sparse scenes (16-32 antennas at
-0.5-2 wavelengths, 0.2-0.4 GHz) the mean share of points within 50 mm rises
-from 0.59 / 0.55 / 0.22 to 0.74 / 0.75 / 0.47 noise-free / 30 / 20 dB, and
-on the paper's sparse array at 30 dB from 25-75 % to 100 %.  The coherent
-level of step 4 is not taken: over an array of half a wavelength or coarser
-the other targets' aliases add into the coherent sum (8-16 mm off on the
-paper's sparse scene noise-free), while the joint fit has already taken them
-out of each cluster's envelope (docs/decisions.md).
+radius, 0 for a point; RPs more than :data:`TRACK_GAP` resolutions from the
+weighted median offset, stray peaks of the cluster's gates, keep their own
+range and take no part).  :func:`spherical_ranges` puts each cluster's RPs
+on that walk.  The envelope ranges of the sparse array's clusters wander a
+few mm from antenna to antenna already at 40 dB (the envelope polynomial
+follows noise), enough to tilt the range walk and slide the points tens of
+mm along their circles: on twenty random layouts of the paper's sparse
+array the mean share of points within 50 mm is 0.975 against 0.673 at
+30 dB, 0.731 against 0.183 at 20 dB (``python benchmarks/sparse_phase.py``).
+The coherent level of step 4 is not taken: over an array of half a
+wavelength or coarser the other targets' aliases add into the coherent sum
+(8-16 mm off on the paper's sparse scene noise-free), while the joint fit
+has already taken them out of each cluster's envelope (docs/decisions.md).
 """
 
 from __future__ import annotations
@@ -112,9 +116,10 @@ __all__ = ["MIN_TRACK", "TRACK_GAP", "PhaseParams", "phase_ranges", "spherical_r
 #: case; two echoes of one cluster (a direction) are separated in range by
 #: more than a resolution, else the envelope would not show two peaks.
 TRACK_GAP = 0.5
-#: Another alias of a cluster's k replaces the principal one only where the
-#: envelope ranges' misfit to its walk is at most this fraction of their
-#: misfit to the principal walk (module notes, step 3).
+#: On an array of half a wavelength or finer, another alias of a cluster's k
+#: replaces the starting one only where the envelope ranges' misfit to its
+#: walk is at most this fraction of their misfit to the starting walk
+#: (module notes, step 3).
 ALIAS_GAIN = 0.25
 #: Most aliases of a cluster's k tried along an array axis (module notes,
 #: step 3): every physical one up to a pitch of 8 wavelengths.
@@ -332,12 +337,24 @@ def phase_ranges(
             g, re_, a = grid[mem], r_env[mem], amp[mem]
             place[mem] = np.arange(mem.size)
             own = place[links[label[links[:, 0]] == t]].tolist()  # a link joins one track
+            ph = phase_all[sel][mem]
             model = _wavefront(g, steps, centre, kvec, cluster_r, m, kc)
-            psi = _unwrap(phase_all[sel][mem], a, own, model)
+            psi = _unwrap(ph, a, own, model)
             ok = np.isfinite(psi)
             if np.count_nonzero(ok) < params.min_track:
                 continue
-            r_fit = _absolute(g[ok], psi[ok] + model[ok], re_[ok], a[ok], kvec, steps, periods, kc)
+            kv = _alias(g[ok], psi[ok] + model[ok], re_[ok], a[ok], kvec, steps, periods, kc)
+            if kv is None:  # no alias is a physical direction: keep the envelope
+                continue
+            if cluster_r is not None and np.any(kv != kvec):
+                # another alias: its own wavefront's curvature, unwrapped again
+                model = _wavefront(g, steps, centre, kv, cluster_r, m, kc)
+                psi = _unwrap(ph, a, own, model)
+                ok = np.isfinite(psi)
+                dk = np.zeros(2)
+            else:
+                dk = kv - kvec
+            r_fit = _absolute(g[ok], psi[ok] + model[ok], re_[ok], a[ok], dk, steps, kc)
             idx = sel[mem[ok]]
             if params.coherent_level:
                 r_fit = r_fit + _coherent_level(data, np.asarray(rps.antenna)[idx], g[ok], r_fit)
@@ -364,7 +381,10 @@ def spherical_ranges(
         The near-field clusters: ``k`` = ``2 k_c sin(theta)`` of the centre
         (not wrapped), ``r_centre`` its range from the array's middle, m.
     params : PhaseParams
-        ``min_track``: clusters with fewer RPs keep their envelope ranges.
+        ``track_gap``: RPs farther than it (range resolutions) from the walk
+        and the cluster's weighted median offset keep their envelope range
+        and take no part in the constant; ``min_track``: clusters with fewer
+        RPs on the walk keep their envelope ranges.
 
     Returns
     -------
@@ -381,6 +401,7 @@ def spherical_ranges(
     # the search's frame: positions from the array's middle
     xr = np.asarray(rps.x, np.float64) - 0.5 * (x[0] + x[-1])
     kc = data.waveform.kc
+    gap = params.track_gap * data.waveform.range_resolution
     r_new = np.array(rps.range, np.float64, copy=True)
     amp_all = np.asarray(rps.amp, np.float64)
     cl = np.asarray(rps.cluster)
@@ -393,8 +414,19 @@ def spherical_ranges(
         walk = np.hypot(xr[sel] - c.r_centre * u, c.r_centre * np.sqrt(1.0 - u * u))
         amp = amp_all[sel]
         w = (amp / amp.max()) ** 2 if amp.max() > 0 else np.ones(sel.size)
-        r_new[sel] = walk + float(np.sum(w * (r_new[sel] - walk)) / np.sum(w))
-        refined[sel] = True
+        off = r_new[sel] - walk
+        # the RPs of the walk: within the tracks' gap of the weighted median
+        # offset (a stray peak of the cluster's gates keeps its own range and
+        # does not pull the others' constant)
+        o = np.argsort(off)
+        cw = np.cumsum(w[o])
+        med = off[o][np.searchsorted(cw, 0.5 * cw[-1])]
+        on = np.abs(off - med) <= gap
+        if np.count_nonzero(on) < params.min_track:
+            continue
+        keep = sel[on]
+        r_new[keep] = walk[on] + float(np.sum(w[on] * off[on]) / np.sum(w[on]))
+        refined[keep] = True
     return replace(rps, range=r_new), refined
 
 
@@ -524,9 +556,10 @@ def _wavefront(grid, steps, centre, kvec, cluster_r, m, kc) -> np.ndarray:
     step 2), rad: the spherical wave of the point at the cluster's range
     ``cluster_r[m]`` whose range slopes at the array's ``centre`` are
     ``u = -kvec / (2 k_c)``, ``-2 k_c (|X - p| - R)``; the plane wave
-    ``kvec . X`` without a range.  A sparse array's steps of a near target's
-    wavefront exceed pi at its ends (21 antennas at 20 mm, 0.8 m: 4 rad), so
-    the plane wave left whole cycles there."""
+    ``kvec . X`` without a range.  A near target's wavefront curves: on a
+    sparse array its steps from antenna to antenna reach 4 rad at the ends
+    (21 antennas at 20 mm, a point 0.8 m away), which a plane wave leaves in
+    the residual."""
     d = grid * np.asarray(steps)[None, :] - centre
     if cluster_r is None:
         return d @ kvec
@@ -536,48 +569,73 @@ def _wavefront(grid, steps, centre, kvec, cluster_r, m, kc) -> np.ndarray:
     return -2 * kc * (np.sqrt(np.maximum(q, 0.0)) - r)
 
 
-def _absolute(grid, phi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
-    """Ranges of one unwrapped track (module notes, steps 3-4): the range walk
-    of its unwrapped phase ``phi`` (the cluster's wavefront included), of the
-    alias of ``kvec`` that fits the envelope ranges best (an alias adds
-    ``n 2 pi / d`` per axis to the phase slope), and the constant from the
-    envelope ranges, m."""
+def _alias(grid, phi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
+    """The alias of ``kvec`` whose range walk fits one unwrapped track's
+    envelope ranges best (module notes, step 3): ``kvec + n 2 pi / d`` per
+    axis, over every ``n`` that is a physical direction (|u| < 1), or None
+    where none is.
+
+    ``phi`` is the track's unwrapped phase (the starting wavefront
+    included); an alias adds ``n 2 pi / d`` to its slope.  The weighted
+    misfit of every alias comes from the track's moments at once: with
+    ``e`` the envelope ranges less the starting walk and ``q = X . dk /
+    (2 k_c)``, ``Var(e + q) = Var(e) + 2 Cov(e, q) + Var(q)``."""
     pos = grid * np.asarray(steps)[None, :]
     w = (amp / amp.max()) ** 2  # relative: the data's own scale may square beyond float64
     w = w / w.sum()
-    best, principal = None, None
-    # every alias that can be a physical direction (|u| < 1), along each axis
-    # the track extends over; beyond ALIASES_AXIS of them (a pitch over 8
-    # wavelengths; x in mm read as m gives a million) only the starting one
-    # and its neighbours, so that a track's cost stays bounded
-    most = np.ceil(2 * kc / periods).astype(int) + 1
-    most = np.where(2 * most + 1 > ALIASES_AXIS, 1, most)
-    span = [
-        np.arange(-most[a], most[a] + 1) if np.ptp(grid[:, a]) > 0 else np.zeros(1, int)
-        for a in range(2)
-    ]
-    for nx in span[0]:
-        for nz in span[1]:
-            kv = kvec + np.array([nx, nz]) * periods
-            if np.hypot(*(kv / (2 * kc))) >= 1.0:
-                continue
-            rel = -(phi + pos @ (kv - kvec)) / (2 * kc)
-            c = float(np.sum(w * (r_env - rel)))
-            cost = float(np.sum(w * (r_env - rel - c) ** 2))
-            if nx == 0 and nz == 0:
-                principal = (cost, rel + c)
-            elif best is None or cost < best[0]:
-                best = (cost, rel + c)
-    # another alias only where it explains most of the principal one's misfit,
-    # where the principal alias spans +-30 degrees or more (a pitch of half
-    # a wavelength or finer); on a coarser array it is one narrow band of
-    # directions among several, the least misfit decides (module notes, step 3)
+    # per axis the track extends over, the n that keep |u| < 1; beyond
+    # ALIASES_AXIS of them (a pitch over 8 wavelengths; x in mm read as m
+    # gives a million) the starting alias and its neighbours only
+    span = []
+    for a in range(2):
+        if np.ptp(grid[:, a]) == 0:
+            span.append(np.zeros(1, int))
+            continue
+        lo = int(np.ceil((-2 * kc - kvec[a]) / periods[a]))
+        hi = int(np.floor((2 * kc - kvec[a]) / periods[a]))
+        span.append(np.arange(lo, hi + 1) if hi - lo + 1 <= ALIASES_AXIS else np.arange(-1, 2))
+    n = np.stack(np.meshgrid(*span, indexing="ij"), axis=-1).reshape(-1, 2)
+    kv = kvec[None, :] + n * periods[None, :]
+    phys = np.hypot(kv[:, 0], kv[:, 1]) < 2 * kc
+    if not phys.any():
+        return None
+    n, kv = n[phys], kv[phys]
+    e = r_env + phi / (2 * kc)  # the envelope less the starting walk
+    em = float(np.sum(w * e))
+    pm = w @ pos
+    dp = pos - pm
+    cov_pp = (w[:, None] * dp).T @ dp  # (2, 2)
+    cov_pe = (w * (e - em)) @ dp  # (2,)
+    dq = (kv - kvec[None, :]) / (2 * kc)  # per alias, the walk's extra slope
+    cost = (
+        float(np.sum(w * (e - em) ** 2))
+        + 2 * dq @ cov_pe
+        + np.einsum("ia,ab,ib->i", dq, cov_pp, dq)
+    )
+    start = np.flatnonzero(np.all(n == 0, axis=1))
+    others = np.flatnonzero(np.any(n != 0, axis=1))
+    best = others[int(np.argmin(cost[others]))] if others.size else None
+    # another alias in place of the starting one only where it explains most
+    # of the starting one's misfit, where the starting alias spans +-30
+    # degrees or more (a pitch of half a wavelength or finer); on a coarser
+    # array it is one narrow band of directions among several, and the least
+    # misfit decides
     moved = [a for a in range(2) if span[a].size > 1]
     wide = bool(moved) and all(periods[a] >= 2 * kc * (1 - 1e-9) for a in moved)
-    if wide and principal is not None and (best is None or best[0] > ALIAS_GAIN * principal[0]):
-        return principal[1]
-    if principal is not None and (best is None or principal[0] <= best[0]):
-        return principal[1]
-    if best is None:  # no alias is a physical direction: keep the envelope
-        return r_env
-    return best[1]
+    if start.size:
+        s0 = int(start[0])
+        if best is None or (wide and cost[best] > ALIAS_GAIN * cost[s0]) or cost[s0] <= cost[best]:
+            return kv[s0]
+    return kv[best]
+
+
+def _absolute(grid, phi, r_env, amp, dk, steps, kc) -> np.ndarray:
+    """Ranges of one unwrapped track (module notes, steps 3-4): the walk of
+    its unwrapped phase ``phi`` plus ``dk . X`` (the alias's extra slope,
+    rad/m), and the constant that fits the envelope ranges ``r_env``
+    (amplitude-weighted), m."""
+    pos = grid * np.asarray(steps)[None, :]
+    w = (amp / amp.max()) ** 2
+    w = w / w.sum()
+    rel = -(phi + pos @ dk) / (2 * kc)
+    return rel + float(np.sum(w * (r_env - rel)))

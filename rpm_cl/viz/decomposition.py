@@ -65,7 +65,6 @@ def kspace_map(data: RadarData, params=None) -> KSpaceMap:
         Default :func:`rpm_cl.rpm.params.default_params` of the data.
     """
     from ..extract.kspace import decompose
-    from ..extract.nearfield import near_field_wanted
     from ..io.medium import air_ranges, seen_data
 
     pp = _params(data, params)
@@ -99,7 +98,9 @@ def kspace_map(data: RadarData, params=None) -> KSpaceMap:
         )
     c = np.array(centres, np.float64).reshape(-1, 2)
     c[:, 0] = _wrap(c[:, 0], kp_x)
-    nf = not arr.planar and (p.near_field or (p.near_field is None and near_field_wanted(seen)))
+    # the path the decomposition took (the automatic near-field choice gives
+    # way to the plane-wave path where its map would be too large)
+    nf = bool(dec.near_field)
     return KSpaceMap(kx[order], np.array(air_ranges(pp.medium, seen.range)), db, c, kz, bool(nf))
 
 
