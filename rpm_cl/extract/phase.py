@@ -42,9 +42,8 @@ Per cluster of a k-space decomposition (one echo per antenna and direction,
    else the window's centre), and every alias that is a physical direction
    is tried (up to :data:`ALIASES_AXIS` per axis): on 20 mm at 20 GHz a
    point at 35-65 degrees lies two or three aliases from the principal
-   one.  The alias
-   whose range walk best fits the envelope ranges (weighted least squares)
-   is taken, but on an array of half a wavelength or finer (where the
+   one.  The alias whose range walk best fits the envelope ranges
+   (weighted least squares) is taken, but on an array of half a wavelength or finer (where the
    starting alias spans +-30 degrees or more) in place of the starting
    alias only where it leaves at most :data:`ALIAS_GAIN` of the starting
    one's misfit: the other echoes of a resolution cell bend the envelopes
@@ -338,23 +337,24 @@ def phase_ranges(
             place[mem] = np.arange(mem.size)
             own = place[links[label[links[:, 0]] == t]].tolist()  # a link joins one track
             ph = phase_all[sel][mem]
-            model = _wavefront(g, steps, centre, kvec, cluster_r, m, kc)
+            pos = g * np.asarray(steps)[None, :]
+            r_m = None if cluster_r is None else float(cluster_r[m])
+            model = _wavefront(pos - centre, kvec, r_m, kc)
             psi = _unwrap(ph, a, own, model)
             ok = np.isfinite(psi)
             if np.count_nonzero(ok) < params.min_track:
                 continue
-            kv = _alias(g[ok], psi[ok] + model[ok], re_[ok], a[ok], kvec, steps, periods, kc)
+            kv = _alias(pos[ok], psi[ok] + model[ok], re_[ok], a[ok], kvec, periods, kc)
             if kv is None:  # no alias is a physical direction: keep the envelope
                 continue
-            if cluster_r is not None and np.any(kv != kvec):
-                # another alias: its own wavefront's curvature, unwrapped again
-                model = _wavefront(g, steps, centre, kv, cluster_r, m, kc)
+            if np.any(kv != kvec):
+                # another alias: unwrapped again after its own wavefront (a
+                # sphere's curvature differs; a plane wave's differs by whole
+                # cycles per step)
+                model = _wavefront(pos - centre, kv, r_m, kc)
                 psi = _unwrap(ph, a, own, model)
                 ok = np.isfinite(psi)
-                dk = np.zeros(2)
-            else:
-                dk = kv - kvec
-            r_fit = _absolute(g[ok], psi[ok] + model[ok], re_[ok], a[ok], dk, steps, kc)
+            r_fit = _absolute(psi[ok] + model[ok], re_[ok], a[ok], kc)
             idx = sel[mem[ok]]
             if params.coherent_level:
                 r_fit = r_fit + _coherent_level(data, np.asarray(rps.antenna)[idx], g[ok], r_fit)
@@ -551,44 +551,47 @@ def _spectral_profile(data: RadarData, antenna: np.ndarray, r_fit: np.ndarray, w
     return profile
 
 
-def _wavefront(grid, steps, centre, kvec, cluster_r, m, kc) -> np.ndarray:
-    """The phase a cluster's wave puts on the antennas ``grid`` (module notes,
-    step 2), rad: the spherical wave of the point at the cluster's range
-    ``cluster_r[m]`` whose range slopes at the array's ``centre`` are
-    ``u = -kvec / (2 k_c)``, ``-2 k_c (|X - p| - R)``; the plane wave
-    ``kvec . X`` without a range.  A near target's wavefront curves: on a
-    sparse array its steps from antenna to antenna reach 4 rad at the ends
-    (21 antennas at 20 mm, a point 0.8 m away), which a plane wave leaves in
-    the residual."""
-    d = grid * np.asarray(steps)[None, :] - centre
-    if cluster_r is None:
+def _wavefront(d, kvec, r, kc) -> np.ndarray:
+    """The phase a cluster's wave puts on antennas at ``d`` (K, 2) from the
+    array's centre (module notes, step 2), rad: the spherical wave of the
+    point at range ``r`` whose range slopes at the centre are ``u = -kvec /
+    (2 k_c)``, ``-2 k_c (|X - p| - r)``; the plane wave ``kvec . d`` where
+    ``r`` is None.  A near target's wavefront curves: on a sparse array its
+    steps from antenna to antenna reach 4 rad at the ends (21 antennas at
+    20 mm, a point 0.8 m away), which a plane wave leaves in the residual."""
+    if r is None:
         return d @ kvec
-    r = float(cluster_r[m])
     u = -kvec / (2 * kc)
     q = r * r + 2 * r * (d @ u) + np.sum(d * d, axis=1)
     return -2 * kc * (np.sqrt(np.maximum(q, 0.0)) - r)
 
 
-def _alias(grid, phi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
+def _weights(amp) -> np.ndarray:
+    """A track's amplitude-squared weights, summing to 1 (relative to the
+    largest: the data's own scale may square beyond float64)."""
+    w = (amp / amp.max()) ** 2
+    return w / w.sum()
+
+
+def _alias(pos, phi, r_env, amp, kvec, periods, kc) -> np.ndarray:
     """The alias of ``kvec`` whose range walk fits one unwrapped track's
     envelope ranges best (module notes, step 3): ``kvec + n 2 pi / d`` per
     axis, over every ``n`` that is a physical direction (|u| < 1), or None
     where none is.
 
-    ``phi`` is the track's unwrapped phase (the starting wavefront
-    included); an alias adds ``n 2 pi / d`` to its slope.  The weighted
+    ``pos`` (K, 2) are the antennas' positions, m; ``phi`` is the track's
+    unwrapped phase (the starting wavefront included); an alias adds
+    ``n 2 pi / d`` to its slope.  The weighted
     misfit of every alias comes from the track's moments at once: with
     ``e`` the envelope ranges less the starting walk and ``q = X . dk /
     (2 k_c)``, ``Var(e + q) = Var(e) + 2 Cov(e, q) + Var(q)``."""
-    pos = grid * np.asarray(steps)[None, :]
-    w = (amp / amp.max()) ** 2  # relative: the data's own scale may square beyond float64
-    w = w / w.sum()
+    w = _weights(amp)
     # per axis the track extends over, the n that keep |u| < 1; beyond
     # ALIASES_AXIS of them (a pitch over 8 wavelengths; x in mm read as m
     # gives a million) the starting alias and its neighbours only
     span = []
     for a in range(2):
-        if np.ptp(grid[:, a]) == 0:
+        if np.ptp(pos[:, a]) == 0:
             span.append(np.zeros(1, int))
             continue
         lo = int(np.ceil((-2 * kc - kvec[a]) / periods[a]))
@@ -629,13 +632,9 @@ def _alias(grid, phi, r_env, amp, kvec, steps, periods, kc) -> np.ndarray:
     return kv[best]
 
 
-def _absolute(grid, phi, r_env, amp, dk, steps, kc) -> np.ndarray:
+def _absolute(phi, r_env, amp, kc) -> np.ndarray:
     """Ranges of one unwrapped track (module notes, steps 3-4): the walk of
-    its unwrapped phase ``phi`` plus ``dk . X`` (the alias's extra slope,
-    rad/m), and the constant that fits the envelope ranges ``r_env``
-    (amplitude-weighted), m."""
-    pos = grid * np.asarray(steps)[None, :]
-    w = (amp / amp.max()) ** 2
-    w = w / w.sum()
-    rel = -(phi + pos @ dk) / (2 * kc)
-    return rel + float(np.sum(w * (r_env - rel)))
+    its unwrapped phase ``phi`` (its wavefront included) and the constant
+    that fits the envelope ranges ``r_env`` (amplitude-weighted), m."""
+    rel = -phi / (2 * kc)
+    return rel + float(np.sum(_weights(amp) * (r_env - rel)))
