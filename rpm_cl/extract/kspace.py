@@ -421,16 +421,15 @@ def decompose(
 def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition:
     arr = data.array
     n_k = arr.dim - 1
-    if params.near_field:
-        return _near_field(data, params, env)
-    if params.near_field is None and near_field_wanted(data):
+    if params.near_field or (params.near_field is None and near_field_wanted(data)):
         try:
             return _near_field(data, params, env)
         except MapTooLarge:
+            if params.near_field:
+                raise
             # chosen, not asked for: an aperture of so many wavelengths over
             # so many gates takes the plane-wave path, whose cost does not
             # grow with the directions x antennas x gates of one map
-            pass
     gate = params.range_gate or data.waveform.range_resolution
     dr = data.dr
     nr = data.range.size
