@@ -2,8 +2,9 @@
 
 Ctrl-C ends the command with one line (exit 130) from the first statement
 of :func:`run`, before :mod:`rpm_cl.cli` is even imported (its import takes
-some 50 ms); :func:`rpm_cl.cli.main` handles it from its own first statement
-on.  Only Python's start-up and the import of this small module lie before.
+some 50 ms) until :func:`rpm_cl.cli.main` replaces the handler with its own,
+which cleans up, and puts it back on return.  Only Python's start-up and the
+import of this small module lie before.
 """
 
 import os
@@ -21,12 +22,10 @@ def run() -> int:
     """Run :func:`rpm_cl.cli.main` on ``sys.argv``; its exit code.  A SIGINT
     the caller ignores (a background job) stays ignored."""
     early = signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    if early:
+    if early:  # main() replaces it with its own and puts it back on return
         signal.signal(signal.SIGINT, _interrupted)
     from .cli.commands import main
 
-    if early:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
     code = main()
     if early:  # done: a Ctrl-C during the interpreter's shutdown changes nothing
         signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -33,6 +33,7 @@ __all__ = [
     "get_kernels",
     "kernel_source",
     "list_devices",
+    "load_pyopencl",
 ]
 
 INSTALL_HINT = (
@@ -90,16 +91,53 @@ class CLEnv:
         return bool(self.device.double_fp_config)
 
 
-def _cl():
+#: Signals whose Python handlers may raise (Ctrl-C, and the command line's
+#: SIGTERM): held back while pyopencl's extension initialises.
+_HELD_SIGNALS = ("SIGINT", "SIGTERM")
+
+
+def load_pyopencl():
+    """The ``pyopencl`` module, imported with SIGINT and SIGTERM held back.
+
+    pyopencl's extension (nanobind) builds its enumerations with Python's
+    :mod:`enum` while it initialises; an exception raised there, such as the
+    KeyboardInterrupt of a Ctrl-C, makes nanobind abort the process
+    ("Critical nanobind error", SIGABRT) with a traceback instead of the
+    command's one line.  During the import, in the main thread, each of
+    these signals that has a Python handler gets one that only notes it;
+    once the import has finished the handlers are put back and a noted
+    signal is raised again, so that its own handler deals with it.  (Masking
+    the signals would not do: a process-directed signal goes to another
+    thread, e.g. a BLAS worker, and Python runs the handler in the main
+    thread all the same.)"""
+    import sys
+
+    cl = sys.modules.get("pyopencl")
+    if cl is not None and hasattr(cl, "Context"):  # imported in full
+        return cl
+    import signal
+
+    noted = []
+    put_back = {}
+    if threading.current_thread() is threading.main_thread():
+        for name in _HELD_SIGNALS:
+            sig = getattr(signal, name, None)
+            if sig is not None and callable(signal.getsignal(sig)):
+                put_back[sig] = signal.signal(sig, lambda signum, frame: noted.append(signum))
     try:
         import pyopencl as cl
     except ImportError as exc:  # pragma: no cover - dependency missing
         raise NoOpenCLError(f"pyopencl is not installed ({exc}); {INSTALL_HINT}") from exc
+    finally:
+        for sig, handler in put_back.items():
+            signal.signal(sig, handler)
+        for sig in dict.fromkeys(noted):
+            signal.raise_signal(sig)
     return cl
 
 
 def _platforms():
-    cl = _cl()
+    cl = load_pyopencl()
     try:
         platforms = cl.get_platforms()
     except cl.Error:  # PLATFORM_NOT_FOUND_KHR when no ICD is installed
@@ -110,7 +148,7 @@ def _platforms():
 
 
 def _kind(device) -> str:
-    cl = _cl()
+    cl = load_pyopencl()
     t = device.type
     if t & cl.device_type.GPU:
         return "GPU"
@@ -126,7 +164,7 @@ def _all_devices():
     for ip, p in enumerate(_platforms()):
         try:
             devices = p.get_devices()
-        except _cl().Error:
+        except load_pyopencl().Error:
             devices = []
         for idev, d in enumerate(devices):
             out.append((ip, idev, p, d))
@@ -202,7 +240,7 @@ def create_env(spec: str | None = None) -> CLEnv:
     spec : str, optional
         See :func:`choose_device`.
     """
-    cl = _cl()
+    cl = load_pyopencl()
     info = choose_device(spec)
     device = cl.get_platforms()[info.platform_index].get_devices()[info.device_index]
     context = cl.Context([device])
@@ -252,7 +290,7 @@ def build_program(env: CLEnv, filename: str, defines: dict[str, object] | None =
         Mutable per-program cache of ``pyopencl.Kernel`` objects by name; use
         :func:`get_kernels` rather than touching it.
     """
-    cl = _cl()
+    cl = load_pyopencl()
     options = _format_defines(defines) + ("-I", _include_dir())
     key = (filename, options)
     with _LOCK:
@@ -271,7 +309,7 @@ def get_kernels(env: CLEnv, filename: str, names, defines=None) -> dict:
     dict
         ``{name: pyopencl.Kernel}``.
     """
-    cl = _cl()
+    cl = load_pyopencl()
     program, cache = build_program(env, filename, defines)
     with _LOCK:
         for n in names:

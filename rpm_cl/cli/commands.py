@@ -31,11 +31,13 @@ from .cmd_imaging import cmd_figure, cmd_image, cmd_params, cmd_view
 from .cmd_runs import cmd_batch, cmd_bench, cmd_demo, cmd_reproduce
 from .common import _load_config
 from .errors import (
-    _SIGINT_SEEN,
+    _SIGNALS_SEEN,
     CLIError,  # noqa: F401 - importable from here
     _catch_signals,
     _declared_too_large,
     _end_interrupted,
+    _end_signalled,
+    _end_terminated,
     _error_exit,
     _refuse_overwriting_inputs,
     _release_signals,
@@ -105,8 +107,9 @@ def main(argv=None) -> int:
     argv_given = argv is not None
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("rpm-cl: %(message)s"))
-    term, sigint = _catch_signals(argv_given)
+    held = {}
     try:
+        _catch_signals(argv_given, held)
         argv = _bind_negative_values(list(sys.argv[1:] if argv is None else argv))
         args = build_parser().parse_args(argv)
         log.addHandler(handler)
@@ -118,16 +121,15 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         return _end_interrupted(argv_given)
     except _Terminated:
-        print("rpm-cl: terminated", file=sys.stderr)
-        return 143
+        return _end_terminated(argv_given)
     except BrokenPipeError:  # output piped into e.g. head: not an error
         import os
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except MemoryError:
-        if _SIGINT_SEEN:
-            return _end_interrupted(argv_given)
+        if _SIGNALS_SEEN:
+            return _end_signalled(argv_given)
         line = _declared_too_large(args) if args is not None else None
         print(
             f"rpm-cl: error: {line or 'out of memory; lower the problem size or the RPM chunk size'}",
@@ -141,4 +143,4 @@ def main(argv=None) -> int:
         return code
     finally:
         log.removeHandler(handler)
-        _release_signals(term, sigint)
+        _release_signals(held)

@@ -23,6 +23,10 @@ class _Terminated(BaseException):
 
 
 def _on_sigterm(signum, frame):
+    """SIGTERM on the command line: :class:`_Terminated`, as :func:`_on_sigint`."""
+    _SIGNALS_SEEN.append(signum)
+    if _in_finalizer(frame) and _deliver_again(_Terminated):
+        return
     raise _Terminated()
 
 
@@ -89,16 +93,85 @@ def _user_error(exc: Exception) -> bool:
     return isinstance(exc, (CLIError, InputError, NoOpenCLError))
 
 
-_SIGINT_SEEN = []
+#: The signals a handler of :func:`_catch_signals` has raised for, in order:
+#: an import interrupted inside a C extension can turn the exception into
+#: an ImportError, which is then told by this.
+_SIGNALS_SEEN = []
 
 
-#: Seconds after which a SIGINT that landed in a finalizer is delivered again.
-SIGINT_RETRY_S = 0.05
-#: Most times in a row a SIGINT is put off because it landed in a finalizer;
-#: then it is raised there all the same (a finalizer that hangs stays
-#: interruptible).
-SIGINT_RETRIES = 20
-_SIGINT_PUT_OFF = [0]
+#: Seconds after which a signal whose exception could not leave where it
+#: landed is delivered again.
+SIGNAL_RETRY_S = 0.05
+#: Most times a signal is delivered again in one command (each time it lands
+#: where its exception cannot leave); then the exception is reported as
+#: Python would.
+SIGNAL_RETRIES = 20
+_REDELIVERED = [0]
+
+
+def _interrupt_again(signum) -> None:
+    """Deliver ``signum`` to the main thread again, if a handler of
+    :func:`_catch_signals` still handles it (not after :func:`_release_signals`)."""
+    import _thread
+    import signal
+
+    if signal.getsignal(signum) in (_on_sigint, _on_sigterm):
+        _thread.interrupt_main(signum)
+
+
+def _deliver_again(exc_type) -> bool:
+    """Whether ``exc_type`` is the exception of one of the handlers of
+    :func:`_catch_signals` (KeyboardInterrupt, :class:`_Terminated`) and its
+    signal will be delivered again :data:`SIGNAL_RETRY_S` later."""
+    import signal
+    import threading
+
+    if issubclass(exc_type, KeyboardInterrupt):
+        signum = signal.SIGINT
+    elif issubclass(exc_type, _Terminated):
+        signum = signal.SIGTERM
+    else:
+        return False
+    if signum not in _SIGNALS_SEEN or _REDELIVERED[0] >= SIGNAL_RETRIES:
+        return False
+    t = threading.Timer(SIGNAL_RETRY_S, _interrupt_again, (signum,))
+    t.daemon = True
+    try:
+        t.start()
+    except RuntimeError:  # no new thread at interpreter shutdown
+        return False
+    _REDELIVERED[0] += 1
+    return True
+
+
+def _unraisable_hook(shown):
+    """A ``sys.unraisablehook`` for where a handler's exception cannot
+    leave: a finalizer (``__del__``, e.g. a progress bar collected as Ctrl-C
+    lands), a weakref callback (importlib's module locks), a generator
+    closed by the garbage collector.  Python would print it with a traceback
+    as "Exception ignored" and go on; the signal is delivered again instead,
+    once that code has returned.  Anything else goes to ``shown``."""
+
+    def hook(unraisable):
+        if not _deliver_again(unraisable.exc_type):
+            shown(unraisable)
+
+    return hook
+
+
+def _except_hook(shown):
+    """A ``sys.excepthook`` for a handler's exception that a C extension
+    prints itself (``PyErr_Print``, e.g. NumPy's ``import_array`` in another
+    extension's initialisation, which then raises ImportError): not printed,
+    and the signal delivered again in case the extension goes on.  Main()
+    catches every exception of its own, so nothing else reaches this but
+    what goes to ``shown``."""
+
+    def hook(exc_type, value, tb):
+        if not _deliver_again(exc_type):
+            shown(exc_type, value, tb)
+
+    return hook
 
 
 def _in_finalizer(frame) -> bool:
@@ -110,97 +183,106 @@ def _in_finalizer(frame) -> bool:
     return False
 
 
-def _interrupt_again(signum) -> None:
-    """Deliver ``signum`` to the main thread again, if :func:`_on_sigint`
-    still handles it (not after :func:`_release_signals`)."""
-    import _thread
-    import signal
-
-    if signal.getsignal(signum) is _on_sigint:
-        _thread.interrupt_main(signum)
-
-
 def _on_sigint(signum, frame):
-    """SIGINT on the command line: KeyboardInterrupt, remembered (an import
-    interrupted inside a C extension can turn it into an ImportError).
-
-    An exception raised in a finalizer (``__del__``, e.g. a progress bar
-    collected while it runs) cannot leave it: Python prints it with its
-    traceback as "Exception ignored" and goes on.  There the signal is
-    delivered again :data:`SIGINT_RETRY_S` later instead, when the finalizer
-    has returned, at most :data:`SIGINT_RETRIES` times in a row."""
-    if _in_finalizer(frame) and _SIGINT_PUT_OFF[0] < SIGINT_RETRIES:
-        import threading
-
-        t = threading.Timer(SIGINT_RETRY_S, _interrupt_again, (signum,))
-        t.daemon = True
-        try:
-            t.start()
-        except RuntimeError:  # no new thread at interpreter shutdown
-            pass
-        else:
-            _SIGINT_PUT_OFF[0] += 1
-            return
-    _SIGINT_PUT_OFF[0] = 0
-    _SIGINT_SEEN.append(True)
+    """SIGINT on the command line: KeyboardInterrupt, remembered in
+    :data:`_SIGNALS_SEEN`.  In a finalizer (``__del__``), where it could not
+    leave, it is not raised but delivered again once the finalizer has had
+    :data:`SIGNAL_RETRY_S` to finish its clean-up; wherever else it cannot
+    leave, the hooks of :func:`_catch_signals` deliver it again."""
+    _SIGNALS_SEEN.append(signum)
+    if _in_finalizer(frame) and _deliver_again(KeyboardInterrupt):
+        return
     raise KeyboardInterrupt
 
 
+def _end_signalled(argv_given: bool) -> int:
+    """The end of a command that a handler's signal interrupted, whatever
+    exception it became: :func:`_end_terminated` or :func:`_end_interrupted`."""
+    import signal
+
+    if _SIGNALS_SEEN[0] == signal.SIGTERM:
+        return _end_terminated(argv_given)
+    return _end_interrupted(argv_given)
+
+
+def _end_terminated(argv_given: bool) -> int:
+    """ "terminated", exit code 143 (on the command line: ends the process)."""
+    return _end_now("rpm-cl: terminated", 143, argv_given)
+
+
 def _end_interrupted(argv_given: bool) -> int:
-    print("rpm-cl: interrupted", file=sys.stderr)
+    """ "interrupted", exit code 130 (on the command line: ends the process)."""
+    return _end_now("rpm-cl: interrupted", 130, argv_given)
+
+
+def _end_now(line: str, code: int, argv_given: bool) -> int:
+    """Print ``line``; ``code`` for a call with ``argv``.  The command line
+    ends here, skipping the interpreter's finalisation: the signal's
+    exception can leave an object half built (one of pyopencl's cache
+    dictionaries cut off in its ``__init__``), whose finalizer would then
+    print a traceback at exit; and an interrupt that lands in code run by
+    exec() (SciPy's and NumPy's imports use it) marks the interpreter as
+    killed by SIGINT however it is caught, so that Python would exit by
+    SIGINT after this line.  The handlers have cleaned up by now."""
+    print(line, file=sys.stderr)
     if argv_given:
-        return 130
-    # the command line: end here.  An interrupt that lands in code run by
-    # exec() (SciPy's and NumPy's imports use it) marks the interpreter as
-    # killed by SIGINT however it is caught, and Python would then exit by
-    # SIGINT after this line; the handlers have cleaned up by now.
+        return code
     import os
 
     sys.stdout.flush()
     sys.stderr.flush()
-    os._exit(130)
+    os._exit(code)
 
 
-def _catch_signals(argv_given: bool) -> tuple:
-    """Install :func:`_on_sigterm` and :func:`_on_sigint` where they apply;
-    ``(term, sigint)``: whether each was installed (see :func:`_release_signals`)."""
+def _catch_signals(argv_given: bool, held: dict) -> None:
+    """Install :func:`_on_sigterm` and :func:`_on_sigint` where they apply,
+    and with either the hooks :func:`_unraisable_hook` and
+    :func:`_except_hook`.  Each handler (signal number -> handler) or hook
+    (its ``sys`` attribute name -> hook) replaced is noted in ``held``
+    before it is replaced, so that :func:`_release_signals` puts back what
+    was installed even when a signal interrupts this."""
     import signal
     import threading
 
+    main_thread = threading.current_thread() is threading.main_thread()
+    _SIGNALS_SEEN.clear()  # a call's own signals only
+    _REDELIVERED[0] = 0
+    hooks = (("unraisablehook", _unraisable_hook), ("excepthook", _except_hook))
+    for name, make in hooks if main_thread else ():
+        held[name] = getattr(sys, name)
+        setattr(sys, name, make(held[name]))
     # only where SIGTERM would kill us anyway (not when a supervisor set it
     # to be ignored, nor over a handler of the embedding program)
-    term = (
-        threading.current_thread() is threading.main_thread()
-        and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
-    )
-    if term:
+    if main_thread and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+        held[signal.SIGTERM] = signal.SIG_DFL
         signal.signal(signal.SIGTERM, _on_sigterm)
-    sigint = (
-        not argv_given
-        and threading.current_thread() is threading.main_thread()
-        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    )
-    _SIGINT_SEEN.clear()  # a call's own interrupts only
-    if sigint:
+    # Python's own handler, or the console script's start-up one
+    # (rpm_cl._entry, a floor above), which stays in place until this
+    # replaces it (no moment without either)
+    before = signal.getsignal(signal.SIGINT)
+    early = getattr(before, "__module__", None) == "rpm_cl._entry"
+    if not argv_given and main_thread and (before is signal.default_int_handler or early):
+        held[signal.SIGINT] = before
         signal.signal(signal.SIGINT, _on_sigint)
-    return term, sigint
 
 
-def _release_signals(term: bool, sigint: bool) -> None:
-    """Put back the default handlers that :func:`_catch_signals` replaced."""
+def _release_signals(held: dict) -> None:
+    """Put back the handlers and hooks that :func:`_catch_signals` noted in
+    ``held``."""
     import signal
 
-    if term:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    if sigint:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+    for key, handler in reversed(held.items()):
+        if isinstance(key, str):
+            setattr(sys, key, handler)
+        else:
+            signal.signal(key, handler)
 
 
 def _error_exit(exc: Exception, argv_given: bool) -> int | None:
     """The exit code of an exception a command raised, after its one line on
     stderr; None for a programming error (raised on, with its traceback)."""
-    if _SIGINT_SEEN:  # an interrupted import's ImportError, and the like
-        return _end_interrupted(argv_given)
+    if _SIGNALS_SEEN:  # an interrupted import's ImportError, and the like
+        return _end_signalled(argv_given)
     if _user_error(exc):  # one line, whatever a library put in the message
         print(f"rpm-cl: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2

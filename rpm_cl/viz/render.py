@@ -178,10 +178,10 @@ def _load_opencl_first() -> None:
     pyopencl, or without a platform, there is nothing to protect."""
     import contextlib
 
-    with contextlib.suppress(Exception):  # any failure: no OpenCL to protect
-        import pyopencl as cl
+    from ..cl import load_pyopencl
 
-        cl.get_platforms()
+    with contextlib.suppress(Exception):  # any failure: no OpenCL to protect
+        load_pyopencl().get_platforms()
 
 
 def _pool2(a: np.ndarray, ax0: np.ndarray, ax1: np.ndarray, side: int):
