@@ -117,7 +117,10 @@ def main(argv=None) -> int:
         log.setLevel(
             logging.ERROR if args.quiet else logging.INFO if args.verbose else logging.WARNING
         )
-        return _run(args)
+        code = _run(args)
+        if _SIGNALS_SEEN:  # a signal's exception that a library caught and dropped
+            return _end_signalled(argv_given)
+        return code
     except KeyboardInterrupt:
         return _end_interrupted(argv_given)
     except _Terminated:

@@ -251,17 +251,20 @@ def _catch_signals(argv_given: bool, held: dict) -> None:
     for name, make in hooks if main_thread else ():
         held[name] = getattr(sys, name)
         setattr(sys, name, make(held[name]))
+
+    # the console script's start-up handlers (rpm_cl._entry, a floor above)
+    # stay in place until these replace them: no moment without either
+    def early(handler) -> bool:
+        return getattr(handler, "__module__", None) == "rpm_cl._entry"
+
     # only where SIGTERM would kill us anyway (not when a supervisor set it
     # to be ignored, nor over a handler of the embedding program)
-    if main_thread and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
-        held[signal.SIGTERM] = signal.SIG_DFL
+    before = signal.getsignal(signal.SIGTERM)
+    if main_thread and (before is signal.SIG_DFL or early(before)):
+        held[signal.SIGTERM] = before
         signal.signal(signal.SIGTERM, _on_sigterm)
-    # Python's own handler, or the console script's start-up one
-    # (rpm_cl._entry, a floor above), which stays in place until this
-    # replaces it (no moment without either)
     before = signal.getsignal(signal.SIGINT)
-    early = getattr(before, "__module__", None) == "rpm_cl._entry"
-    if not argv_given and main_thread and (before is signal.default_int_handler or early):
+    if not argv_given and main_thread and (before is signal.default_int_handler or early(before)):
         held[signal.SIGINT] = before
         signal.signal(signal.SIGINT, _on_sigint)
 
