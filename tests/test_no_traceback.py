@@ -204,8 +204,15 @@ _CHILD = (
 
 
 def _env():
+    """The environment of a child interpreter that imports the ``rpm_cl``
+    these tests import: the folder holding that package first on its path
+    (an installed copy's site-packages, or a checkout run from its root;
+    not the checkout's root under an installed copy, whose ``rpm_cl`` lacks
+    the kernels the installation puts in ``rpm_cl/kernels``)."""
+    import rpm_cl
+
     env = dict(os.environ)
-    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    root = os.path.dirname(os.path.dirname(os.path.abspath(rpm_cl.__file__)))
     env["PYTHONPATH"] = os.pathsep.join([root, env.get("PYTHONPATH", "")])
     return env
 
