@@ -374,6 +374,21 @@ def test_a_signal_that_a_library_drops_still_ends_the_command(monkeypatch, capsy
     errors._SIGNALS_SEEN.clear()
 
 
+@pytest.mark.parametrize("dtype", [np.clongdouble, np.complex64])
+def test_spectrum_of_any_complex_precision_images(tmp_path, capsys, dtype):
+    """Frequency samples stored as complex long double (or complex64) image
+    as complex128 ones do: the engine holds them as complex128 (complex64
+    kept), since NumPy's linear algebra has no long-double type (the
+    coherent level's parabola fit raised TypeError on them)."""
+    arrays = _freq_domain()
+    arrays["spectrum"] = arrays["spectrum"].astype(dtype)
+    src = _save(tmp_path / "in.npz", arrays)
+    data = load_data(src)
+    assert data.spectrum.values.dtype == (np.complex64 if dtype == np.complex64 else np.complex128)
+    assert main(["image", src, "-o", str(tmp_path / "o.npz"), "-q"]) == 0
+    assert "Traceback" not in capsys.readouterr().err
+
+
 # --- units, both input domains ----------------------------------------------------
 def _scaled(domain, unit):
     """Input of ``domain`` with its frequencies (fc, bandwidth / frequency)

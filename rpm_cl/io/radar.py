@@ -81,7 +81,9 @@ class Spectrum:
                 f"spectrum's last axis ({y.shape[-1] if y.ndim else 0}) must match "
                 f"frequency ({f.size})"
             )
-        # C order: the coherent sums read rows of it per track
+        # C order: the coherent sums read rows of it per track; complex64 or
+        # complex128 (long double is not an array type of numpy.linalg)
+        y = y.astype(np.complex64 if y.dtype == np.complex64 else np.complex128, copy=False)
         object.__setattr__(self, "values", np.ascontiguousarray(y))
         object.__setattr__(self, "frequency", f)
 
