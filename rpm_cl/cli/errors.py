@@ -10,6 +10,8 @@ from __future__ import annotations
 import logging
 import sys
 
+from ..ending import end_process
+
 log = logging.getLogger("rpm_cl")
 
 
@@ -206,32 +208,25 @@ def _end_signalled(argv_given: bool) -> int:
 
 
 def _end_terminated(argv_given: bool) -> int:
-    """ "terminated", exit code 143 (on the command line: ends the process)."""
+    """Print "rpm-cl: terminated"; exit code 143 (on the command line: ends
+    the process)."""
     return _end_now("rpm-cl: terminated", 143, argv_given)
 
 
 def _end_interrupted(argv_given: bool) -> int:
-    """ "interrupted", exit code 130 (on the command line: ends the process)."""
+    """Print "rpm-cl: interrupted"; exit code 130 (on the command line: ends
+    the process)."""
     return _end_now("rpm-cl: interrupted", 130, argv_given)
 
 
 def _end_now(line: str, code: int, argv_given: bool) -> int:
-    """Print ``line``; ``code`` for a call with ``argv``.  The command line
-    ends here, skipping the interpreter's finalisation: the signal's
-    exception can leave an object half built (one of pyopencl's cache
-    dictionaries cut off in its ``__init__``), whose finalizer would then
-    print a traceback at exit; and an interrupt that lands in code run by
-    exec() (SciPy's and NumPy's imports use it) marks the interpreter as
-    killed by SIGINT however it is caught, so that Python would exit by
-    SIGINT after this line.  The handlers have cleaned up by now."""
-    print(line, file=sys.stderr)
+    """``line`` on stderr; ``code`` for a call with ``argv``.  The command
+    line ends here, the handlers having cleaned up by now
+    (:func:`rpm_cl.ending.end_process`)."""
     if argv_given:
+        print(line, file=sys.stderr)
         return code
-    import os
-
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(code)
+    end_process(line, code)
 
 
 def _catch_signals(argv_given: bool, held: dict) -> None:
