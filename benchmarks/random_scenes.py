@@ -95,13 +95,18 @@ def main(argv=None):
     )
     args = ap.parse_args(argv)
     snrs = [None if s.strip() == "inf" else float(s) for s in args.snr.split(",")]
+    draw, peaks = (
+        (rb.random_geometry, rb._das_points)
+        if args.envelope == "paper"
+        else (wide_geometry, das_peaks)
+    )
     env = create_env()
     engine, das = DeviceRPM(env), DeviceDAS(env)
     runs = [*METHODS, ("das peaks", "das", None)]
     labels = [r[0] for r in runs]
     tally = {}  # (snr, label) -> [within, points, hit, targets, scenes ok, missed cells]
     for seed in range(args.first, args.first + args.scenes):
-        g = rb.random_geometry(seed) if args.envelope == "paper" else wide_geometry(seed)
+        g = draw(seed)
         boundary = rb.truth_boundary(g)
         cells = rb.direction_cells(g)
         for snr in snrs:
@@ -110,11 +115,7 @@ def main(argv=None):
             row = []
             for label, method, kw in runs:
                 if kw is None:  # DAS: the peaks of its image, as the robustness benchmark
-                    pts = (
-                        rb._das_points(das, data, g)
-                        if args.envelope == "paper"
-                        else das_peaks(das, data, g)
-                    )
+                    pts = peaks(das, data, g)
                 else:
                     params = default_params(data, max_range=rb.region(g), **kw)
                     pts = imaging.run_method(method, data, params, engine).image.points

@@ -255,7 +255,7 @@ def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
         if lv is None or lv < threshold_db
     ]
     if fits:
-        names = " or ".join(f"--range-window {f}" for f in fits[:2])
+        names = " or ".join(f"--range-window {name}" for name in fits[:2])
         fix = f"use a window with lower sidelobes: {names}"
     else:  # every level is a number here: a window without one fits
         fix = (

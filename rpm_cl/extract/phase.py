@@ -43,10 +43,10 @@ Per cluster of a k-space decomposition (one echo per antenna and direction,
    is tried (up to :data:`ALIASES_AXIS` per axis): on 20 mm at 20 GHz a
    point at 35-65 degrees lies two or three aliases from the principal
    one.  The alias whose range walk best fits the envelope ranges
-   (weighted least squares) is taken, but on an array of half a wavelength or finer (where the
-   starting alias spans +-30 degrees or more) in place of the starting
-   alias only where it leaves at most :data:`ALIAS_GAIN` of the starting
-   one's misfit: the other echoes of a resolution cell bend the envelopes
+   (weighted least squares) is taken, but on an array of half a wavelength
+   or finer (where the starting alias spans +-30 degrees or more) in place
+   of the starting alias only where it leaves at most :data:`ALIAS_GAIN` of
+   the starting one's misfit: the other echoes of a resolution cell bend the envelopes
    too, and where the aliases' walks differ by a fraction of a resolution
    the two misfits come out alike (on the plane-wave path, 32 antennas at
    half a wavelength, 6 cm at 77 GHz, with three points in one 0.25 GHz
@@ -581,8 +581,8 @@ def _alias(pos, phi, r_env, amp, kvec, periods, kc) -> np.ndarray:
 
     ``pos`` (K, 2) are the antennas' positions, m; ``phi`` is the track's
     unwrapped phase (the starting wavefront included); an alias adds
-    ``n 2 pi / d`` to its slope.  The weighted
-    misfit of every alias comes from the track's moments at once: with
+    ``n 2 pi / d`` to its slope.  The weighted misfit of every alias comes
+    from the track's moments at once: with
     ``e`` the envelope ranges less the starting walk and ``q = X . dk /
     (2 k_c)``, ``Var(e + q) = Var(e) + 2 Cov(e, q) + Var(q)``."""
     w = _weights(amp)

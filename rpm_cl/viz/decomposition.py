@@ -101,7 +101,7 @@ def kspace_map(data: RadarData, params=None) -> KSpaceMap:
     # the path the decomposition took (the automatic near-field choice gives
     # way to the plane-wave path where its map would be too large)
     nf = bool(dec.near_field)
-    return KSpaceMap(kx[order], np.array(air_ranges(pp.medium, seen.range)), db, c, kz, bool(nf))
+    return KSpaceMap(kx[order], np.array(air_ranges(pp.medium, seen.range)), db, c, kz, nf)
 
 
 def draw_kspace(m: KSpaceMap, ax, dynamic_range: float = 40.0):
