@@ -9,10 +9,14 @@ with in-band noise (seed = layout).  Every layout is imaged twice by
 phase-rpm: as it runs (``rpm_cl.extract.phase.spherical_ranges``: each
 near-field cluster's RPs on ``|X - p|`` plus the envelope's weighted offset)
 and with that step replaced by the identity (the envelope ranges the
-near-field decomposition gives, as kspace-rpm uses them).  Printed per S/N:
+near-field decomposition gives, as kspace-rpm uses them), and a third time
+with the fitted wave but the search's direction kept where another alias's
+range walk fits the envelope better (``_spherical_alias`` replaced by the
+identity).  Printed per S/N:
 the mean share of points within 50 mm of a target and the targets hit
 (a point within 50 mm).  docs/decisions.md, "phase-rpm puts a near-field
-cluster's RPs on its fitted spherical wave".
+cluster's RPs on its fitted spherical wave" and "The envelope's range walk
+picks a near-field cluster's alias".
 """
 
 import argparse
@@ -34,14 +38,19 @@ def envelope_ranges(data, rps, clusters, params=None):
     return rps, np.zeros(len(rps), bool)
 
 
+def search_alias(xr, r_env, w, u, *rest):
+    """The comparison: the near-field search's direction kept."""
+    return u
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--layouts", type=int, default=20, help="random layouts (default 20)")
-    ap.add_argument("--snr", default="30,20", help="in-band S/N list, dB")
+    ap.add_argument("--snr", default="30,20", help="in-band S/N list, dB (inf: noise-free)")
     args = ap.parse_args(argv)
     engine = DeviceRPM(create_env())
     pre = get_preset("paper-2d-sparse")
-    snrs = [float(s) for s in args.snr.split(",")]
+    snrs = [None if s.strip() == "inf" else float(s) for s in args.snr.split(",")]
     scenes = []
     for i in range(args.layouts):
         pts = layout(i)
@@ -51,9 +60,14 @@ def main(argv=None):
             scenes.append((snr, pts, data))
     fitted = phase.spherical_ranges
     print(f"{args.layouts} layouts of paper-2d-sparse, in-band noise, phase-rpm")
-    print(f"{'S/N dB':>7} {'RPs':<16} {'mean <= 50 mm':>14} {'targets hit':>12}")
-    for label, step in (("envelope ranges", envelope_ranges), ("fitted wave", fitted)):
-        phase.spherical_ranges = step
+    print(f"{'S/N dB':>7} {'RPs':<28} {'mean <= 50 mm':>14} {'targets hit':>12}")
+    alias = phase._spherical_alias
+    for label, step, pick in (
+        ("envelope ranges", envelope_ranges, alias),
+        ("fitted wave, search's alias", fitted, search_alias),
+        ("fitted wave", fitted, alias),
+    ):
+        phase.spherical_ranges, phase._spherical_alias = step, pick
         for snr in snrs:
             share, hit, total = [], 0, 0
             for s, pts, data in scenes:
@@ -69,8 +83,10 @@ def main(argv=None):
                 share.append(np.mean(d.min(axis=1) <= 0.05))
                 hit += int(np.sum(d.min(axis=0) <= 0.05))
                 total += len(pts)
-            print(f"{snr:7g} {label:<16} {np.mean(share):14.3f} {hit:>7d}/{total}")
-    phase.spherical_ranges = fitted
+            print(
+                f"{'inf' if snr is None else f'{snr:g}':>7} {label:<28} {np.mean(share):14.3f} {hit:>7d}/{total}"
+            )
+    phase.spherical_ranges, phase._spherical_alias = fitted, alias
 
 
 if __name__ == "__main__":

@@ -83,7 +83,21 @@ constant (their amplitude-weighted mean offset from the walk: a circle's
 radius, 0 for a point; RPs more than :data:`TRACK_GAP` resolutions from the
 weighted median offset, stray peaks of the cluster's gates, keep their own
 range and take no part).  :func:`spherical_ranges` puts each cluster's RPs
-on that walk.  The envelope ranges of the sparse array's clusters wander a
+on that walk.  Where the array is coarser than a quarter wavelength the
+search's direction ``u`` has aliases ``u + n lambda / (2 d)``, and where
+the array is short against the range their spherical waves agree on every
+antenna (48 antennas at half a wavelength, a point 2.9 m away at -29.6
+degrees and its alias at +30.4: to 1e-3), so the fit cannot tell them
+apart; their range walks run opposite ways.  Among the aliases whose waves
+correlate with the search's by at least :data:`ALIAS_CORRELATION` over the
+array, the one whose walk fits the envelope ranges best replaces the
+search's where it leaves less than :data:`ALIAS_GAIN` of its misfit, as on
+the plane-wave path (step 3; :func:`_spherical_alias`, each RP's misfit at
+most a track's gap squared).  Where the curvature differs more, the fit
+has told them apart, and the envelope, bent by the other echoes of its
+resolution cell, is not asked (on the paper's sparse scene at 20 dB a
+cluster's envelope preferred an alias whose wave correlated 0.59 with the
+search's, and took the cluster onto another target).  The envelope ranges of the sparse array's clusters wander a
 few mm from antenna to antenna already at 40 dB (the envelope polynomial
 follows noise), enough to tilt the range walk and slide the points tens of
 mm along their circles: on twenty random layouts of the paper's sparse
@@ -120,6 +134,10 @@ TRACK_GAP = 0.5
 #: walk is at most this fraction of their misfit to the starting walk
 #: (module notes, step 3).
 ALIAS_GAIN = 0.25
+#: A near-field cluster's alias is weighed against the search's direction
+#: only where their spherical waves correlate at least this much over the
+#: array (|a^H b| / N; module notes, the near-field clusters).
+ALIAS_CORRELATION = 0.9
 #: Most aliases of a cluster's k tried along an array axis (module notes,
 #: step 3): every physical one up to a pitch of 8 wavelengths.
 ALIASES_AXIS = 33
@@ -405,15 +423,20 @@ def spherical_ranges(
     r_new = np.array(rps.range, np.float64, copy=True)
     amp_all = np.asarray(rps.amp, np.float64)
     cl = np.asarray(rps.cluster)
+    # the aliases' spacing in sin(theta): the k period 2 pi / d over 2 k_c
+    pitch = float(data.array.dx) if x.size > 1 else 0.0
+    xa = x - 0.5 * (x[0] + x[-1])
+    period = np.pi / (kc * pitch) if pitch > 0 else np.inf
     for m in np.unique(cl):
         sel = np.nonzero(cl == m)[0]
         if sel.size < params.min_track:
             continue
         c = clusters[int(m)]
-        u = float(np.clip(c.k[0] / (2 * kc), -1.0, 1.0))
-        walk = np.hypot(xr[sel] - c.r_centre * u, c.r_centre * np.sqrt(1.0 - u * u))
         amp = amp_all[sel]
         w = (amp / amp.max()) ** 2 if amp.max() > 0 else np.ones(sel.size)
+        u = float(np.clip(c.k[0] / (2 * kc), -1.0, 1.0))
+        u = _spherical_alias(xr[sel], r_new[sel], w, u, c.r_centre, period, gap, xa, kc)
+        walk = _spherical_walk(xr[sel], u, c.r_centre)
         off = r_new[sel] - walk
         # the RPs of the walk: within the tracks' gap of the weighted median
         # offset (a stray peak of the cluster's gates keeps its own range and
@@ -428,6 +451,57 @@ def spherical_ranges(
         r_new[keep] = walk[on] + float(np.sum(w[on] * off[on]) / np.sum(w[on]))
         refined[keep] = True
     return replace(rps, range=r_new), refined
+
+
+def _spherical_walk(xr, u: float, r: float) -> np.ndarray:
+    """Ranges from antennas at ``xr`` (m, the array's middle at 0) to the
+    point at range ``r`` (m) in direction ``u = sin(theta)``."""
+    return np.hypot(xr - r * u, r * np.sqrt(1.0 - u * u))
+
+
+def _spherical_alias(
+    xr, r_env, w, u: float, r: float, period: float, gap: float, xa, kc: float
+) -> float:
+    """The direction of a near-field cluster whose range walk fits its RPs'
+    envelope ranges (module notes, the near-field clusters): ``u`` itself
+    (the search's choice), or another alias ``u + n period`` (|u| < 1, up to
+    :data:`ALIASES_AXIS` of them) where that one leaves less than
+    :data:`ALIAS_GAIN` of ``u``'s misfit.
+
+    ``xr``, ``r_env``, ``w``: the cluster's RPs' positions from the array's
+    middle (m), envelope ranges (m) and weights; ``r``: the cluster's range,
+    m; ``period``: the aliases' spacing in ``sin(theta)``, ``pi / (k_c d)``;
+    ``gap``: the misfit of one RP is its squared offset from the walk's
+    weighted median offset, at most ``gap**2`` (a stray peak of the
+    cluster's gates counts no more than a track's gap)."""
+    lo = int(np.ceil((-1.0 - u) / period)) if np.isfinite(period) else 0
+    hi = int(np.floor((1.0 - u) / period)) if np.isfinite(period) else 0
+    # beyond ALIASES_AXIS of them (a pitch over 8 wavelengths) the nearest
+    # two only, as the plane-wave clusters' aliases (:func:`_alias`)
+    ns = range(lo, hi + 1) if hi - lo + 1 <= ALIASES_AXIS else (-1, 1)
+    cands = [u + n * period for n in ns if n != 0 and abs(u + n * period) < 1.0]
+    # only the aliases whose waves the fit could not tell from the search's
+    wave = np.exp(-2j * kc * _spherical_walk(xa, u, r))
+    cands = [
+        v
+        for v in cands
+        if abs(np.vdot(wave, np.exp(-2j * kc * _spherical_walk(xa, v, r)))) / xa.size
+        >= ALIAS_CORRELATION
+    ]
+    if not cands:
+        return u
+    ws = float(np.sum(w))
+
+    def misfit(v):
+        off = r_env - _spherical_walk(xr, v, r)
+        o = np.argsort(off)
+        cw = np.cumsum(w[o])
+        med = off[o][np.searchsorted(cw, 0.5 * cw[-1])]
+        return float(np.sum(w * np.minimum((off - med) ** 2, gap * gap))) / ws
+
+    costs = [misfit(v) for v in cands]
+    best = int(np.argmin(costs))
+    return cands[best] if costs[best] < ALIAS_GAIN * misfit(u) else u
 
 
 #: The coherent level search spans this many range resolutions either side
