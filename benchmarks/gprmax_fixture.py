@@ -53,8 +53,8 @@ Choices, checked below before anything runs:
 Usage (with the gprMax environment, never rpm-cl's: gprMax is no dependency of
 rpm-cl)::
 
-    /work/gprmax-venv/bin/python benchmarks/gprmax_fixture.py [--out tests/data/gprmax]
-        [--threads 1]
+    /work/gprmax-venv/bin/python benchmarks/gprmax_fixture.py [--objects first|second]
+        [--out tests/data/gprmax] [--threads 1]
 
 It prints the settings, gprMax's run time of each scan and the sizes written
 (2 x 41 models of 450 x 420 cells: about 100-120 s per scan on one core).
@@ -93,6 +93,20 @@ CYLINDERS = [  # centre x, y (m), radius (m)
     {"centre": [0.330, 0.670], "radius": 0.008},
 ]
 PLATE = {"centre": [0.610, 0.690], "length": 0.100, "thickness": 0.004}
+#: ``--objects second`` (``tests/data/gprmax_b``): the same scan and
+#: settings, other objects laid out without looking at any image of them: a
+#: 20 mm cylinder 0.33 m away, a 6 mm one 0.41 m away 13 degrees aside, a
+#: 12 mm one at 0.54 m, a 10 mm one 0.26 m from the scan's end, and a 0.12 m
+#: plate straight ahead at 0.59 m.
+SECOND = (
+    [
+        {"centre": [0.360, 0.420], "radius": 0.020},
+        {"centre": [0.550, 0.500], "radius": 0.006},
+        {"centre": [0.250, 0.600], "radius": 0.012},
+        {"centre": [0.640, 0.360], "radius": 0.010},
+    ],
+    {"centre": [0.470, 0.680], "length": 0.120, "thickness": 0.004},
+)
 BAND_CHECK = (1.5e9, 5e9)  # the band the fixture is meant for, Hz
 
 
@@ -229,13 +243,19 @@ def run_gprmax(python, name, n_traces, work, threads):
     return merged, sec, log
 
 
-def fixture_args(doc: str, folder: str):
+def fixture_args(doc: str, folder: str, objects: bool = False):
     """The command line of a fixture script (``doc`` its docstring, ``folder``
-    its default under tests/data): --out, --threads, --python, --keep."""
+    its default under tests/data): --out, --threads, --python, --keep, and
+    with ``objects`` --objects (first: ``folder``; second: ``folder``_b)."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
-    ap.add_argument(
-        "--out", default=os.path.join(os.path.dirname(__file__), "..", "tests", "data", folder)
-    )
+    if objects:
+        ap.add_argument(
+            "--objects",
+            choices=("first", "second"),
+            default="first",
+            help="the fixture's objects (default) or the second scene's (SECOND)",
+        )
+    ap.add_argument("--out", help=f"output folder (default tests/data/{folder}[_b])")
     ap.add_argument("--threads", type=int, default=1, help="OpenMP threads of gprMax (default 1)")
     ap.add_argument(
         "--python",
@@ -245,7 +265,12 @@ def fixture_args(doc: str, folder: str):
     ap.add_argument(
         "--keep", help="a folder where gprMax's input files, logs and per-trace outputs are kept"
     )
-    return ap.parse_args()
+    args = ap.parse_args()
+    if args.out is None:
+        second = getattr(args, "objects", "first") == "second"
+        name = folder + ("_b" if second else "")
+        args.out = os.path.join(os.path.dirname(__file__), "..", "tests", "data", name)
+    return args
 
 
 def run_pair(out, work, n_traces, threads, python, write_input):
@@ -314,7 +339,10 @@ def write_scene(out, scene):
 
 
 def main():
-    args = fixture_args(__doc__, "gprmax")
+    global CYLINDERS, PLATE
+    args = fixture_args(__doc__, "gprmax", objects=True)
+    if args.objects == "second":
+        CYLINDERS, PLATE = SECOND
     import gprMax
 
     dt, f40, _, xs, dist, checks = check_settings()
