@@ -144,10 +144,11 @@ def test_rma_puts_the_rods_at_their_true_positions(data, medium, rods):
 
 def test_default_rpm_puts_the_rods_at_their_true_positions(data, medium, rods, dev32):
     """The default method with the half-space: every rod gets at least 10
-    points within 20 mm of its boundary, at least 75 % of all points lie
-    there (the rest: a cluster that mixes two rods' echoes, and a
-    rod-surface double bounce), the median distance is under 5 mm.  Without
-    the medium, or with the antennas in it, under 5 % do and no rod gets 10."""
+    points within 20 mm of its boundary, at least 90 % of all points lie
+    there, the median distance is under 5 mm.  (Without coherent centres
+    77 % do; with them rods 0 and 2 get one more cluster each, on them, and
+    a cluster 74 mm from rod 1 goes to the double-bounce test.)  Without the
+    medium, or with the antennas in it, under 5 % do and no rod gets 10."""
     from rpm_cl.imaging import DEFAULT_METHOD, run_method
     from rpm_cl.rpm.params import default_params
 
@@ -160,7 +161,7 @@ def test_default_rpm_puts_the_rods_at_their_true_positions(data, medium, rods, d
         f"{1e3 * np.median(d.min(axis=1)):.1f} mm, per rod {near.sum(axis=0).tolist()}"
     )
     assert np.all(near.sum(axis=0) >= 10)
-    assert near.any(axis=1).mean() >= 0.75 and np.median(d.min(axis=1)) <= 0.005
+    assert near.any(axis=1).mean() >= 0.9 and np.median(d.min(axis=1)) <= 0.005
     with pytest.warns(DataWarning, match="range walks fit eps_r = [2-9]"):  # air: wrong
         d = _to_boundary(
             run_method(DEFAULT_METHOD, data, default_params(data), dev32).image.points, rods

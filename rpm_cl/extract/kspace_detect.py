@@ -8,6 +8,8 @@ of the notes of :mod:`rpm_cl.extract.kspace`.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..filters import maximum_filter
@@ -135,3 +137,131 @@ def _ranked_centres(found, size, n_k: int, threshold, nr: int) -> np.ndarray:
     idx = np.concatenate([p[0] for p in peaks])
     vals = np.concatenate([p[1] for p in peaks])
     return idx[np.argsort(-vals, kind="stable")]
+
+
+#: The coherent centres (``KSpaceParams.coherent_centres``) need a band of
+#: at least this fraction of the carrier: with a narrower one the
+#: delay-and-sum image is close to a one-frequency hologram, whose side
+#: lobes are peaks of their own (the coherence test of points,
+#: :mod:`rpm_cl.rpm.coherence`, has the same bound for the same reason).
+COHERENT_MIN_FRACTION = 0.2
+#: A peak of the coherent image proposes a centre only where it stands this
+#: many dB above the image's median over the searched region (its side
+#: lobes and its noise): at 8 and 10 dB, in-band noise at 20 dB put 6-29
+#: proposals on noise peaks of wide-band random scenes (module notes,
+#: step 2).
+COHERENT_FLOOR_DB = 20.0
+#: The coherent image's nodes: sin(theta) in steps of this fraction of the
+#: aperture's resolution cell ``lambda_c / (2 L)``, range in steps of this
+#: fraction of the range resolution.
+COHERENT_STEP_U = 0.5
+COHERENT_STEP_R = 0.25
+#: A peak of the coherent image is the largest of this many nodes across,
+#: in sin(theta) and in range (+-1 resolution cell, +-half a range
+#: resolution).
+COHERENT_PEAK_SIZE = 3
+#: The coherent image spans sin(theta) within +-this (80 degrees).
+COHERENT_U_MAX = 0.985
+#: Most terms (nodes x antennas) of the coherent image; a larger one is not
+#: formed and the map's centres stand alone (2^24: about 0.3 s here; the
+#: wide-band random scenes of 64 antennas over 3 m take 7.3e6).
+COHERENT_MAX_TERMS = 1 << 24
+
+
+def wants_coherent_centres(data: RadarData, params) -> bool:
+    """True where the decomposition adds coherent centres
+    (``KSpaceParams.coherent_centres``, a linear array, a band of at least
+    :data:`COHERENT_MIN_FRACTION` of the carrier)."""
+    w = data.waveform
+    return (
+        bool(params.coherent_centres)
+        and not data.array.planar
+        and data.array.n >= 2
+        and w.bandwidth >= COHERENT_MIN_FRACTION * w.fc
+    )
+
+
+def coherent_centres(
+    data: RadarData,
+    idx: np.ndarray,
+    runs,
+    k_axis: np.ndarray,
+    rel: float,
+    window: float,
+    gate: float,
+) -> np.ndarray:
+    """Centres at the peaks of the coherent image that no centre of ``idx``
+    lies near (module notes, step 2): indices (k index, gate), shape (m, 2),
+    strongest first.
+
+    The image is the delay-and-sum value (:func:`rpm_cl.extract.backprojection.at_points`)
+    of the data tapered across the array (Hann, as the map's), on nodes
+    (sin theta, R) seen from the array's middle, over the gates of
+    ``runs`` (those searched); a peak is the largest of
+    :data:`COHERENT_PEAK_SIZE` nodes across, at least ``rel`` of the
+    image's maximum and :data:`COHERENT_FLOOR_DB` above its median.  Its
+    centre is the k of its direction, ``2 k_c sin(theta)`` wrapped onto
+    ``k_axis``, at the gate of its range; it is kept where no centre of
+    ``idx`` (or kept before it) holds it already: within a quarter of the
+    window period ``window`` (rad/m; where its raised cosine passes half or
+    more) and ``gate`` (m) of its range."""
+    from .backprojection import at_points
+
+    none = np.zeros((0, 2), np.intp)
+    if not runs:
+        return none
+    w, x = data.waveform, np.asarray(data.array.x, np.float64)
+    aperture = float(x[-1] - x[0])
+    if not aperture > 0:
+        return none
+    r = data.range
+    du = COHERENT_STEP_U * w.wavelength / (2 * aperture)
+    if not 2 * COHERENT_U_MAX / du < COHERENT_MAX_TERMS:  # an aperture of kilometres
+        return none
+    u = np.linspace(-COHERENT_U_MAX, COHERENT_U_MAX, int(np.ceil(2 * COHERENT_U_MAX / du)) + 1)
+    dr = COHERENT_STEP_R * w.range_resolution
+    parts = [np.arange(max(float(r[g0]), dr), float(r[g1 - 1]), dr) for g0, g1 in runs]
+    rr = np.concatenate(parts)
+    if rr.size == 0 or u.size * rr.size * x.size > COHERENT_MAX_TERMS:
+        return none
+    # a node on the edge of a run or of the directions is no maximum: the
+    # image may rise beyond it (the end of the range axis held a coupling
+    # echo's wrapped tail on the rebar fixture converted without background)
+    sizes = np.array([q.size for q in parts])
+    ends = np.cumsum(sizes)
+    inner = np.ones((u.size, rr.size), bool)
+    inner[[0, -1], :] = False
+    inner[:, np.concatenate([(ends - sizes)[sizes > 0], (ends - 1)[sizes > 0]])] = False
+    uu, rg = np.meshgrid(u, rr, indexing="ij")
+    xm = 0.5 * (x[0] + x[-1])
+    pts = np.stack([xm + rg.ravel() * uu.ravel(), rg.ravel() * np.sqrt(1 - uu.ravel() ** 2)], 1)
+    # tapered across the array as the map is (step 2): a plain sum's
+    # cross-range side lobes (-13 dB) would each be proposed
+    taper = np.hanning(x.size + 2)[1:-1, None]
+    tapered = replace(data, signal=data.signal * taper, truth=None)
+    img = np.abs(at_points(tapered, pts)).reshape(uu.shape)
+    top = float(img.max())
+    if not top > 0:
+        return none
+    level = max(rel * top, float(np.median(img)) * 10.0 ** (COHERENT_FLOOR_DB / 20.0))
+    peak = (img == maximum_filter(img, [COHERENT_PEAK_SIZE] * 2, "nearest")) & (img >= level)
+    peak &= inner
+    iu, ir = np.nonzero(peak)
+    order = np.argsort(-img[iu, ir], kind="stable")
+    period = 2 * np.pi / data.array.dx
+    k = 2 * w.kc * u[iu[order]]
+    dk = (k_axis[None, :] - k[:, None] + 0.5 * period) % period - 0.5 * period
+    kk = np.argmin(np.abs(dk), axis=1)
+    gates = np.clip(np.rint((rr[ir[order]] - r[0]) / data.dr).astype(np.intp), 0, r.size - 1)
+    have = [(float(k_axis[int(c[0])]), int(c[-1])) for c in idx]
+    out = []
+    for a, b in zip(kk, gates):
+        held = any(
+            abs((k_axis[a] - kc + 0.5 * period) % period - 0.5 * period) < 0.25 * window
+            and abs(int(b) - g) * data.dr <= gate
+            for kc, g in have
+        )
+        if not held:
+            have.append((float(k_axis[a]), int(b)))
+            out.append((int(a), int(b)))
+    return np.array(out, np.intp).reshape(-1, 2)

@@ -39,6 +39,15 @@ class KSpaceParams:
         kspace-rpm (the paper's method) does not.  Planar arrays keep the
         quarter period, and the near-field decomposition of sparse arrays
         (``near_field``) has its own search.
+    coherent_centres : bool or None
+        On a linear array whose band is at least a fifth of its carrier, add
+        a centre at each peak of the coherent (delay-and-sum) image over the
+        searched gates that no centre of the map lies near (step 2 of the
+        module notes): a weak echo on the flank of a strong one's spread in
+        (k, R) is no maximum of the map, but the image focuses it.  None
+        (default): the method decides: phase-rpm does, kspace-rpm (the
+        paper's method) does not.  Planar arrays and the near-field
+        decomposition do not read it.
     pad : int
         Zero-padding factor of the FFT along each array axis (1 .. PAD_MAX = 64).
     peak_threshold_db : float
@@ -91,6 +100,7 @@ class KSpaceParams:
     window_x: float = 417.0
     window_z: float | None = None
     close_centres: bool | None = None
+    coherent_centres: bool | None = None
     pad: int = 4
     peak_threshold_db: float = -20.0
     range_gate: float | None = None
@@ -125,6 +135,10 @@ class KSpaceParams:
         if self.close_centres not in (None, True, False):
             raise InputError(
                 f"close_centres must be True, False or None, got {self.close_centres!r}"
+            )
+        if self.coherent_centres not in (None, True, False):
+            raise InputError(
+                f"coherent_centres must be True, False or None, got {self.coherent_centres!r}"
             )
         if self.near_field not in (None, True, False):
             raise InputError(f"near_field must be True, False or None, got {self.near_field!r}")

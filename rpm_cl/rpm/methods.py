@@ -68,6 +68,8 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     ks = params.kspace
     if ks.close_centres is None:  # targets closer in direction than a window
         ks = replace(ks, close_centres=True)
+    if ks.coherent_centres is None:  # weak echoes on strong ones' flanks
+        ks = replace(ks, coherent_centres=True)
     plan = phase_plan(data, params)
     parts, spent = [], 0.0
     for antennas, kept in plan or [(None, None)]:
