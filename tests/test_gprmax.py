@@ -615,7 +615,7 @@ def test_phase_rpm_images_the_full_wave_fixture(band, share, every, dev32, tmp_p
     plate's, whose echo is several times stronger.  From 2 GHz of band up
     the coherent image focuses it, and its coherent centre hits it: every
     object is hit.  At 1.5-5 GHz its cluster also holds the double bounce
-    between c2 and c4, which arrives with it: 9 of its 24 points lie 50-150
+    between c2 and c4, which arrives with it: 9 of its 24 points lie 50-70
     mm from c4 (>= 94 % within 50 mm)."""
     data, pts = _image(band, dev32, tmp_path)
     within, med, hit = _score(pts, _objects(data))

@@ -546,8 +546,8 @@ def test_phase_rpm_finds_a_far_target_beyond_the_half_wavelength_alias(dev32):
     half-wavelength array tells from their aliases.  The near-field search
     fits the far one's phases equally well at +30.4 degrees; its envelope's
     range walk decides, and both targets are hit with every point within
-    50 mm (the search's alias put the far one's 48 points at its mirror
-    image, 2.9 m off)."""
+    50 mm (with the search's alias kept, the far one's 48 points lie at its
+    mirror image, 2.9 m off)."""
     from rpm_cl.cli import robustness as rb
 
     lam = C0 / 77e9

@@ -31,7 +31,8 @@
    gate): a weak echo on the flank of a strong one's spread over (k, R) is
    no maximum of the map, but the image focuses it (the gprMax fixture's c4,
    8 mm at 0.58 m beside a plate's echo several times stronger; the rods of
-   the half-space fixture: 77 % -> 95 % of the points within 20 mm).  A peak
+   the half-space fixture: 95 % of the points within 20 mm, 77 % without
+   these centres).  A peak
    must reach ``peak_threshold_db`` of the image's maximum and stand
    :data:`rpm_cl.extract.kspace_detect.COHERENT_FLOOR_DB` above its median
    (side lobes and noise); nodes on the edges of the searched gates and of

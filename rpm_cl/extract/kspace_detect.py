@@ -1,6 +1,8 @@
 """Detection of the k-space decomposition's cluster centres
 (:mod:`rpm_cl.extract.kspace`, step 2): local maxima of the detection map
-over (k, R), and the runs and regimes of range gates it is computed on.
+over (k, R), the runs and regimes of range gates it is computed on, and
+the centres at the peaks of the coherent image that the map's leave out
+(:func:`coherent_centres`).
 
 The steps named in the docstrings below ("module notes, step N") are those
 of the notes of :mod:`rpm_cl.extract.kspace`.
@@ -147,31 +149,46 @@ def _ranked_centres(found, size, n_k: int, threshold, nr: int) -> np.ndarray:
 COHERENT_MIN_FRACTION = 0.2
 #: A peak of the coherent image proposes a centre only where it stands this
 #: many dB above the image's median over the searched region (its side
-#: lobes and its noise): at 8 and 10 dB, in-band noise at 20 dB put 6-29
-#: proposals on noise peaks of wide-band random scenes (module notes,
-#: step 2).
+#: lobes and its noise; the map's own noise floor, ``noise_pfa``, is not
+#: applied to the image): at 14 dB the rebar fixture's share within 20 mm
+#: fell from 88.8 % to 85.1 %, at 26 dB the gprMax fixture's c4 was lost at
+#: 1.5-5 GHz (docs/decisions.md).
 COHERENT_FLOOR_DB = 20.0
-#: The coherent image's nodes: sin(theta) in steps of this fraction of the
-#: aperture's resolution cell ``lambda_c / (2 L)``, range in steps of this
-#: fraction of the range resolution.
+#: The coherent image's nodes in sin(theta): steps of this fraction of the
+#: aperture's resolution cell ``lambda_c / (2 L)``.
 COHERENT_STEP_U = 0.5
+#: The coherent image's nodes in range: steps of this fraction of the range
+#: resolution.
 COHERENT_STEP_R = 0.25
-#: A peak of the coherent image is the largest of this many nodes across,
-#: in sin(theta) and in range (+-1 resolution cell, +-half a range
-#: resolution).
+#: A peak of the coherent image is the largest of this many nodes across:
+#: +-1 node, half a resolution cell in sin(theta) and a quarter range
+#: resolution.
 COHERENT_PEAK_SIZE = 3
 #: The coherent image spans sin(theta) within +-this (80 degrees).
 COHERENT_U_MAX = 0.985
-#: Most terms (nodes x antennas) of the coherent image; a larger one is not
-#: formed and the map's centres stand alone (2^24: about 0.3 s here; the
-#: wide-band random scenes of 64 antennas over 3 m take 7.3e6).
+#: Most terms (nodes x antennas, at least 16 antennas counted) of the
+#: coherent image; a larger one is not formed and the map's centres stand
+#: alone (2^24: about 0.3 s here and at most 2^20 nodes; the wide-band
+#: random scenes of 64 antennas over 3 m take 7.3e6).
 COHERENT_MAX_TERMS = 1 << 24
 
 
 def wants_coherent_centres(data: RadarData, params) -> bool:
-    """True where the decomposition adds coherent centres
-    (``KSpaceParams.coherent_centres``, a linear array, a band of at least
-    :data:`COHERENT_MIN_FRACTION` of the carrier)."""
+    """True where the decomposition adds coherent centres.
+
+    Parameters
+    ----------
+    data : RadarData
+        The data decomposed.
+    params : KSpaceParams
+        ``coherent_centres`` must be on.
+
+    Returns
+    -------
+    bool
+        The setting on, a linear array of two antennas or more, and a band of
+        at least :data:`COHERENT_MIN_FRACTION` of the carrier.
+    """
     w = data.waveform
     return (
         bool(params.coherent_centres)
@@ -190,21 +207,47 @@ def coherent_centres(
     window: float,
     gate: float,
 ) -> np.ndarray:
-    """Centres at the peaks of the coherent image that no centre of ``idx``
-    lies near (module notes, step 2): indices (k index, gate), shape (m, 2),
-    strongest first.
+    """Centres at the peaks of the coherent image that no centre holds
+    (module notes, step 2).
 
-    The image is the delay-and-sum value (:func:`rpm_cl.extract.backprojection.at_points`)
-    of the data tapered across the array (Hann, as the map's), on nodes
-    (sin theta, R) seen from the array's middle, over the gates of
-    ``runs`` (those searched); a peak is the largest of
-    :data:`COHERENT_PEAK_SIZE` nodes across, at least ``rel`` of the
-    image's maximum and :data:`COHERENT_FLOOR_DB` above its median.  Its
+    The image is the delay-and-sum value (:func:`rpm_cl.extract.backprojection.at_points`,
+    straight rays) of the data tapered across the array (Hann, as the map's),
+    on nodes (sin theta, R) seen from the array's middle, over the gates of
+    ``runs``.  Above a half-space the data are the paraxial scene the map
+    also decomposes, so a proposal far off the normal is approximate; in a
+    homogeneous medium they are its air-equivalent scene.  A peak is the
+    largest of :data:`COHERENT_PEAK_SIZE` nodes across, not on an edge of
+    the runs or of the directions, at least ``rel`` of the largest value off
+    those edges and :data:`COHERENT_FLOOR_DB` above the image's median.  Its
     centre is the k of its direction, ``2 k_c sin(theta)`` wrapped onto
-    ``k_axis``, at the gate of its range; it is kept where no centre of
+    ``k_axis``, at the gate of its range.  It is kept where no centre of
     ``idx`` (or kept before it) holds it already: within a quarter of the
-    window period ``window`` (rad/m; where its raised cosine passes half or
-    more) and ``gate`` (m) of its range."""
+    window period ``window`` (where the raised cosine passes half or more;
+    wider than phase-rpm's one-cell spacing of the map's centres) and
+    ``gate`` of its range.
+
+    Parameters
+    ----------
+    data : RadarData
+        A linear array's range profiles (uniform antenna and range axes).
+    idx : ndarray of int, shape (n, 2)
+        The map's centres: (k index, gate).
+    runs : list of (int, int)
+        The searched gates, half-open runs ``[g0, g1)``.
+    k_axis : ndarray, shape (nk,)
+        The map's k axis, rad/m.
+    rel : float
+        The relative threshold, ``10^(peak_threshold_db / 20)``.
+    window : float
+        The window period along k, rad/m.
+    gate : float
+        Half-width of a cluster's range interval, m.
+
+    Returns
+    -------
+    ndarray of int, shape (m, 2)
+        The new centres (k index, gate), strongest first.
+    """
     from .backprojection import at_points
 
     none = np.zeros((0, 2), np.intp)
@@ -215,14 +258,15 @@ def coherent_centres(
     if not aperture > 0:
         return none
     r = data.range
+    counted = max(x.size, 16)
     du = COHERENT_STEP_U * w.wavelength / (2 * aperture)
-    if not 2 * COHERENT_U_MAX / du < COHERENT_MAX_TERMS:  # an aperture of kilometres
+    if not 2 * COHERENT_U_MAX / du * counted < COHERENT_MAX_TERMS:  # an aperture of kilometres
         return none
     u = np.linspace(-COHERENT_U_MAX, COHERENT_U_MAX, int(np.ceil(2 * COHERENT_U_MAX / du)) + 1)
     dr = COHERENT_STEP_R * w.range_resolution
     parts = [np.arange(max(float(r[g0]), dr), float(r[g1 - 1]), dr) for g0, g1 in runs]
     rr = np.concatenate(parts)
-    if rr.size == 0 or u.size * rr.size * x.size > COHERENT_MAX_TERMS:
+    if rr.size == 0 or u.size * rr.size * counted > COHERENT_MAX_TERMS:
         return none
     # a node on the edge of a run or of the directions is no maximum: the
     # image may rise beyond it (the end of the range axis held a coupling
@@ -232,15 +276,17 @@ def coherent_centres(
     inner = np.ones((u.size, rr.size), bool)
     inner[[0, -1], :] = False
     inner[:, np.concatenate([(ends - sizes)[sizes > 0], (ends - 1)[sizes > 0]])] = False
+    if not inner.any():
+        return none
     uu, rg = np.meshgrid(u, rr, indexing="ij")
     xm = 0.5 * (x[0] + x[-1])
     pts = np.stack([xm + rg.ravel() * uu.ravel(), rg.ravel() * np.sqrt(1 - uu.ravel() ** 2)], 1)
     # tapered across the array as the map is (step 2): a plain sum's
     # cross-range side lobes (-13 dB) would each be proposed
     taper = np.hanning(x.size + 2)[1:-1, None]
-    tapered = replace(data, signal=data.signal * taper, truth=None)
+    tapered = replace(data, signal=data.signal * taper, spectrum=None, truth=None)
     img = np.abs(at_points(tapered, pts)).reshape(uu.shape)
-    top = float(img.max())
+    top = float(img[inner].max())
     if not top > 0:
         return none
     level = max(rel * top, float(np.median(img)) * 10.0 ** (COHERENT_FLOOR_DB / 20.0))
@@ -253,15 +299,18 @@ def coherent_centres(
     dk = (k_axis[None, :] - k[:, None] + 0.5 * period) % period - 0.5 * period
     kk = np.argmin(np.abs(dk), axis=1)
     gates = np.clip(np.rint((rr[ir[order]] - r[0]) / data.dr).astype(np.intp), 0, r.size - 1)
-    have = [(float(k_axis[int(c[0])]), int(c[-1])) for c in idx]
+    held_k = list(k_axis[np.asarray(idx, np.intp).reshape(-1, 2)[:, 0]])
+    held_g = list(np.asarray(idx, np.intp).reshape(-1, 2)[:, 1])
     out = []
     for a, b in zip(kk, gates):
-        held = any(
-            abs((k_axis[a] - kc + 0.5 * period) % period - 0.5 * period) < 0.25 * window
-            and abs(int(b) - g) * data.dr <= gate
-            for kc, g in have
-        )
-        if not held:
-            have.append((float(k_axis[a]), int(b)))
-            out.append((int(a), int(b)))
+        if held_k:
+            dka = (k_axis[a] - np.asarray(held_k) + 0.5 * period) % period - 0.5 * period
+            near = (np.abs(dka) < 0.25 * window) & (
+                np.abs(b - np.asarray(held_g)) * data.dr <= gate
+            )
+            if near.any():
+                continue
+        held_k.append(k_axis[a])
+        held_g.append(b)
+        out.append((int(a), int(b)))
     return np.array(out, np.intp).reshape(-1, 2)

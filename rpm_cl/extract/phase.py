@@ -91,14 +91,15 @@ degrees and its alias at +30.4: to 1e-3), so the fit cannot tell them
 apart; their range walks run opposite ways.  Among the aliases whose waves
 correlate with the search's by at least :data:`ALIAS_CORRELATION` over the
 array, the one whose walk fits the envelope ranges best replaces the
-search's where it leaves less than :data:`ALIAS_GAIN` of its misfit, as on
-the plane-wave path (step 3; :func:`_spherical_alias`, each RP's misfit at
-most a track's gap squared).  Where the curvature differs more, the fit
-has told them apart, and the envelope, bent by the other echoes of its
-resolution cell, is not asked (on the paper's sparse scene at 20 dB a
-cluster's envelope preferred an alias whose wave correlated 0.59 with the
-search's, and took the cluster onto another target).  The envelope ranges of the sparse array's clusters wander a
-few mm from antenna to antenna already at 40 dB (the envelope polynomial
+search's where it leaves less than :data:`ALIAS_GAIN` of its misfit, on
+any pitch (the plane-wave path, step 3, asks that only of arrays of half a
+wavelength or finer; :func:`_spherical_alias`, each RP's misfit at most a
+track's gap squared).  Where the curvature differs more, the fit tells
+them apart, and the envelope, bent by the other echoes of its resolution
+cell, is not asked (on the paper's sparse scene at 20 dB a cluster's
+envelope preferred an alias whose wave correlated 0.59 with the search's,
+and asked, it took the cluster onto another target).  The envelope ranges
+of the sparse array's clusters wander a few mm from antenna to antenna already at 40 dB (the envelope polynomial
 follows noise), enough to tilt the range walk and slide the points tens of
 mm along their circles: on twenty random layouts of the paper's sparse
 array the mean share of points within 50 mm is 0.975 against 0.673 at
