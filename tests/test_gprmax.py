@@ -559,10 +559,10 @@ def test_cli_convert_errors_are_one_line(tmp_path, capsys):
 
 
 # ---------------------------------------------------------------- imaging
-def _objects(data):
+def _objects(data, folder=DATA):
     """Boundary samples of each object (c1-c4 the cylinders, p1 the plate) in
-    the engine's frame."""
-    side = G.read_sidecar(SCENE)
+    the engine's frame (the fixture in ``folder``)."""
+    side = G.read_sidecar(folder / "scene.json")
     out = {}
     for i, c in enumerate(side.cylinders):
         out[f"c{i + 1}"] = G.truth_arrays(G.Sidecar(cylinders=(c,)), data.array.x, side.scan_y)[
@@ -587,13 +587,26 @@ def _score(points, objects):
     return float(np.mean(d.min(axis=1) <= 0.05)), float(np.median(d.min(axis=1))), hit
 
 
+def _converted(band, tmp_path, folder=DATA):
+    """The fixture in ``folder`` converted over ``band`` (Hz) and loaded."""
+    path = tmp_path / f"{folder.name}.npz"
+    G.save_spectrum(
+        path,
+        G.convert(
+            folder / "targets_merged.h5",
+            folder / "background_merged.h5",
+            band,
+            sidecar=folder / "scene.json",
+        ),
+    )
+    return load_data(path)
+
+
 def _image(band, dev32, tmp_path, method="phase-rpm"):
     from rpm_cl.imaging import run_method
     from rpm_cl.rpm.params import default_params
 
-    path = tmp_path / "scan.npz"
-    G.save_spectrum(path, G.convert(TARGETS, BACKGROUND, band, sidecar=SCENE))
-    data = load_data(path)
+    data = _converted(band, tmp_path)
     return data, run_method(method, data, default_params(data), dev32).image.points
 
 
@@ -696,27 +709,8 @@ def test_phase_rpm_on_the_second_full_wave_scene(dev32, tmp_path):
     from rpm_cl.imaging import run_method
     from rpm_cl.rpm.params import default_params
 
-    path = tmp_path / "second.npz"
-    G.save_spectrum(
-        path,
-        G.convert(
-            SECOND / "targets_merged.h5",
-            SECOND / "background_merged.h5",
-            (2e9, 4e9),
-            sidecar=SECOND / "scene.json",
-        ),
-    )
-    data = load_data(path)
-    side = G.read_sidecar(SECOND / "scene.json")
-    objects = {
-        f"c{i + 1}": G.truth_arrays(G.Sidecar(cylinders=(c,)), data.array.x, side.scan_y)[
-            "truth_boundary"
-        ]
-        for i, c in enumerate(side.cylinders)
-    }
-    objects["p1"] = G.truth_arrays(
-        G.Sidecar(polygons=tuple(side.polygons)), data.array.x, side.scan_y
-    )["truth_boundary"]
+    data = _converted((2e9, 4e9), tmp_path, SECOND)
+    objects = _objects(data, SECOND)
     params = default_params(data)
     within, med, hit = _score(run_method("phase-rpm", data, params, dev32).image.points, objects)
     assert hit >= {"c1", "c2", "c4", "p1"}
