@@ -38,9 +38,9 @@ def envelope_ranges(data, rps, clusters, params=None):
     return rps, np.zeros(len(rps), bool)
 
 
-def search_alias(xr, r_env, w, u, *rest):
-    """The comparison: the near-field search's direction kept."""
-    return u
+def search_alias(xr, r_env, w, u, r, *rest):
+    """The comparison: the near-field search's centre kept."""
+    return u, r
 
 
 def main(argv=None):

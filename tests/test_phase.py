@@ -461,17 +461,20 @@ def test_spherical_ranges_follow_the_centre_and_keep_the_envelope_level():
 def _alias_line():
     """48 antennas at half a wavelength (77 GHz), 1 GHz: directions u and
     u + 1 (sin theta) are aliases; a point 2.9 m away at u = -0.494 and its
-    alias at +0.506, whose spherical waves agree to 1e-3 on every antenna."""
+    alias at +0.506 and the range that keeps the wave's curvature,
+    ``r (1 - 0.506^2) / (1 - 0.494^2)`` (2.85 m), whose spherical waves
+    agree to 1e-3 on every antenna."""
     fc = 77e9
     kc = 2 * np.pi * fc / C0
     x = (np.arange(48) - 23.5) * 0.5 * C0 / fc
     rng = np.arange(0.0, 3.5, 2.5e-3)
     data = RadarData(np.zeros((48, rng.size), complex), Array(x), rng, Waveform(fc, 1e9))
     r_c, u = 2.9, -0.494
+    r_a = r_c * (1 - (u + 1) ** 2) / (1 - u * u)
     walk = np.hypot(x - r_c * u, r_c * np.sqrt(1 - u * u))
-    alias = np.hypot(x - r_c * (u + 1), r_c * np.sqrt(1 - (u + 1) ** 2))
+    alias = np.hypot(x - r_a * (u + 1), r_a * np.sqrt(1 - (u + 1) ** 2))
     assert abs(np.vdot(np.exp(-2j * kc * walk), np.exp(-2j * kc * alias))) / 48 > 0.999
-    return data, kc, r_c, u, walk, alias
+    return data, kc, r_a, u, walk, alias
 
 
 @pytest.mark.parametrize("bend, taken", [(1.0, True), (0.6, False)])
@@ -485,7 +488,7 @@ def test_spherical_ranges_take_the_alias_the_envelope_walk_supports(bend, taken)
     from rpm_cl.extract.phase import spherical_ranges
     from rpm_cl.extract.types import Cluster
 
-    data, kc, r_c, u, walk, alias = _alias_line()
+    data, kc, r_a, u, walk, alias = _alias_line()
     r_env = alias + bend * (walk - alias)
     rps = RangePoints(
         np.arange(48),
@@ -498,7 +501,7 @@ def test_spherical_ranges_take_the_alias_the_envelope_walk_supports(bend, taken)
     )
     cl = Cluster(
         np.array([2 * kc * (u + 1)]),
-        r_c,
+        r_a,
         slice(0, 1),
         np.zeros((48, 1)),
         1.0,
@@ -512,12 +515,13 @@ def test_spherical_ranges_take_the_alias_the_envelope_walk_supports(bend, taken)
 
 
 def test_spherical_ranges_keep_the_search_alias_where_the_curvature_tells():
-    """21 antennas at 20 mm (20 GHz), a point 0.46 m away: its alias's
-    spherical wave correlates 0.59 with its own over the array, so the
-    search's fit tells the two apart (the paper's sparse scene at 20 dB had a
-    cluster whose envelope, bent by a neighbour in its 0.75 m resolution
-    cell, fitted the alias's walk better).  Envelope ranges on the alias's
-    walk leave the cluster's direction alone."""
+    """21 antennas at 20 mm (20 GHz), a point 0.46 m away: its alias (at the
+    range that keeps the wave's curvature, 0.38 m) correlates 0.39 with its
+    own spherical wave over the array, so the search's fit tells the two
+    apart (the paper's sparse scene at 20 dB had a cluster whose envelope,
+    bent by a neighbour in its 0.75 m resolution cell, fitted an alias's
+    walk better).  Envelope ranges on the alias's walk leave the cluster's
+    direction alone."""
     from rpm_cl.extract.phase import spherical_ranges
     from rpm_cl.extract.types import Cluster
 
@@ -525,10 +529,11 @@ def test_spherical_ranges_keep_the_search_alias_where_the_curvature_tells():
     data = _data(x)
     r_c, u = 0.46, 0.05
     v = u + C0 / FC / (2 * 0.02)  # the next alias, sin(theta) 0.425
+    r_v = r_c * (1 - v * v) / (1 - u * u)
     walk = np.hypot(x - r_c * u, r_c * np.sqrt(1 - u * u))
-    alias = np.hypot(x - r_c * v, r_c * np.sqrt(1 - v * v))
+    alias = np.hypot(x - r_v * v, r_v * np.sqrt(1 - v * v))
     rho = abs(np.vdot(np.exp(-2j * KC * walk), np.exp(-2j * KC * alias))) / 21
-    assert rho == pytest.approx(0.59, abs=0.01)
+    assert rho == pytest.approx(0.39, abs=0.01)
     rps = RangePoints(
         np.arange(21), x, None, alias, np.ones(21), np.zeros(21, int), np.ones(21, complex)
     )

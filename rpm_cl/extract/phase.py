@@ -84,9 +84,10 @@ radius, 0 for a point; RPs more than :data:`TRACK_GAP` resolutions from the
 weighted median offset, stray peaks of the cluster's gates, keep their own
 range and take no part).  :func:`spherical_ranges` puts each cluster's RPs
 on that walk.  Where the array is coarser than a quarter wavelength the
-search's direction ``u`` has aliases ``u + n lambda / (2 d)``, and where
-the array is short against the range their spherical waves agree on every
-antenna (48 antennas at half a wavelength, a point 2.9 m away at -29.6
+search's centre ``(u, r)`` has aliases at ``v = u + n lambda / (2 d)`` and
+the range ``r (1 - v^2) / (1 - u^2)`` that keeps the wave's curvature, and
+where the array is short against the range their spherical waves agree on
+every antenna (48 antennas at half a wavelength, a point 2.9 m away at -29.6
 degrees and its alias at +30.4: to 1e-3), so the fit cannot tell them
 apart; their range walks run opposite ways.  Among the aliases whose waves
 correlate with the search's by at least :data:`ALIAS_CORRELATION` over the
@@ -436,8 +437,8 @@ def spherical_ranges(
         amp = amp_all[sel]
         w = (amp / amp.max()) ** 2 if amp.max() > 0 else np.ones(sel.size)
         u = float(np.clip(c.k[0] / (2 * kc), -1.0, 1.0))
-        u = _spherical_alias(xr[sel], r_new[sel], w, u, c.r_centre, period, gap, xa, kc)
-        walk = _spherical_walk(xr[sel], u, c.r_centre)
+        u, r_c = _spherical_alias(xr[sel], r_new[sel], w, u, c.r_centre, period, gap, xa, kc)
+        walk = _spherical_walk(xr[sel], u, r_c)
         off = r_new[sel] - walk
         # the RPs of the walk: within the tracks' gap of the weighted median
         # offset (a stray peak of the cluster's gates keeps its own range and
@@ -462,12 +463,15 @@ def _spherical_walk(xr, u: float, r: float) -> np.ndarray:
 
 def _spherical_alias(
     xr, r_env, w, u: float, r: float, period: float, gap: float, xa, kc: float
-) -> float:
-    """The direction of a near-field cluster whose range walk fits its RPs'
-    envelope ranges (module notes, the near-field clusters): ``u`` itself
-    (the search's choice), or another alias ``u + n period`` (|u| < 1, up to
-    :data:`ALIASES_AXIS` of them) where that one leaves less than
-    :data:`ALIAS_GAIN` of ``u``'s misfit.
+) -> tuple[float, float]:
+    """The centre of a near-field cluster whose range walk fits its RPs'
+    envelope ranges (module notes, the near-field clusters): ``(u, r)``
+    itself (the search's choice), or an alias ``(v, r (1 - v^2) / (1 - u^2))``,
+    ``v = u + n period`` (|v| < 1, up to :data:`ALIASES_AXIS` of them), where
+    that one leaves less than :data:`ALIAS_GAIN` of the search's misfit.  An
+    alias keeps the wave's linear phase across the array modulo ``2 pi`` per
+    antenna and, at that range, its curvature ``(1 - u^2) / r``: the wave the
+    fit sees, to the cubic term.
 
     ``xr``, ``r_env``, ``w``: the cluster's RPs' positions from the array's
     middle (m), envelope ranges (m) and weights; ``r``: the cluster's range,
@@ -480,29 +484,36 @@ def _spherical_alias(
     # beyond ALIASES_AXIS of them (a pitch over 8 wavelengths) the nearest
     # two only, as the plane-wave clusters' aliases (:func:`_alias`)
     ns = range(lo, hi + 1) if hi - lo + 1 <= ALIASES_AXIS else (-1, 1)
-    cands = [u + n * period for n in ns if n != 0 and abs(u + n * period) < 1.0]
+    bend = 1.0 - u * u
+    if not bend > 0:  # a direction along the array has no curvature to keep
+        return u, r
+    cands = [
+        (v, r * (1.0 - v * v) / bend)
+        for v in (u + n * period for n in ns if n != 0)
+        if abs(v) < 1.0
+    ]
     # only the aliases whose waves the fit could not tell from the search's
     wave = np.exp(-2j * kc * _spherical_walk(xa, u, r))
     cands = [
-        v
-        for v in cands
-        if abs(np.vdot(wave, np.exp(-2j * kc * _spherical_walk(xa, v, r)))) / xa.size
+        (v, q)
+        for v, q in cands
+        if abs(np.vdot(wave, np.exp(-2j * kc * _spherical_walk(xa, v, q)))) / xa.size
         >= ALIAS_CORRELATION
     ]
     if not cands:
-        return u
+        return u, r
     ws = float(np.sum(w))
 
-    def misfit(v):
-        off = r_env - _spherical_walk(xr, v, r)
+    def misfit(v, q):
+        off = r_env - _spherical_walk(xr, v, q)
         o = np.argsort(off)
         cw = np.cumsum(w[o])
         med = off[o][np.searchsorted(cw, 0.5 * cw[-1])]
         return float(np.sum(w * np.minimum((off - med) ** 2, gap * gap))) / ws
 
-    costs = [misfit(v) for v in cands]
+    costs = [misfit(v, q) for v, q in cands]
     best = int(np.argmin(costs))
-    return cands[best] if costs[best] < ALIAS_GAIN * misfit(u) else u
+    return cands[best] if costs[best] < ALIAS_GAIN * misfit(u, r) else (u, r)
 
 
 #: The coherent level search spans this many range resolutions either side
