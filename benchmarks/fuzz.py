@@ -29,6 +29,10 @@ garbage       exit 0 on an input with a few corrupted samples whose result
               of a target where the clean run's was); or exit 0 on an input in
               a wrong unit with no 'rpm-cl: warning:' line
 leftover      an interrupted run left a temporary file beside its output
+startup       a SIGINT that landed in Python's own start-up or in the module-level
+              imports before rpm-cl's handlers exist (every rpm_cl frame of the
+              KeyboardInterrupt's traceback, if any, at module level): outside
+              reach (docs/decisions.md), Python's own traceback; not a target
 slow-refusal  refused after more than 2 s, or with a peak RSS above 4 x the
               input's bytes on disk + the base (the largest RSS of refusing
               three tiny bad files: 10 bytes, an empty zip, an empty HDF5 file,
@@ -54,6 +58,7 @@ import hashlib
 import io
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -103,6 +108,7 @@ OUTCOMES = (
     "traceback",
     "garbage",
     "leftover",
+    "startup",
     "slow-refusal",
     "slow-accept",
     "bad-refusal",
@@ -1248,6 +1254,26 @@ def marker_in(case, marker, stdout):
     return any(f in b for f in forms for b in blobs)
 
 
+#: A traceback's frame: its file and its function.
+FRAME = re.compile(r'^\s*File "([^"]+)", line \d+, in (\S+)')
+
+
+def before_handlers(err: str, rc: int) -> bool:
+    """True when a SIGINT ended the run before rpm-cl's handlers existed:
+    death by SIGINT with nothing on stderr (before Python's own handler), or
+    a KeyboardInterrupt (exit 1, or death by SIGINT) whose traceback holds
+    no rpm_cl frame but module-level ones (Python's start-up, runpy, the
+    imports of ``rpm_cl/__main__.py`` and ``rpm_cl/_entry.py``)."""
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    if rc == -2 and not lines:  # before Python set its own handler
+        return True
+    if rc not in (1, -2) or not lines or lines[-1].strip() != "KeyboardInterrupt":
+        return False
+    frames = [m.groups() for m in map(FRAME.match, lines) if m]
+    ours = [fn for path, fn in frames if "/rpm_cl/" in path.replace("\\", "/")]
+    return all(fn == "<module>" for fn in ours)
+
+
 def classify(case, res, hashes, ref):
     """The flags that hold and the outcome (the first of OUTCOMES among them).
 
@@ -1264,6 +1290,8 @@ def classify(case, res, hashes, ref):
         flags.add("outside-read")
     if res["killed"]:
         flags.add(res["killed"])
+    elif case.sigint is not None and before_handlers(err, rc):
+        flags.add("startup")
     elif "Traceback" in err or rc not in (0, 1, 2, 130):
         flags.add("traceback")
     if case.sigint is not None:
@@ -1296,9 +1324,11 @@ def classify(case, res, hashes, ref):
         if res["wall"] > REFUSE_S or res["rss"] > RSS_FACTOR * case.data_bytes + base:
             flags.add("slow-refusal")
     flags.add(
-        {0: "accepted", 1: "failed", 2: "refused", 130: "interrupted"}.get(rc, "traceback")
-        if not res["killed"]
-        else res["killed"]
+        res["killed"]
+        if res["killed"]
+        else "startup"
+        if "startup" in flags
+        else {0: "accepted", 1: "failed", 2: "refused", 130: "interrupted"}.get(rc, "traceback")
     )
     outcome = next(o for o in OUTCOMES if o in flags)
     return outcome, sorted(flags, key=OUTCOMES.index)

@@ -114,3 +114,20 @@ def test_outcomes_are_told_apart(fast):
 @pytest.mark.slow
 def test_heavy_cases_hold(tmp_path):
     _check(_run(tmp_path, SLOW))
+
+
+def test_a_sigint_before_the_handlers_is_told_from_a_traceback_of_ours():
+    """The campaign's ``startup`` flag: a KeyboardInterrupt in Python's own
+    start-up or in the module-level imports of the entry modules (death by
+    SIGINT with nothing said, too) is outside reach; one raised inside a
+    function of rpm_cl is a traceback of ours."""
+    tb = (
+        'Traceback (most recent call last):\n  File "{}", line 3, in {}\n    x\nKeyboardInterrupt\n'
+    )
+    assert fuzz.before_handlers(tb.format("<frozen importlib._bootstrap>", "_load"), 1)
+    assert fuzz.before_handlers(tb.format("/site/rpm_cl/_entry.py", "<module>"), -2)
+    assert fuzz.before_handlers("", -2)
+    assert not fuzz.before_handlers(tb.format("/site/rpm_cl/_entry.py", "run"), 1)
+    assert not fuzz.before_handlers(tb.format("/site/rpm_cl/cli/commands.py", "main"), 1)
+    assert not fuzz.before_handlers("rpm-cl: interrupted\n", 130)
+    assert not fuzz.before_handlers(tb.format("<frozen importlib._bootstrap>", "_load"), 2)
