@@ -156,6 +156,7 @@ from .kspace_detect import (
     _ranked_centres,
     _regimes,
     _runs,
+    _taper,
     coherent_centres,
     wants_coherent_centres,
 )
@@ -192,16 +193,6 @@ __all__ = [
 #: (485 -> 339 ms) and 64 x 64 at pad 2 (1443 -> 1293 ms); beyond, the
 #: matrices' n^2 cost per line overtakes the FFT's n log n.
 MATRIX_DFT_MAX = 128
-
-
-def _taper(shape: tuple) -> np.ndarray:
-    """Hann taper across the array axes, shape ``shape + (1,)``."""
-    w = np.ones(tuple(shape) + (1,))
-    for a, n in enumerate(shape):
-        shp = [1] * (len(shape) + 1)
-        shp[a] = n
-        w = w * np.hanning(n + 2)[1:-1].reshape(shp)
-    return w
 
 
 def _padded_fft(sig: np.ndarray, shape: tuple) -> np.ndarray:
@@ -480,10 +471,10 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
     spec, mag, span = _spectra(data, params, need, dechirp, not _align_on(data, params))
     if not params.detect_taper:
         idx = _centres_of(mag, span.start, runs, size, n_k, threshold, nr)
-    if n_k == 1 and wants_coherent_centres(data, params):
+    if wants_coherent_centres(data, params):
         rel = 10.0 ** (params.peak_threshold_db / 20.0)
         extra = coherent_centres(data, idx, runs, k_axes[0], rel, periods[0], gate)
-        idx = np.concatenate([idx.reshape(-1, 2), extra]) if extra.size else idx
+        idx = np.concatenate([idx, extra]) if extra.size else idx
     if not idx.size:
         return Decomposition(k_axes, mag, (), gate0=span.start)
     matrix_dft = max(arr.shape) <= MATRIX_DFT_MAX

@@ -22,6 +22,16 @@ from ..io.data import RadarData
 NMS_K_PERIODS = 0.25
 
 
+def _taper(shape: tuple) -> np.ndarray:
+    """Hann taper across the array axes, shape ``shape + (1,)``."""
+    w = np.ones(tuple(shape) + (1,))
+    for a, n in enumerate(shape):
+        shp = [1] * (len(shape) + 1)
+        shp[a] = n
+        w = w * np.hanning(n + 2)[1:-1].reshape(shp)
+    return w
+
+
 def _runs(mask: np.ndarray):
     """Contiguous runs of True in a 1-D mask, as (start, stop) pairs."""
     d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
@@ -283,8 +293,9 @@ def coherent_centres(
     pts = np.stack([xm + rg.ravel() * uu.ravel(), rg.ravel() * np.sqrt(1 - uu.ravel() ** 2)], 1)
     # tapered across the array as the map is (step 2): a plain sum's
     # cross-range side lobes (-13 dB) would each be proposed
-    taper = np.hanning(x.size + 2)[1:-1, None]
-    tapered = replace(data, signal=data.signal * taper, spectrum=None, truth=None)
+    tapered = replace(
+        data, signal=data.signal * _taper(data.array.shape), spectrum=None, truth=None
+    )
     img = np.abs(at_points(tapered, pts)).reshape(uu.shape)
     top = float(img[inner].max())
     if not top > 0:

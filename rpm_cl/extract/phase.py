@@ -443,9 +443,7 @@ def spherical_ranges(
         # the RPs of the walk: within the tracks' gap of the weighted median
         # offset (a stray peak of the cluster's gates keeps its own range and
         # does not pull the others' constant)
-        o = np.argsort(off)
-        cw = np.cumsum(w[o])
-        med = off[o][np.searchsorted(cw, 0.5 * cw[-1])]
+        med = _weighted_median(off, w)
         on = np.abs(off - med) <= gap
         if np.count_nonzero(on) < params.min_track:
             continue
@@ -453,6 +451,23 @@ def spherical_ranges(
         r_new[keep] = walk[on] + float(np.sum(w[on] * off[on]) / np.sum(w[on]))
         refined[keep] = True
     return replace(rps, range=r_new), refined
+
+
+def _weighted_median(values, w) -> float:
+    """The ``w``-weighted median of ``values`` (the first value whose
+    cumulative weight, in ascending order, reaches half the total)."""
+    o = np.argsort(values)
+    cw = np.cumsum(w[o])
+    return values[o][np.searchsorted(cw, 0.5 * cw[-1])]
+
+
+def _alias_steps(start: float, period: float, bound: float) -> np.ndarray:
+    """The steps ``n`` (0 among them) that keep ``start + n period`` within
+    ``+-bound``; beyond :data:`ALIASES_AXIS` of them (a pitch over 8
+    wavelengths; x in mm read as m gives a million) -1, 0 and 1 only."""
+    lo = int(np.ceil((-bound - start) / period))
+    hi = int(np.floor((bound - start) / period))
+    return np.arange(lo, hi + 1) if hi - lo + 1 <= ALIASES_AXIS else np.arange(-1, 2)
 
 
 def _spherical_walk(xr, u: float, r: float) -> np.ndarray:
@@ -479,11 +494,7 @@ def _spherical_alias(
     ``gap``: the misfit of one RP is its squared offset from the walk's
     weighted median offset, at most ``gap**2`` (a stray peak of the
     cluster's gates counts no more than a track's gap)."""
-    lo = int(np.ceil((-1.0 - u) / period)) if np.isfinite(period) else 0
-    hi = int(np.floor((1.0 - u) / period)) if np.isfinite(period) else 0
-    # beyond ALIASES_AXIS of them (a pitch over 8 wavelengths) the nearest
-    # two only, as the plane-wave clusters' aliases (:func:`_alias`)
-    ns = range(lo, hi + 1) if hi - lo + 1 <= ALIASES_AXIS else (-1, 1)
+    ns = _alias_steps(u, period, 1.0) if np.isfinite(period) else np.zeros(1, int)
     bend = 1.0 - u * u
     if not bend > 0:  # a direction along the array has no curvature to keep
         return u, r
@@ -506,9 +517,7 @@ def _spherical_alias(
 
     def misfit(v, q):
         off = r_env - _spherical_walk(xr, v, q)
-        o = np.argsort(off)
-        cw = np.cumsum(w[o])
-        med = off[o][np.searchsorted(cw, 0.5 * cw[-1])]
+        med = _weighted_median(off, w)
         return float(np.sum(w * np.minimum((off - med) ** 2, gap * gap))) / ws
 
     costs = [misfit(v, q) for v, q in cands]
@@ -672,17 +681,13 @@ def _alias(pos, phi, r_env, amp, kvec, periods, kc) -> np.ndarray:
     ``e`` the envelope ranges less the starting walk and ``q = X . dk /
     (2 k_c)``, ``Var(e + q) = Var(e) + 2 Cov(e, q) + Var(q)``."""
     w = _weights(amp)
-    # per axis the track extends over, the n that keep |u| < 1; beyond
-    # ALIASES_AXIS of them (a pitch over 8 wavelengths; x in mm read as m
-    # gives a million) the starting alias and its neighbours only
+    # per axis the track extends over, the n that keep |u| < 1
     span = []
     for a in range(2):
         if np.ptp(pos[:, a]) == 0:
             span.append(np.zeros(1, int))
             continue
-        lo = int(np.ceil((-2 * kc - kvec[a]) / periods[a]))
-        hi = int(np.floor((2 * kc - kvec[a]) / periods[a]))
-        span.append(np.arange(lo, hi + 1) if hi - lo + 1 <= ALIASES_AXIS else np.arange(-1, 2))
+        span.append(_alias_steps(kvec[a], periods[a], 2 * kc))
     n = np.stack(np.meshgrid(*span, indexing="ij"), axis=-1).reshape(-1, 2)
     kv = kvec[None, :] + n * periods[None, :]
     phys = np.hypot(kv[:, 0], kv[:, 1]) < 2 * kc
