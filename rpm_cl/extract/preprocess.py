@@ -14,8 +14,14 @@ strongest echo is the antennas' own coupling (``background="auto"``,
    the antennas, per range gate (complex), is subtracted: what every
    antenna sees alike (coupling, the surface of a flat ground, cable
    ringing) goes, a target's range walk across the scan stays; ``auto``
-   (the default) removes the mean where :func:`coupling_dominates`, else
-   nothing;
+   (the default) removes the mean of a linear scan where
+   :func:`coupling_dominates`, else nothing.  A planar scan's mean is not
+   removed: a flat sample parallel to a near-field scan is as common to
+   every antenna as the coupling.  ``auto`` takes out of a planar scan's
+   frequency samples (and its profiles alike) only the coupling, one echo
+   fitted to their mean (:func:`planar_coupling`, :func:`without_echo`);
+   a planar range-domain file has no samples, and phase-rpm drops the
+   points of its coupling's RPs instead (:func:`coupling_rps`);
 3. **gain** (``gain_db_per_m``): amplitudes times ``10^(g R' / 20)``, a
    linear-in-range gain in dB per metre, for echoes that a lossy medium
    weakens with depth (scaled so that no factor exceeds 1: only amplitude
@@ -41,8 +47,11 @@ __all__ = [
     "COUPLING_SAME",
     "COUPLING_SHARE",
     "coupling_dominates",
+    "coupling_rps",
+    "planar_coupling",
     "preprocess",
     "shift_truth",
+    "without_echo",
 ]
 
 #: Background removals: the mean where the coupling dominates (see
@@ -100,6 +109,148 @@ def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
     return abs(complex(v.mean())) ** 2 >= COUPLING_SHARE * float(np.mean(np.abs(v) ** 2))
 
 
+def planar_coupling(data: RadarData, time_zero: float = 0.0) -> tuple[complex, float] | None:
+    """A planar scan's own coupling as one echo ``a exp(-j 4 pi f R_c / c)``
+    in its frequency samples, or None where it has no samples or no
+    coupling (module notes, step 2).
+
+    The coupling is what every antenna sees alike within one range
+    resolution of time zero: the array's mean profile peaks there (its
+    strongest gate in ``[0, c / 2B]``) with at least :data:`COUPLING_SHARE`
+    of that gate's power common to every antenna, and stands above twice
+    the range window's side lobe level under the mean profile's strongest
+    peak (a flat sample's side lobes are as common).  Its range and amplitude
+    are those of the mean spectrum's Hann-weighted coherent sum's peak
+    within half a resolution of that gate: the mean profile there holds the
+    coupling's main lobe and only the far side lobes of echoes a resolution
+    or more away.  A planar scan's mean profile cannot be removed whole (a
+    flat sample parallel to the scan is as common as the coupling), nor cut
+    at a range: with 11 frequencies over 22.2-26.2 GHz (a resolution of
+    68 mm, Hann) a coupling 12 mm from the antennas and a sample at 0.105 m
+    overlap in range.
+
+    Returns
+    -------
+    (a, R_c) : (complex, float)
+        The echo's amplitude and range (on the data's axis, m).
+    """
+    sp = data.spectrum
+    if not data.array.planar or sp is None:
+        return None
+    rng = data.range - time_zero
+    res = data.waveform.range_resolution
+    first = np.flatnonzero((rng >= 0) & (rng <= res))
+    if first.size == 0:
+        return None
+    s = data.signal.reshape(-1, rng.size)[:, first]
+    top = float(np.abs(s).max())
+    if not (np.isfinite(top) and top > 0):
+        return None
+    v = s.astype(np.complex128) / top  # any scale: no overflow in the powers
+    mean = np.abs(v.mean(axis=0))
+    # the strongest local maximum (a sample's main lobe may reach in and
+    # rise to the last gate)
+    peak = np.r_[True, mean[1:] >= mean[:-1]] & np.r_[mean[:-1] >= mean[1:], False]
+    if not peak.any():
+        return None
+    g = int(np.flatnonzero(peak)[np.argmax(mean[peak])])
+    if mean[g] ** 2 < COUPLING_SHARE * float(np.mean(np.abs(v[:, g]) ** 2)):
+        return None
+    # not a side lobe of a common echo beyond (a flat sample's): twice the
+    # window's side lobe level under the mean profile's strongest peak
+    if data.range_sidelobe_db is not None:
+        whole = np.abs(data.signal.reshape(-1, rng.size).mean(axis=0)).max() / top
+        if mean[g] < 2.0 * 10.0 ** (data.range_sidelobe_db / 20.0) * whole:
+            return None
+    from ..io.model import C0
+    from ..io.windows import window
+
+    f = sp.frequency
+    y = sp.values.reshape(-1, f.size).astype(np.complex128).mean(axis=0)
+    hy = window("hann", f.size) * y
+    k = 4.0 * np.pi * f / C0
+    r0 = float(data.range[first[g]])
+    step = res / 512
+    grid = r0 + step * np.arange(-256, 257)
+    val = np.abs(np.exp(1j * np.outer(grid, k)) @ hy)
+    j = int(np.clip(np.argmax(val), 1, grid.size - 2))
+    den = val[j - 1] - 2 * val[j] + val[j + 1]
+    rc = float(grid[j] + (0.5 * step * (val[j - 1] - val[j + 1]) / den if den < 0 else 0.0))
+    a = complex(np.exp(1j * k * rc) @ hy) / float(window("hann", f.size).sum())
+    return a, rc
+
+
+def without_echo(data: RadarData, a: complex, rc: float) -> RadarData:
+    """``data`` less the echo ``a exp(-j 4 pi f rc / c)`` at every antenna:
+    in its frequency samples, and in its profiles as its compression
+    (``data.spectrum.window``) forms it, on the data's range axis."""
+    from ..io.compress import _window
+    from ..io.model import C0
+    from ..io.radar import Spectrum
+
+    sp = data.spectrum
+    f = sp.frequency
+    echo = a * np.exp(-4j * np.pi * f * rc / C0)
+    w = _window(sp.window, f.size)
+    ramp = np.exp(4j * np.pi * np.outer(f - data.waveform.fc, data.range) / C0)
+    profile = (w * echo) @ ramp / w.sum()
+    signal = (data.signal - profile).astype(data.signal.dtype, copy=False)
+    values = (sp.values - echo).astype(sp.values.dtype, copy=False)
+    return replace(data, signal=signal, spectrum=Spectrum(values, f, sp.window))
+
+
+def coupling_rps(data: RadarData, rps) -> np.ndarray:
+    """Which RPs of a planar scan are its antennas' own coupling: those
+    within one range resolution of time zero (the axis's 0), where they
+    hold :data:`COUPLING_SAME` of the antennas or more and at least
+    :data:`COUPLING_SHARE` of their power is common to every antenna (the
+    mean of their complex samples, :func:`coupling_dominates`'s test).
+
+    A planar scan keeps its background (:func:`preprocess`): a flat sample
+    parallel to it is as common to every antenna as the coupling, and the
+    mean over the antennas would take it too.  So the coupling's echo
+    reaches the imaging, and its RPs become a "surface" a few mm before the
+    antennas; this test finds them instead.  A surface within one
+    resolution of the antennas is taken for the coupling (0.068 m for 11
+    frequencies over 22.2-26.2 GHz, Hann).
+
+    Parameters
+    ----------
+    data : RadarData
+        After :func:`preprocess` (ranges measured from time zero).
+    rps : RangePoints
+        With ``sample`` (else the profiles' value at each RP's gate).
+
+    Returns
+    -------
+    ndarray of bool, shape (K,)
+        All False for linear arrays (:func:`coupling_dominates` removes
+        theirs before the imaging).
+    """
+    k = len(rps)
+    out = np.zeros(k, bool)
+    if not data.array.planar or k == 0:
+        return out
+    rng = np.asarray(rps.range, np.float64)
+    near = rng <= data.waveform.range_resolution
+    ant = np.asarray(rps.antenna)[near]
+    if np.unique(ant).size < COUPLING_SAME * data.array.n:
+        return out
+    if rps.sample is not None:
+        v = np.asarray(rps.sample)[near].astype(np.complex128)
+    else:
+        g = np.clip(np.round((rng[near] - data.range[0]) / data.dr), 0, data.range.size - 1)
+        v = data.signal.reshape(-1, data.range.size)[ant, g.astype(np.int64)]
+        v = v.astype(np.complex128)
+    top = float(np.abs(v).max())
+    if not (np.isfinite(top) and top > 0):
+        return out
+    v = v / top
+    if abs(complex(v.mean())) ** 2 >= COUPLING_SHARE * float(np.mean(np.abs(v) ** 2)):
+        out[near] = True
+    return out
+
+
 def check(background: str, time_zero: float, gain_db_per_m: float, max_range: float | None) -> None:
     """Refuse settings that no data could take (one line each)."""
     if background not in BACKGROUNDS:
@@ -125,7 +276,9 @@ def preprocess(
     ----------
     data : RadarData
     background : {'auto', 'none', 'mean', 'median'}
-        ``auto``: ``mean`` where :func:`coupling_dominates`, else ``none``.
+        ``auto``: a linear scan's ``mean`` where :func:`coupling_dominates`,
+        else ``none``; a planar scan's coupling alone where
+        :func:`planar_coupling` finds one (module notes, step 2).
     time_zero : float
         m, >= 0.
     gain_db_per_m : float
@@ -147,7 +300,12 @@ def preprocess(
         A setting out of range, or no range gate left.
     """
     check(background, time_zero, gain_db_per_m, max_range)
-    if background == "auto":
+    if background == "auto" and data.array.planar:
+        echo = planar_coupling(data, time_zero)
+        if echo is not None:
+            data = without_echo(data, *echo)
+        background = "none"
+    elif background == "auto":
         background = "mean" if coupling_dominates(data, time_zero) else "none"
     if background == "none" and time_zero == 0 and gain_db_per_m == 0 and max_range is None:
         return data

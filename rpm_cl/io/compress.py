@@ -328,5 +328,5 @@ def spectrum_data(values, freq, array, fc=None, bw=None, window="hann", truth=No
         waveform,
         truth,
         range_sidelobe_db(freq, window, waveform.bandwidth),
-        Spectrum(values, freq),
+        Spectrum(values, freq, window),
     )

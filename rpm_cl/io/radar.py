@@ -64,10 +64,16 @@ class Spectrum:
         ``a exp(-j 4 pi f_n R / c)``.
     frequency : ndarray, shape (nf,)
         Uniform, strictly increasing, > 0, Hz.
+    window : str
+        The range window the signal was compressed with (a key of
+        :data:`rpm_cl.io.compress.RANGE_WINDOWS`): what changes the samples
+        changes the profiles alike (:func:`rpm_cl.extract.preprocess.preprocess`
+        takes a planar scan's coupling out of both).
     """
 
     values: np.ndarray
     frequency: np.ndarray
+    window: str = "hann"
 
     def __post_init__(self):
         y = np.asarray(self.values)
@@ -91,7 +97,7 @@ class Spectrum:
         """The same samples at ``factor`` times the frequencies: the scene
         seen with ranges divided by ``factor`` (a medium of index
         ``factor``, :func:`rpm_cl.io.medium.in_medium`)."""
-        return Spectrum(self.values, self.frequency * factor)
+        return Spectrum(self.values, self.frequency * factor, self.window)
 
 
 @dataclass(frozen=True)

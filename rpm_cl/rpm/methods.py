@@ -98,6 +98,8 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     # with the clusters, sees what is left
     image = in_reach(data.array, rps, image, params.reach_deg)
     n_reach = len(image.points)
+    image = without_coupling(data, rps, image)
+    n_coupling = len(image.points)
     image = coherent(data, rps, image, params)
     n_coherent = len(image.points)
     image = _multipath(data, rps, image, params.multipath, params.medium, part_of)
@@ -115,7 +117,8 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
         },
         {
             "reach": n_rpm - n_reach,
-            "coherence": n_reach - n_coherent,
+            "coupling": n_reach - n_coupling,
+            "coherence": n_coupling - n_coherent,
             "multipath": n_coherent - len(image.points),
         },
     )
@@ -202,6 +205,7 @@ def _multipath(
         resolution,
         medium if medium is not None and medium.half_space else None,
         parts,
+        2 * np.pi / data.waveform.kc,
     )
     if mode == "flag":
         return replace(image, multipath=flags)
@@ -229,6 +233,20 @@ def in_reach(array, rps: RangePoints, image: Image, reach_deg: float) -> Image:
         return image
     keep = reach_angles(array, rps, image) <= reach_deg
     return image if keep.all() else image.keep(keep)
+
+
+def without_coupling(data: RadarData, rps: RangePoints, image: Image) -> Image:
+    """The image without the points whose main RP is a planar scan's own
+    coupling (:func:`rpm_cl.extract.preprocess.coupling_rps`;
+    ``ImageResult.dropped`` counts them)."""
+    from ..extract.preprocess import coupling_rps
+
+    if image.points.shape[0] == 0:
+        return image
+    own = coupling_rps(data, rps)
+    if not own.any():
+        return image
+    return image.keep(~own[image.rp_index])
 
 
 def mf_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:

@@ -48,6 +48,22 @@ paths (:func:`rpm_cl.io.medium.one_way`), the leg between the objects is ``n``
 times its length, and the envelope point lies on the refracted ray whose
 parameter is the predicted range's slope (:func:`rpm_cl.io.medium.point_on_ray`).
 
+Repeats: an antenna sends part of an echo back to the object, which
+returns it once more: the same path twice, at ``n`` times the object's range
+at every antenna (a near-field scanner 0.1 m before a sample records it at
+0.2 m), which RPM images as a surface as far again behind the object.  A
+cluster is such a repeat (:func:`repeats`) when, at the antennas it shares
+with a nearer cluster already accepted (at least :data:`REPEAT_SHARED` of
+its own), its ranges are ``n`` times the other's (``n`` in
+:data:`REPEAT_ORDERS`) within :data:`REPEAT_LEVEL` range resolutions in the
+median and :data:`REPEAT_SHAPE` wavelengths RMS about it, and its echo is
+weaker by :data:`GHOST_AMP`.  The range walks are the phase-refined ones
+(:mod:`rpm_cl.extract.phase`): a wavefront to a small fraction of a
+wavelength, where two echoes at different places differ by millimetres (two
+broadside points at 0.35 and 0.7 m before 0.12 m of antennas: 2.4 mm RMS
+about the median of ``r_2 - 2 r_1``; the repeat of a rough sample 0.1 m
+before a 60 x 48 scan at 24 GHz: 1.0 mm, an eighth of a wavelength 1.55 mm).
+
 The objects are represented by their image points (at most
 :data:`MAX_OBJECT_POINTS` of each, evenly spread), and accepted clusters
 whose points touch (lie in the same or neighbouring cubes of :data:`TOUCH`
@@ -73,6 +89,7 @@ __all__ = [
     "double_bounce",
     "flag_multipath",
     "ghost_points",
+    "repeats",
 ]
 
 #: A cluster is a double bounce when its points lie closer to the predicted
@@ -95,6 +112,21 @@ LEVEL_TOL = 0.5
 #: phase's (a few mm across), its range the envelope's (narrow band, 20 dB:
 #: 20-75 mm off), so a miss in range counts a quarter of one across.
 RADIAL_WEIGHT = 0.25
+#: Repeat orders the repeat test looks for: the echo that the antennas
+#: send back to the object once, twice (ranges 2 R and 3 R).
+REPEAT_ORDERS = (2, 3)
+#: A repeat's ranges follow ``n`` times its leg's walk to this fraction of a
+#: wavelength (weighted RMS over their shared antennas, after the constant):
+#: phase-refined walks hold a wavefront to a small fraction of a wavelength,
+#: and two wavefronts that differ by a quarter of one are two echoes.
+REPEAT_SHAPE = 0.125
+#: ... and their median offset is at most this many range resolutions: the
+#: coherent level puts a phase-refined walk's constant to a few hundredths
+#: of a resolution at 30 dB (:mod:`rpm_cl.extract.phase`), and a real
+#: object behind another is seldom at exactly n times its range.
+REPEAT_LEVEL = 0.1
+#: ... and the leg holds RPs at no fewer than this share of its antennas.
+REPEAT_SHARED = 0.5
 #: Step of the central differences of the predicted ranges, m.
 GRADIENT_STEP = 1e-4
 #: Image points of an object used to predict its double bounces, and
@@ -155,7 +187,13 @@ def _xyz(p: np.ndarray) -> np.ndarray:
 
 
 def flag_multipath(
-    positions: np.ndarray, rps, image, resolution: float, medium=None, parts=None
+    positions: np.ndarray,
+    rps,
+    image,
+    resolution: float,
+    medium=None,
+    parts=None,
+    wavelength: float | None = None,
 ) -> np.ndarray:
     """Which image points come from double-bounce clusters (module notes).
 
@@ -178,6 +216,9 @@ def flag_multipath(
         planar array a leg found in another tile than the cluster was seen
         from other antennas, and its amplitude is moved to the cluster's by
         the spreading loss (module notes); linear arrays ignore it.
+    wavelength : float, optional
+        The carrier's wavelength, m: the shape tolerance of the repeat test
+        (:func:`repeats`, :data:`REPEAT_SHAPE`); None: no repeat test.
 
     Returns
     -------
@@ -194,7 +235,7 @@ def flag_multipath(
     cl_img = np.asarray(image.cluster)
     cl_rp = np.asarray(rps.cluster)
     order = sorted(np.unique(cl_img), key=lambda c: float(np.median(rps.range[cl_rp == c])))
-    strength, reach, seen_by = [], [], []
+    strength, reach, seen_by, seen = [], [], [], []
     # planar arrays only (module notes)
     parts = None if parts is None or rps.z is None else np.asarray(parts)
     objects = _Objects()
@@ -214,7 +255,15 @@ def flag_multipath(
         ghost = False
         on_found = objects.covered(mine) > 0.5
         pairs = []
-        if not on_found and len(legs.clusters) > 1:
+        mine_rp = (np.asarray(rps.antenna)[cl_rp == c], rr)
+        if not on_found and wavelength is not None and seen:
+            # the antennas' own re-reflection of an echo found already
+            leg_amp = np.asarray(strength)
+            ghost = any(
+                repeats(mine_rp, seen[i], resolution, wavelength)
+                for i in np.flatnonzero(amp <= GHOST_AMP * leg_amp)
+            )
+        if not ghost and not on_found and len(legs.clusters) > 1:
             # a leg found in another tile was seen from other antennas,
             # nearer or farther: its amplitude is moved to the cluster's
             # antennas by the spreading (module notes)
@@ -246,6 +295,7 @@ def flag_multipath(
             flags[cl_img == c] = True
         else:
             strength.append(amp)
+            seen.append(mine_rp)
             reach.append(float(np.median(rr)))
             seen_by.append(part)
             objects.add(mine)
@@ -527,3 +577,43 @@ def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray, medium=None
     out = antennas - r[:, None] * grad
     out[:, 1] = r * np.sqrt(np.where(ok, across, 0.0))
     return out[ok]
+
+
+def repeats(cluster, leg, resolution: float, wavelength: float) -> bool:
+    """Whether a cluster's echo is its leg's sent back by the antennas
+    (module notes, "Repeats"): at the antennas both hold, its ranges are
+    ``n`` times the leg's (``n`` in :data:`REPEAT_ORDERS`) to within
+    :data:`REPEAT_LEVEL` range resolutions in the median and
+    :data:`REPEAT_SHAPE` wavelengths RMS about that median.
+
+    Parameters
+    ----------
+    cluster, leg : tuple of ndarray
+        (flat antenna indices, ranges in m) of the RPs of each.
+    resolution, wavelength : float
+        m.
+    """
+    ant_c, r_c = (np.asarray(v) for v in cluster)
+    ant_l, r_l = (np.asarray(v) for v in leg)
+    if ant_c.size == 0 or ant_l.size == 0:
+        return False
+    # per antenna the leg's nearest RP (a leg may hold two at one antenna)
+    order = np.lexsort((r_l, ant_l))
+    ant_l, r_l = ant_l[order], r_l[order]
+    first = np.r_[True, ant_l[1:] != ant_l[:-1]]
+    ant_l, r_l = ant_l[first], r_l[first]
+    pos = np.searchsorted(ant_l, ant_c)
+    pos = np.minimum(pos, ant_l.size - 1)
+    both = ant_l[pos] == ant_c
+    if np.count_nonzero(both) < max(3, REPEAT_SHARED * ant_c.size):
+        return False
+    rc, rl = r_c[both], r_l[pos[both]]
+    for n in REPEAT_ORDERS:
+        d = rc - n * rl
+        mid = float(np.median(d))
+        if (
+            abs(mid) <= REPEAT_LEVEL * resolution
+            and float(np.sqrt(np.mean((d - mid) ** 2))) <= REPEAT_SHAPE * wavelength
+        ):
+            return True
+    return False
