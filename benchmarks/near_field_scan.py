@@ -6,12 +6,13 @@ The sample is a surface ``y = 0.105 + 0.04 x + 0.3 (x^2 + z^2)`` m (tilted
 and bowed; 0.2 mm RMS roughness) sampled by facets on a 1.5 mm grid; each
 antenna at (x, 0, z) of a 3 mm grid records the physical-optics sum of the
 facets within 70 mm across, ``sum cos(theta)^16 dA / r^2 exp(-j 4 pi f r / c)``
-(a two-way beam of about 17 degrees to -3 dB), at 11 frequencies over
+(a two-way beam 3 dB down 12 degrees off its axis), at 11 frequencies over
 22.2-26.2 GHz (the public 24 GHz scanner's).  On top, per antenna: the
 repeat (the echo the antennas send back to the sample once more) at twice
-the surface's range, ``--repeat`` times the median echo; the coupling at 12
-mm, ``--coupling`` times it, the same at every antenna; white noise at
-``--snr`` dB (a unit echo's rect-compressed peak power over the
+the surface's range, a multiple of the median echo; the coupling at 12
+mm, a multiple of it, the same at every antenna (in one variant its
+amplitude falls 6 dB across the band: not one clean echo); white noise of
+each variant's S/N (a unit echo's rect-compressed peak power over the
 compressed noise power).  Nothing here is the engine's geometric-optics
 model: the surface echo is what the facets add up to.
 
@@ -42,7 +43,7 @@ def height(x, z):
     return 0.105 + 0.04 * x + 0.3 * (x**2 + z**2)
 
 
-def make(nx, nz, coupling, repeat, snr_db, seed=5):
+def make(nx, nz, coupling, repeat, snr_db, slope_db=0.0, seed=5):
     """(spectrum (nx, nz, 11), x, z): the scan of the module notes."""
     x = (np.arange(nx) - (nx - 1) / 2) * PITCH
     z = (np.arange(nz) - (nz - 1) / 2) * PITCH
@@ -64,7 +65,10 @@ def make(nx, nz, coupling, repeat, snr_db, seed=5):
     spec /= np.median(np.abs(spec))
     h = height(x[:, None], z[None, :])[..., None]
     spec += repeat * np.exp(-1j * k * 2 * h)
-    spec += coupling * np.exp(-1j * k * 0.012 + 0.3j)
+    # a real coupling is seldom one clean echo: its amplitude may fall
+    # slope_db across the band
+    tilt = 10 ** (-slope_db * np.linspace(1, 0, FREQ.size) / 20)
+    spec += coupling * tilt * np.exp(-1j * k * 0.012 + 0.3j)
     if snr_db is not None:
         s2 = FREQ.size / 10 ** (snr_db / 10)
         spec += np.sqrt(s2 / 2) * (
@@ -85,15 +89,16 @@ def off_surface(points, x, z):
     return cKDTree(surf).query(points)[0]
 
 
-#: (label, coupling, repeat, S/N dB)
+#: (label, coupling, repeat, S/N dB, the coupling's fall across the band dB)
 VARIANTS = {
     "default": [
-        ("sample alone, 30 dB", 0.0, 0.0, 30.0),
-        ("repeat 0.3, 30 dB", 0.0, 0.3, 30.0),
-        ("coupling 3 + repeat 0.2, 30 dB", 3.0, 0.2, 30.0),
-        ("coupling 30 + repeat 0.2, 30 dB", 30.0, 0.2, 30.0),
-        ("coupling 0.3 + repeat 0.3, 20 dB", 0.3, 0.3, 20.0),
-        ("coupling 3 + repeat 0.3, 10 dB", 3.0, 0.3, 10.0),
+        ("sample alone, 30 dB", 0.0, 0.0, 30.0, 0.0),
+        ("repeat 0.3, 30 dB", 0.0, 0.3, 30.0, 0.0),
+        ("coupling 3 + repeat 0.2, 30 dB", 3.0, 0.2, 30.0, 0.0),
+        ("coupling 30 + repeat 0.2, 30 dB", 30.0, 0.2, 30.0, 0.0),
+        ("coupling 0.3 + repeat 0.3, 20 dB", 0.3, 0.3, 20.0, 0.0),
+        ("coupling 3 + repeat 0.3, 10 dB", 3.0, 0.3, 10.0, 0.0),
+        ("coupling 3 falling 6 dB, 30 dB", 3.0, 0.2, 30.0, 6.0),
     ]
 }
 
@@ -125,8 +130,8 @@ def main():
         f"{'variant':36s} {'points':>6s} {'<=15 mm':>8s} {'median':>9s} "
         f"{'repeat':>14s} {'coupling dropped':>16s} {'engine s':>8s}"
     )
-    for label, coupling, repeat, snr in VARIANTS[args.variants]:
-        spec, x, z = make(nx, nz, coupling, repeat, snr)
+    for label, coupling, repeat, snr, slope in VARIANTS[args.variants]:
+        spec, x, z = make(nx, nz, coupling, repeat, snr, slope)
         data = spectrum_data(spec, FREQ, Array(x, z))
         t0 = time.perf_counter()
         kw = {"background": "none", "multipath": "flag"} if args.plain else {}

@@ -245,3 +245,21 @@ def test_a_flat_sample_parallel_to_the_scan_is_no_coupling():
     near = spectrum_data(np.broadcast_to(np.exp(-1j * k * 0.03), plate.shape).copy(), FREQ, arr)
     a, rc = planar_coupling(near)
     assert abs(rc - 0.03) < 1e-4 and abs(abs(a) - 1) < 1e-3
+
+
+def test_a_coupling_that_is_not_one_clean_echo(dev32):
+    """A coupling whose amplitude falls 6 dB across the band is one echo only
+    roughly: the fit leaves part of its main lobe, some of it before 0,
+    which the compression wraps to the end of the unambiguous range (0.361 m
+    here).  Its RPs are still near time zero on the periodic axis, and their
+    points go (without the wrap: half the points 0.13 m off)."""
+    data, c = scan(coupling=0.0)
+    k = 4 * np.pi * FREQ / C0
+    slope = 3.0 * np.exp(-1j * k * 0.012) * np.linspace(0.5, 1.0, FREQ.size)
+    d = spectrum_data(data.spectrum.values + slope, FREQ, data.array)
+    res = imaging.run_method("phase-rpm", d, default_params(d), dev32)
+    off = _off_surface(res.image.points, c)
+    assert len(off) >= data.array.n
+    assert np.all(off < 0.015)
+    assert np.median(off) < 0.001
+    assert res.dropped["coupling"] >= 0.9 * data.array.n

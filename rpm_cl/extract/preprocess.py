@@ -41,6 +41,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..io.data import InputError, RadarData
+from ..io.model import C0
 
 __all__ = [
     "BACKGROUNDS",
@@ -162,7 +163,6 @@ def planar_coupling(data: RadarData, time_zero: float = 0.0) -> tuple[complex, f
         whole = np.abs(data.signal.reshape(-1, rng.size).mean(axis=0)).max() / top
         if mean[g] < 2.0 * 10.0 ** (data.range_sidelobe_db / 20.0) * whole:
             return None
-    from ..io.model import C0
     from ..io.windows import window
 
     f = sp.frequency
@@ -185,7 +185,6 @@ def without_echo(data: RadarData, a: complex, rc: float) -> RadarData:
     in its frequency samples, and in its profiles as its compression
     (``data.spectrum.window``) forms it, on the data's range axis."""
     from ..io.compress import _window
-    from ..io.model import C0
     from ..io.radar import Spectrum
 
     sp = data.spectrum
@@ -212,7 +211,12 @@ def coupling_rps(data: RadarData, rps) -> np.ndarray:
     reaches the imaging, and its RPs become a "surface" a few mm before the
     antennas; this test finds them instead.  A surface within one
     resolution of the antennas is taken for the coupling (0.068 m for 11
-    frequencies over 22.2-26.2 GHz, Hann).
+    frequencies over 22.2-26.2 GHz, Hann).  Where the profiles were
+    compressed from frequency samples the range axis is periodic over the
+    unambiguous range ``c / 2 df``, and RPs within one resolution of its end
+    are near time zero too: a coupling that is not one clean echo (an
+    amplitude slope across the band) leaves part of its main lobe before 0,
+    which wraps there.
 
     Parameters
     ----------
@@ -232,7 +236,13 @@ def coupling_rps(data: RadarData, rps) -> np.ndarray:
     if not data.array.planar or k == 0:
         return out
     rng = np.asarray(rps.range, np.float64)
-    near = rng <= data.waveform.range_resolution
+    res = data.waveform.range_resolution
+    near = rng <= res
+    if data.spectrum is not None:
+        # the compression is periodic over the unambiguous range: what the
+        # fit leaves of the coupling's main lobe before 0 lies at its end
+        df = float(data.spectrum.frequency[1] - data.spectrum.frequency[0])
+        near |= rng >= C0 / (2.0 * df) - res
     ant = np.asarray(rps.antenna)[near]
     if np.unique(ant).size < COUPLING_SAME * data.array.n:
         return out
