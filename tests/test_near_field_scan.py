@@ -263,3 +263,17 @@ def test_a_coupling_that_is_not_one_clean_echo(dev32):
     assert np.all(off < 0.015)
     assert np.median(off) < 0.001
     assert res.dropped["coupling"] >= 0.9 * data.array.n
+
+
+def test_a_range_domain_scan_drops_its_coupling_points(dev32):
+    """Without frequency samples there is nothing to fit the coupling to: it
+    is imaged, and its points (every antenna's, 12 mm before it) go."""
+    from dataclasses import replace
+
+    data, c = scan(coupling=3.0, repeat=0.0)
+    profiles = replace(data, spectrum=None)
+    res = imaging.run_method("phase-rpm", profiles, default_params(profiles), dev32)
+    off = _off_surface(res.image.points, c)
+    assert len(off) >= data.array.n
+    assert np.all(off < 0.015)
+    assert res.dropped["coupling"] >= 0.9 * data.array.n

@@ -223,7 +223,8 @@ def flag_multipath(
     Returns
     -------
     ndarray of bool, shape (M,)
-        True for the points of clusters a double bounce explains.
+        True for the points of clusters a double bounce explains, or that
+        repeat a nearer cluster's echo (:func:`repeats`).
     """
     m_pts = len(image.points)
     flags = np.zeros(m_pts, bool)
