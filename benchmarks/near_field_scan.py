@@ -26,7 +26,11 @@ samples' coupling was removed) and its time.
 in the samples; phase-rpm then drops its RPs' points) and ``multipath =
 "flag"`` (every point kept and scored, the flagged ones counted).
 
-    python benchmarks/near_field_scan.py [--size 60x48] [--variants default] [--plain]
+``--write F``: write each variant's scan to the spectrum file F (the last
+one written stays), to time a whole ``rpm-cl image`` run on it instead.
+
+    python benchmarks/near_field_scan.py [--size 60x48] [--variants default|coupling]
+        [--plain] [--write F.npz]
 """
 
 import argparse
@@ -106,7 +110,8 @@ VARIANTS = {
         ("coupling 0.3 + repeat 0.3, 20 dB", 0.3, 0.3, 20.0, 0.0),
         ("coupling 3 + repeat 0.3, 10 dB", 3.0, 0.3, 10.0, 0.0),
         ("coupling 3 falling 6 dB, 30 dB", 3.0, 0.2, 30.0, 6.0),
-    ]
+    ],
+    "coupling": [("coupling 3 falling 6 dB, 30 dB", 3.0, 0.2, 30.0, 6.0)],
 }
 
 
@@ -120,6 +125,7 @@ def main():
         action="store_true",
         help="background none and multipath flag: the coupling left in, every point kept",
     )
+    ap.add_argument("--write", help="write the scan to this .npz instead of imaging it")
     args = ap.parse_args()
     nx, nz = (int(v) for v in args.size.split("x"))
 
@@ -139,6 +145,10 @@ def main():
     )
     for label, coupling, repeat, snr, slope in VARIANTS[args.variants]:
         spec, x, z = make(nx, nz, coupling, repeat, snr, slope)
+        if args.write:
+            np.savez(args.write, spectrum=spec.astype(np.complex64), frequency=FREQ, x=x, z=z)
+            print(f"{label}: wrote {args.write}")
+            continue
         data = spectrum_data(spec, FREQ, Array(x, z))
         t0 = time.perf_counter()
         kw = {"background": "none", "multipath": "flag"} if args.plain else {}
