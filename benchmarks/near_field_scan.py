@@ -24,7 +24,7 @@ samples' coupling was removed) and its time.
 
 ``--plain``: the same runs with ``background = "none"`` (the coupling left
 in the samples; phase-rpm then drops its RPs' points) and ``multipath =
-"flag"`` (every point kept and scored, the flagged ones counted).
+"flag"`` (the repeat's points kept, flagged, scored and counted).
 
 ``--write F``: write each variant's scan to the spectrum file F (the last
 one written stays), to time a whole ``rpm-cl image`` run on it instead.
@@ -123,7 +123,7 @@ def main():
     ap.add_argument(
         "--plain",
         action="store_true",
-        help="background none and multipath flag: the coupling left in, every point kept",
+        help="background none and multipath flag: the coupling left in, the repeat kept",
     )
     ap.add_argument("--write", help="write the scan to this .npz instead of imaging it")
     args = ap.parse_args()

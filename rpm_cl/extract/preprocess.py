@@ -18,8 +18,9 @@ strongest echo is the antennas' own coupling (``background="auto"``,
    :func:`coupling_dominates`, else nothing.  A planar scan's mean is not
    removed: a flat sample parallel to a near-field scan is as common to
    every antenna as the coupling.  ``auto`` takes out of a planar scan's
-   frequency samples (and its profiles alike) only the coupling, one echo
-   fitted to their mean (:func:`planar_coupling`, :func:`without_echo`);
+   frequency samples (and its profiles alike) only the coupling, a delay
+   with an amplitude linear across the band fitted to their mean
+   (:func:`planar_coupling`, :func:`without_echo`);
    a planar range-domain file has no samples, and phase-rpm drops the
    points of its coupling's RPs instead (:func:`coupling_rps`);
 3. **gain** (``gain_db_per_m``): amplitudes times ``10^(g R' / 20)``, a
@@ -45,8 +46,10 @@ from ..io.model import C0
 
 __all__ = [
     "BACKGROUNDS",
+    "COUPLING_MIN_FREQUENCIES",
     "COUPLING_SAME",
     "COUPLING_SHARE",
+    "COUPLING_TERMS",
     "coupling_dominates",
     "coupling_rps",
     "planar_coupling",
@@ -75,6 +78,11 @@ COUPLING_SHARE = 0.9
 #: of the points within 15 mm with one term (what the fit left became a
 #: cluster of its own), 100 % with two.
 COUPLING_TERMS = 2
+#: Fewest frequencies a planar scan's coupling is sought with: the fit's
+#: Hann weights vanish at the band's two ends, and the two terms want
+#: samples to spare; with fewer, a resolution near each end of the
+#: unambiguous range (:func:`coupling_rps`) covers most of it.
+COUPLING_MIN_FREQUENCIES = 8
 
 
 def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
@@ -148,7 +156,7 @@ def planar_coupling(data: RadarData, time_zero: float = 0.0) -> np.ndarray | Non
         The coupling's samples (:func:`without_echo` takes them out).
     """
     sp = data.spectrum
-    if not data.array.planar or sp is None:
+    if not data.array.planar or sp is None or sp.frequency.size < COUPLING_MIN_FREQUENCIES:
         return None
     rng = data.range - time_zero
     res = data.waveform.range_resolution
@@ -220,6 +228,11 @@ def coupling_rps(data: RadarData, rps) -> np.ndarray:
     :data:`COUPLING_SHARE` of their power is common to every antenna (the
     mean of their complex samples, :func:`coupling_dominates`'s test).
 
+    The RPs near 0 and those near the end of the unambiguous range (below)
+    are tested apart, each set as a whole: a real echo among them makes the
+    set fail (its points stay), and a weak one in a set that passes goes
+    with the coupling.
+
     A planar scan keeps its background (:func:`preprocess`): a flat sample
     parallel to it is as common to every antenna as the coupling, and the
     mean over the antennas would take it too.  So the coupling's echo
@@ -251,28 +264,39 @@ def coupling_rps(data: RadarData, rps) -> np.ndarray:
         return out
     rng = np.asarray(rps.range, np.float64)
     res = data.waveform.range_resolution
-    near = rng <= res
-    if data.spectrum is not None:
+    zones = [(rng >= 0) & (rng <= res)]
+    sp = data.spectrum
+    if sp is not None and sp.frequency.size >= COUPLING_MIN_FREQUENCIES:
         # the compression is periodic over the unambiguous range: what the
         # fit leaves of the coupling's main lobe before 0 lies at its end
-        df = float(data.spectrum.frequency[1] - data.spectrum.frequency[0])
-        near |= rng >= C0 / (2.0 * df) - res
+        df = float(sp.frequency[1] - sp.frequency[0])
+        zones.append((rng >= C0 / (2.0 * df) - res) & ~zones[0])
+    for near in zones:
+        out |= _common(data, rps, near)
+    return out
+
+
+def _common(data: RadarData, rps, near: np.ndarray) -> np.ndarray:
+    """``near`` where those RPs hold :data:`COUPLING_SAME` of the antennas
+    and :data:`COUPLING_SHARE` of their power is common, else all False."""
+    none = np.zeros(near.shape, bool)
     ant = np.asarray(rps.antenna)[near]
     if np.unique(ant).size < COUPLING_SAME * data.array.n:
-        return out
+        return none
     if rps.sample is not None:
         v = np.asarray(rps.sample)[near].astype(np.complex128)
     else:
-        g = np.clip(np.round((rng[near] - data.range[0]) / data.dr), 0, data.range.size - 1)
+        rng = np.asarray(rps.range, np.float64)[near]
+        g = np.clip(np.round((rng - data.range[0]) / data.dr), 0, data.range.size - 1)
         v = data.signal.reshape(-1, data.range.size)[ant, g.astype(np.int64)]
         v = v.astype(np.complex128)
     top = float(np.abs(v).max())
     if not (np.isfinite(top) and top > 0):
-        return out
+        return none
     v = v / top
     if abs(complex(v.mean())) ** 2 >= COUPLING_SHARE * float(np.mean(np.abs(v) ** 2)):
-        out[near] = True
-    return out
+        return near.copy()
+    return none
 
 
 def check(background: str, time_zero: float, gain_db_per_m: float, max_range: float | None) -> None:
@@ -293,6 +317,8 @@ def preprocess(
     time_zero: float = 0.0,
     gain_db_per_m: float = 0.0,
     max_range: float | None = None,
+    *,
+    coupling_zero: float | None = None,
 ) -> RadarData:
     """``data`` after the module's steps; ``data`` itself when all are off.
 
@@ -309,14 +335,19 @@ def preprocess(
         dB per metre of range after time zero.
     max_range : float, optional
         m (after time zero); None keeps every gate.
+    coupling_zero : float, optional
+        The time zero ``auto``'s coupling tests measure from, m (None:
+        ``time_zero``): :func:`rpm_cl.imaging.prepared` removes the
+        background on the whole axis before it cuts it at ``time_zero``.
 
     Returns
     -------
     RadarData
         The same antennas; the range axis shifted by ``-time_zero`` and
         cut to ``[0, max_range]``; the truth's RP ranges shifted alike; the
-        frequency samples (``spectrum``) kept only where nothing but
-        ``max_range`` applies.
+        frequency samples (``spectrum``) kept where nothing but
+        ``max_range`` and a planar scan's coupling removal apply (the
+        coupling taken out of them too).
 
     Raises
     ------
@@ -324,13 +355,14 @@ def preprocess(
         A setting out of range, or no range gate left.
     """
     check(background, time_zero, gain_db_per_m, max_range)
+    zero = time_zero if coupling_zero is None else coupling_zero
     if background == "auto" and data.array.planar:
-        echo = planar_coupling(data, time_zero)
+        echo = planar_coupling(data, zero)
         if echo is not None:
             data = without_echo(data, echo)
         background = "none"
     elif background == "auto":
-        background = "mean" if coupling_dominates(data, time_zero) else "none"
+        background = "mean" if coupling_dominates(data, zero) else "none"
     if background == "none" and time_zero == 0 and gain_db_per_m == 0 and max_range is None:
         return data
     rng = data.range - time_zero

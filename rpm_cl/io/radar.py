@@ -92,6 +92,12 @@ class Spectrum:
         y = y.astype(np.complex64 if y.dtype == np.complex64 else np.complex128, copy=False)
         object.__setattr__(self, "values", np.ascontiguousarray(y))
         object.__setattr__(self, "frequency", f)
+        from .compress import RANGE_WINDOWS  # compress imports this module
+
+        if self.window not in RANGE_WINDOWS:
+            raise InputError(
+                f"unknown range window {self.window!r}; choose from {', '.join(RANGE_WINDOWS)}"
+            )
 
     def scaled(self, factor: float) -> Spectrum:
         """The same samples at ``factor`` times the frequencies: the scene

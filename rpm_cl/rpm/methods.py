@@ -194,10 +194,12 @@ def _multipath(
     from .multipath import flag_multipath
 
     resolution = data.waveform.range_resolution
+    wavelength = 2 * np.pi / data.waveform.kc
     if medium is not None and medium.half_space:  # rps of the paraxial scene: back to air
         from .halfspace import to_air
 
         rps, resolution = to_air(rps, medium), resolution * medium.n
+        wavelength = wavelength * medium.n
     flags = flag_multipath(
         data.array.positions(),
         rps,
@@ -205,7 +207,7 @@ def _multipath(
         resolution,
         medium if medium is not None and medium.half_space else None,
         parts,
-        2 * np.pi / data.waveform.kc,
+        wavelength,
     )
     if mode == "flag":
         return replace(image, multipath=flags)

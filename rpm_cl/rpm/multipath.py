@@ -116,16 +116,19 @@ RADIAL_WEIGHT = 0.25
 #: send back to the object once, twice (ranges 2 R and 3 R).
 REPEAT_ORDERS = (2, 3)
 #: A repeat's ranges follow ``n`` times its leg's walk to this fraction of a
-#: wavelength (weighted RMS over their shared antennas, after the constant):
-#: phase-refined walks hold a wavefront to a small fraction of a wavelength,
-#: and two wavefronts that differ by a quarter of one are two echoes.
+#: wavelength (RMS over their shared antennas about the median offset):
+#: phase-refined walks hold a wavefront to a small fraction of a wavelength;
+#: an eighth keeps the physical-optics scan's repeat (1.0 mm at 24 GHz,
+#: 1.55 mm the bound) and refuses two broadside points at 0.35 and 0.7 m
+#: before 0.12 m of antennas (2.4 mm; module notes).
 REPEAT_SHAPE = 0.125
 #: ... and their median offset is at most this many range resolutions: the
 #: coherent level puts a phase-refined walk's constant to a few hundredths
 #: of a resolution at 30 dB (:mod:`rpm_cl.extract.phase`), and a real
 #: object behind another is seldom at exactly n times its range.
 REPEAT_LEVEL = 0.1
-#: ... and the leg holds RPs at no fewer than this share of its antennas.
+#: ... and the leg holds RPs at no fewer than this share of the cluster's
+#: antennas (and at 3 or more).
 REPEAT_SHARED = 0.5
 #: Step of the central differences of the predicted ranges, m.
 GRADIENT_STEP = 1e-4
@@ -582,7 +585,8 @@ def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray, medium=None
 
 def repeats(cluster, leg, resolution: float, wavelength: float) -> bool:
     """Whether a cluster's echo is its leg's sent back by the antennas
-    (module notes, "Repeats"): at the antennas both hold, its ranges are
+    (module notes, "Repeats"): at the antennas both hold (each antenna's
+    nearest RP of each), its ranges are
     ``n`` times the leg's (``n`` in :data:`REPEAT_ORDERS`) to within
     :data:`REPEAT_LEVEL` range resolutions in the median and
     :data:`REPEAT_SHAPE` wavelengths RMS about that median.
@@ -594,15 +598,10 @@ def repeats(cluster, leg, resolution: float, wavelength: float) -> bool:
     resolution, wavelength : float
         m.
     """
-    ant_c, r_c = (np.asarray(v) for v in cluster)
-    ant_l, r_l = (np.asarray(v) for v in leg)
+    ant_c, r_c = _nearest_per_antenna(*cluster)
+    ant_l, r_l = _nearest_per_antenna(*leg)
     if ant_c.size == 0 or ant_l.size == 0:
         return False
-    # per antenna the leg's nearest RP (a leg may hold two at one antenna)
-    order = np.lexsort((r_l, ant_l))
-    ant_l, r_l = ant_l[order], r_l[order]
-    first = np.r_[True, ant_l[1:] != ant_l[:-1]]
-    ant_l, r_l = ant_l[first], r_l[first]
     pos = np.searchsorted(ant_l, ant_c)
     pos = np.minimum(pos, ant_l.size - 1)
     both = ant_l[pos] == ant_c
@@ -618,3 +617,13 @@ def repeats(cluster, leg, resolution: float, wavelength: float) -> bool:
         ):
             return True
     return False
+
+
+def _nearest_per_antenna(antenna, rng):
+    """(antennas, ranges) with each antenna's nearest RP only (a cluster may
+    hold two at one antenna), sorted by antenna."""
+    ant, r = np.asarray(antenna), np.asarray(rng, np.float64)
+    order = np.lexsort((r, ant))
+    ant, r = ant[order], r[order]
+    first = np.r_[True, ant[1:] != ant[:-1]] if ant.size else np.zeros(0, bool)
+    return ant[first], r[first]
