@@ -22,18 +22,16 @@ from .checks import (
     unit_hint,
 )
 from .model import C0, Waveform
-from .radar import BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN, RadarData, Spectrum, profile_power
+from .radar import (
+    BANDWIDTH_SPAN_MAX,
+    BANDWIDTH_SPAN_WARN,
+    RANGE_WINDOWS,
+    RadarData,
+    Spectrum,
+    profile_power,
+)
 from .windows import window
 
-#: Range windows of :func:`range_compress` -> their names in
-#: :func:`rpm_cl.io.windows.window` (SciPy's).
-RANGE_WINDOWS = {
-    "rect": "boxcar",
-    "hann": "hann",
-    "hamming": "hamming",
-    "blackman": "blackman",
-    "taylor": "taylor",
-}
 #: Zero-padding of the range FFT: at least this many range gates per
 #: resolution cell ``c / (2 nf df)`` of the whole band.
 RANGE_OVERSAMPLE = 16

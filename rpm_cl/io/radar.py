@@ -51,6 +51,17 @@ def profile_power(signal, nr: int) -> np.ndarray:
     return np.sum((mag / top) ** 2, axis=0) if top > 0 else np.zeros(nr)
 
 
+#: Range windows of :func:`rpm_cl.io.compress.range_compress` -> their names
+#: in :func:`rpm_cl.io.windows.window` (SciPy's).
+RANGE_WINDOWS = {
+    "rect": "boxcar",
+    "hann": "hann",
+    "hamming": "hamming",
+    "blackman": "blackman",
+    "taylor": "taylor",
+}
+
+
 @dataclass(frozen=True)
 class Spectrum:
     """The frequency samples a :class:`RadarData`'s signal was compressed
@@ -92,8 +103,6 @@ class Spectrum:
         y = y.astype(np.complex64 if y.dtype == np.complex64 else np.complex128, copy=False)
         object.__setattr__(self, "values", np.ascontiguousarray(y))
         object.__setattr__(self, "frequency", f)
-        from .compress import RANGE_WINDOWS  # compress imports this module
-
         if self.window not in RANGE_WINDOWS:
             raise InputError(
                 f"unknown range window {self.window!r}; choose from {', '.join(RANGE_WINDOWS)}"
