@@ -119,11 +119,19 @@ def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
         return False
     if np.mean(np.abs(rng[strongest] - rng[g]) <= res) < COUPLING_SAME:
         return False
-    top = float(np.abs(s[:, g]).max())
+    return _mostly_common(s[:, g])
+
+
+def _mostly_common(v) -> bool:
+    """Whether at least :data:`COUPLING_SHARE` of the power of the complex
+    samples ``v`` is their mean's, ``|mean v|^2 / mean |v|^2`` (False for
+    none, all zero or not finite)."""
+    v = np.asarray(v)
+    top = float(np.abs(v).max()) if v.size else 0.0
     if not (np.isfinite(top) and top > 0):
         return False
-    v = s[:, g].astype(np.complex128) / top  # any scale: no overflow in the powers
-    return abs(complex(v.mean())) ** 2 >= COUPLING_SHARE * float(np.mean(np.abs(v) ** 2))
+    u = v.astype(np.complex128) / top  # any scale: no overflow in the powers
+    return abs(complex(u.mean())) ** 2 >= COUPLING_SHARE * float(np.mean(np.abs(u) ** 2))
 
 
 def planar_coupling(data: RadarData, time_zero: float = 0.0) -> np.ndarray | None:
@@ -175,7 +183,7 @@ def planar_coupling(data: RadarData, time_zero: float = 0.0) -> np.ndarray | Non
     if not peak.any():
         return None
     g = int(np.flatnonzero(peak)[np.argmax(mean[peak])])
-    if mean[g] ** 2 < COUPLING_SHARE * float(np.mean(np.abs(v[:, g]) ** 2)):
+    if not _mostly_common(s[:, g]):
         return None
     # not a side lobe of a common echo beyond (a flat sample's): twice the
     # window's side lobe level under the mean profile's strongest peak
@@ -279,24 +287,16 @@ def coupling_rps(data: RadarData, rps) -> np.ndarray:
 def _common(data: RadarData, rps, near: np.ndarray) -> np.ndarray:
     """``near`` where those RPs hold :data:`COUPLING_SAME` of the antennas
     and :data:`COUPLING_SHARE` of their power is common, else all False."""
-    none = np.zeros(near.shape, bool)
     ant = np.asarray(rps.antenna)[near]
     if np.unique(ant).size < COUPLING_SAME * data.array.n:
-        return none
+        return np.zeros(near.shape, bool)
     if rps.sample is not None:
-        v = np.asarray(rps.sample)[near].astype(np.complex128)
+        v = np.asarray(rps.sample)[near]
     else:
         rng = np.asarray(rps.range, np.float64)[near]
         g = np.clip(np.round((rng - data.range[0]) / data.dr), 0, data.range.size - 1)
         v = data.signal.reshape(-1, data.range.size)[ant, g.astype(np.int64)]
-        v = v.astype(np.complex128)
-    top = float(np.abs(v).max())
-    if not (np.isfinite(top) and top > 0):
-        return none
-    v = v / top
-    if abs(complex(v.mean())) ** 2 >= COUPLING_SHARE * float(np.mean(np.abs(v) ** 2)):
-        return near.copy()
-    return none
+    return near.copy() if _mostly_common(v) else np.zeros(near.shape, bool)
 
 
 def check(background: str, time_zero: float, gain_db_per_m: float, max_range: float | None) -> None:
