@@ -17,7 +17,7 @@ import pytest
 
 from rpm_cl.cli import main
 from rpm_cl.io import mapped as M
-from rpm_cl.io.data import C0, InputError
+from rpm_cl.io.data import C0, DataWarning, InputError
 from rpm_cl.io.formats import load_data, range_compress
 from rpm_cl.io.readers import convert
 
@@ -289,3 +289,149 @@ def test_cli_convert_arrays_errors_are_one_line(tmp_path, capsys):
         capsys, ["convert", str(bad), "--map", MAP, "-o", str(tmp_path / "o.npz")]
     )
     assert not (tmp_path / "o.npz").exists()
+
+
+# A planar scan as recorders keep it: F(nf, nz, nx), x as MATLAB's meshgrid
+# (nz, nx) in mm, both x and the frequencies in decreasing order, the
+# positions with a stage's jitter.
+PLANAR_TARGET = (0.03, 0.1, 0.02)
+
+
+def _planar_file(tmp_path, jitter=0.05, rng_seed=1):
+    from scipy.io import savemat
+
+    rng = np.random.default_rng(rng_seed)
+    f = np.linspace(22.2e9, 26.2e9, 11)
+    xs, zs = np.arange(20) * 3e-3, np.arange(16) * 3e-3
+    xg, zg = np.meshgrid(xs, zs)  # (nz, nx)
+    tx, ty, tz = PLANAR_TARGET
+    r = np.sqrt((xg - tx) ** 2 + ty**2 + (zg - tz) ** 2)
+    spec = np.exp(-4j * np.pi * f[:, None, None] * r[None] / C0)  # (nf, nz, nx)
+    xmm = xg[:, ::-1] * 1e3 + rng.uniform(-jitter, jitter, xg.shape[1])[None, :]
+    path = tmp_path / "scan.mat"
+    savemat(path, {"F": spec[::-1, :, ::-1], "X": xmm, "zz": zs * 1e3, "fr": f[::-1] / 1e9})
+    return path
+
+
+def _planar_read(path, **kw):
+    kw = {
+        "map": "spectrum=F,frequency=fr,x=X,z=zz",
+        "scale_x": 1e-3,
+        "scale_f": 1e9,
+        "axes": "f,z,x",
+        **kw,
+    }
+    return convert(path, **kw)[1]
+
+
+def test_axes_order_meshgrid_and_decreasing_axes_give_the_schemas_spectrum(tmp_path):
+    with pytest.warns(DataWarning, match=r"x \(X\) is not uniformly spaced"):
+        out = _planar_read(_planar_file(tmp_path))
+    x, z, f = out["x"], out["z"], out["frequency"]
+    assert out["spectrum"].shape == (20, 16, 11)
+    assert np.all(np.diff(x) > 0) and np.all(np.diff(f) > 0)
+    # every sample is the echo of the target at its antenna: the data were
+    # permuted and reversed with their axes (a reversed axis alone, or a
+    # swapped x and z, puts the phases radians off)
+    tx, ty, tz = PLANAR_TARGET
+    r = np.sqrt((x[:, None] - tx) ** 2 + ty**2 + (z[None, :] - tz) ** 2)
+    want = np.exp(-4j * np.pi * f[None, None, :] * r[..., None] / C0)
+    # the jitter left after the snap: 0.05 mm at most, 2 k 0.05 mm = 0.055 rad
+    assert np.abs(np.angle(out["spectrum"] * np.conj(want))).max() < 0.06
+    # the same file read by its reversed axes (--transpose) is the same
+    with pytest.warns(DataWarning, match="not uniformly spaced"):
+        again = _planar_read(tmp_path / "scan.mat", axes=None, transpose=True)
+    np.testing.assert_array_equal(again["spectrum"], out["spectrum"])
+
+
+def test_positions_on_a_uniform_grid_when_they_lie_near_one(tmp_path):
+    with pytest.warns(DataWarning, match=r"up to .* m \(.* % of the 0.003.* m step\)"):
+        x = _planar_read(_planar_file(tmp_path, jitter=0.2))["x"]
+    assert np.ptp(np.diff(x)) < 1e-12  # uniform
+    # a third of a step off is not a uniform scan: refused by the schema's check
+    with pytest.raises(InputError, match="x must be uniformly spaced"):
+        _planar_read(_planar_file(tmp_path, jitter=1.0))
+
+
+def test_an_exactly_uniform_axis_is_kept_without_a_warning(tmp_path):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = _planar_read(_planar_file(tmp_path, jitter=0.0))
+    np.testing.assert_allclose(out["x"], np.arange(20) * 3e-3, atol=1e-12)
+
+
+def test_a_stack_in_any_axis_order(tmp_path):
+    spec = np.arange(2 * 5 * 4, dtype=float).reshape(5, 2, 4) + 1j  # (nf, frames, nx)
+    np.savez(tmp_path / "s.npz", S=spec, f=1e9 + np.arange(5) * 1e6, x=np.arange(4.0))
+    out = convert(tmp_path / "s.npz", map="spectrum=S,frequency=f,x=x", axes="f,frame,x")[1]
+    np.testing.assert_array_equal(out["spectrum"], spec.transpose(1, 2, 0))
+
+
+def test_a_shape_that_another_axis_order_fits_is_named(tmp_path):
+    spec = np.zeros((3, 4, 5), complex)  # (nz, nx, nf)
+    np.savez(
+        tmp_path / "p.npz", S=spec, f=1e9 + np.arange(5) * 1e6, x=np.arange(4.0), z=np.arange(3.0)
+    )
+    with pytest.raises(InputError, match="fit as --axes z,x,f") as info:
+        convert(tmp_path / "p.npz", map="spectrum=S,frequency=f,x=x,z=z")
+    assert "\n" not in str(info.value)
+    out = convert(tmp_path / "p.npz", map="spectrum=S,frequency=f,x=x,z=z", axes="z,x,f")[1]
+    assert out["spectrum"].shape == (4, 3, 5)
+    np.savez(
+        tmp_path / "q.npz",
+        S=np.zeros((4, 3, 5), complex),
+        f=1e9 + np.arange(5) * 1e6,
+        x=np.arange(4.0),
+        z=np.arange(3.0),
+    )
+    with pytest.raises(InputError, match="fits in the file's own order"):
+        convert(tmp_path / "q.npz", map="spectrum=S,frequency=f,x=x,z=z", axes="z,x,f")
+
+
+@pytest.mark.parametrize(
+    "axes, message",
+    [
+        ("f,x,q", "unknown axis 'q'"),
+        ("f,f", "names the f, frequency axis twice"),
+        ("x,z", "lacks f, frequency"),
+        ("r,x", "axis 'r' does not go with spectrum"),
+        ("f,x,frame", "names 3 axes"),
+        ("f,z,x", "names z, but the mapping gives no z"),
+    ],
+)
+def test_axes_order_errors_are_one_line(axes, message):
+    with pytest.raises(InputError, match=message) as info:
+        _read(MAT5, transpose=False, axes=axes)
+    assert "\n" not in str(info.value)
+
+
+def test_axes_and_transpose_together_are_refused():
+    with pytest.raises(InputError, match="either --axes"):
+        _read(MAT5, axes="f,x")
+
+
+def test_a_position_grid_that_changes_along_both_axes_is_refused(tmp_path):
+    xg, zg = np.meshgrid(np.arange(4.0), np.arange(3.0))
+    np.savez(
+        tmp_path / "g.npz",
+        S=np.zeros((4, 3, 5), complex),
+        f=1e9 + np.arange(5) * 1e6,
+        x=xg + 0.1 * zg,  # a rotated scan
+        z=np.arange(3.0),
+    )
+    with pytest.raises(InputError, match=r"x \(x\) is a 3 x 4 grid whose values change along both"):
+        convert(tmp_path / "g.npz", map="spectrum=S,frequency=f,x=x,z=z")
+
+
+def test_cli_convert_axes(tmp_path, capsys):
+    path = _planar_file(tmp_path, jitter=0.0)
+    out = tmp_path / "o.npz"
+    argv = ["convert", str(path), "-o", str(out), "--map", "spectrum=F,frequency=fr,x=X,z=zz"]
+    argv += ["--scale-x", "1e-3", "--scale-f", "1e9"]
+    assert main(argv + ["--axes", "f,z,x"]) == 0
+    assert load_data(out).signal.shape[:2] == (20, 16)
+    out.unlink()
+    assert "--axes" in _one_error(capsys, argv + ["--axes", "f,x"])
+    assert not out.exists()

@@ -175,6 +175,12 @@ def _arrays_opts(g) -> None:
         action="store_true",
         help="reverse the axes of the data array (MATLAB's F(nf, nx) -> (nx, nf))",
     )
+    g.add_argument(
+        "--axes",
+        metavar="A,B,...",
+        help="the data array's axes in the file's order, each of x, z, f (spectrum) or r "
+        "(signal), and frame (a stack): e.g. f,z,x for F(nf, nz, nx); instead of --transpose",
+    )
     g.add_argument("--scale-x", type=scale, help="factor to metres for x and z (1e-3: mm)")
     g.add_argument(
         "--scale-f", type=scale, help="factor to Hz for frequency, fc and bandwidth (1e9: GHz)"

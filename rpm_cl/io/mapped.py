@@ -148,6 +148,8 @@ def list_keys(paths) -> list:
 def _vector(name: str, key: str, v: np.ndarray) -> np.ndarray:
     if v.ndim > 1 and sum(s != 1 for s in v.shape) <= 1:
         v = v.reshape(-1)  # MATLAB 1 x n or n x 1
+    if v.ndim == 2 and name in ("x", "z") and v.dtype.kind in "iuf":
+        v = _grid_axis(name, key, v)
     if v.ndim != 1:
         raise InputError(f"{name} ({key}) must be a vector, got shape {v.shape}")
     if v.dtype.kind == "c":
@@ -155,6 +157,69 @@ def _vector(name: str, key: str, v: np.ndarray) -> np.ndarray:
             raise InputError(f"{name} ({key}) must be real, got complex values")
         v = v.real
     return v
+
+
+def _grid_axis(name: str, key: str, v: np.ndarray) -> np.ndarray:
+    """The axis of a coordinate grid (MATLAB's ``meshgrid``: a matrix whose
+    rows, or columns, all hold the same positions): its first row or
+    column.  A grid whose values change along both axes (a rotated or
+    sheared scan) is refused."""
+    a = v.astype(np.float64)
+    if np.array_equal(a, np.broadcast_to(a[:1, :], a.shape)):
+        return v[0, :]
+    if np.array_equal(a, np.broadcast_to(a[:, :1], a.shape)):
+        return v[:, 0]
+    raise InputError(
+        f"{name} ({key}) is a {v.shape[0]} x {v.shape[1]} grid whose values change along "
+        f"both axes (a rotated or irregular scan); give the scan's positions along {name} "
+        f"as a vector"
+    )
+
+
+#: Positions (``x``, ``z``) that lie within this fraction of their mean step
+#: of a uniform grid are put on it (with a warning naming the largest
+#: offset); farther, the axis is refused as not uniform.  A recorded scan's
+#: positions carry its stage's jitter, while the engine's decomposition and
+#: back-projection sample the aperture on a uniform grid: an offset of a
+#: tenth of a 3 mm step turns a 24 GHz echo's phase by at most 0.15 rad.
+SNAP_FRACTION = 0.1
+#: ... and without a warning within this fraction (a float32 axis's
+#: rounding, 1e-7 of its largest value, is a few 1e-5 of a 3 mm step at 0.5 m).
+SNAP_QUIET = 1e-3
+
+
+def _snapped(name: str, key: str, v: np.ndarray) -> np.ndarray:
+    """Positions ``v`` (float64, >= 2 values, increasing) on the uniform
+    grid that fits them best (least squares), when every one lies within
+    :data:`SNAP_FRACTION` of a step of it (with a warning beyond
+    :data:`SNAP_QUIET`); ``v`` unchanged farther from uniform (the schema's
+    check then refuses it)."""
+    import warnings
+
+    from .checks import DataWarning
+
+    if v.size < 3 or not np.all(np.isfinite(v)):
+        return v
+    d = np.diff(v)
+    eps = np.finfo(np.float64).eps * float(np.max(np.abs(v)))
+    if np.max(np.abs(d - d.mean())) <= 1e-6 * abs(d.mean()) + 8 * eps + 1e-12:
+        return v  # uniform as the schema's check takes it: kept as given
+    i = np.arange(v.size, dtype=np.float64)
+    step, start = np.polyfit(i, v, 1)
+    fit = start + step * i
+    off = float(np.max(np.abs(v - fit)))
+    if step == 0 or off > SNAP_FRACTION * abs(step):
+        return v
+    if off <= SNAP_QUIET * abs(step):  # the rounding of stored values (float32 axes)
+        return fit
+    warnings.warn(
+        f"{name} ({key}) is not uniformly spaced: positions lie up to {off:.3g} m "
+        f"({100 * off / abs(step):.2g} % of the {abs(step):.4g} m step) from a uniform "
+        f"grid; they are put on that grid",
+        DataWarning,
+        stacklevel=4,
+    )
+    return fit
 
 
 def _scalar(name: str, key: str, v: np.ndarray) -> float:
@@ -169,8 +234,9 @@ def _scalar(name: str, key: str, v: np.ndarray) -> float:
 
 
 def _data(kind: str, key: str, v: np.ndarray, keymap: KeyMap) -> np.ndarray:
-    if keymap.transpose:
-        v = v.transpose()
+    order = keymap.order(v.ndim)
+    if order is not None:
+        v = v.transpose(order)
     if v.dtype.kind == "c":
         v = v.astype(np.complex64 if v.dtype == np.complex64 else np.complex128, copy=False)
     else:  # MATLAB saves an all-real complex array as real
@@ -180,21 +246,47 @@ def _data(kind: str, key: str, v: np.ndarray, keymap: KeyMap) -> np.ndarray:
     return np.conj(v) if keymap.conjugate else v
 
 
+def _fits(shape: tuple, core: tuple) -> bool:
+    return shape == core or (len(shape) == len(core) + 1 and shape[1:] == core and shape[0] > 0)
+
+
 def _check_shape(
-    kind: str, key: str, v: np.ndarray, core: tuple, what: str, transpose: bool
+    kind: str, key: str, v: np.ndarray, core: tuple, what: str, keymap: KeyMap, raw: tuple
 ) -> None:
-    if v.shape == core or (v.ndim == len(core) + 1 and v.shape[1:] == core and v.shape[0] > 0):
+    """``v`` (the data array as permuted) fits ``core`` or a stack of it;
+    else one line naming the expected shape and, where the file's array
+    ``raw`` (its shape) fits another order of its axes, the ``--axes`` that
+    gives it."""
+    import itertools
+
+    if _fits(v.shape, core):
         return
     hint = ""
-    rev = v.shape[::-1]
-    if rev == core or (len(rev) == len(core) + 1 and rev[1:] == core):
-        hint = (
-            "; --transpose (transpose=True) reverses its axes to that"
-            if not transpose
-            else "; it fits without --transpose"
-        )
+    own = "f" if kind == "spectrum" else "r"
+    names = ["x"] + (["z"] if len(core) == 3 else []) + [own]
+    for stack in (False, True):
+        if len(raw) != len(names) + stack:
+            continue
+        target = ((None,) if stack else ()) + core
+        labels = (["frame"] if stack else []) + names
+        for perm in itertools.permutations(range(len(raw))):
+            if all(t is None or raw[p] == t for p, t in zip(perm, target)):
+                file_order = [""] * len(raw)
+                for p, lab in zip(perm, labels):
+                    file_order[p] = lab
+                if stack and raw[perm[0]] <= 0:
+                    continue
+                hint = f"; its axes fit as --axes {','.join(file_order)} (axes=...)"
+                break
+        if hint:
+            break
+    ordered = keymap.axes is not None or keymap.transpose
+    if ordered and _fits(tuple(raw), core):
+        hint = "; it fits in the file's own order (without --transpose or --axes)"
+    elif not ordered and _fits(tuple(raw[::-1]), core):
+        hint = "; --transpose (transpose=True) reverses its axes to that"
     raise InputError(
-        f"{kind} ({key}) has shape {v.shape}; expected {core} ({what}) or a stack "
+        f"{kind} ({key}) has shape {tuple(raw)}; expected {core} ({what}) or a stack "
         f"(frames, {', '.join(map(str, core))}){hint}"
     )
 
@@ -243,6 +335,7 @@ def convert(inputs, keymap: KeyMap) -> dict:
         srcs.close()
     keys = dict(keymap.pairs)
     out = {}
+    flip = []  # axes given in decreasing order: reversed, with the data
     for name in _AXES:
         if name in raw:
             v = _vector(name, keys[name], raw[name]).astype(np.float64)
@@ -250,11 +343,17 @@ def convert(inputs, keymap: KeyMap) -> dict:
                 v = v * keymap.scale_x
             elif name == "frequency":
                 v = v * keymap.scale_f
+            if v.size >= 2 and np.all(np.diff(v) < 0):
+                v = v[::-1]
+                flip.append(name)
+            if name in ("x", "z"):
+                v = _snapped(name, keys[name], v)
             out[name] = v
     for name in _SCALARS:
         if name in raw:
             out[name] = _scalar(name, keys[name], raw[name]) * keymap.scale_f
     kind = keymap.kind
+    shape_in = tuple(raw[kind].shape)
     values = _data(kind, keys[kind], raw[kind], keymap)
     array = Array(out["x"], out.get("z"))
     if kind == "spectrum":
@@ -272,13 +371,11 @@ def convert(inputs, keymap: KeyMap) -> dict:
         n_axis, what = rng.size, "range"
         Waveform(out["fc"], out["bandwidth"])
     axes = " x ".join(f"{a} {s}" for a, s in zip(("x", "z"), array.shape))
-    _check_shape(
-        kind,
-        keys[kind],
-        values,
-        array.shape + (n_axis,),
-        f"{axes} x {what} {n_axis}",
-        keymap.transpose,
-    )
-    out[kind] = values
+    core = array.shape + (n_axis,)
+    _check_shape(kind, keys[kind], values, core, f"{axes} x {what} {n_axis}", keymap, shape_in)
+    lead = values.ndim - len(core)  # a stack's frame axis
+    where = {"x": lead, "z": lead + 1, "frequency": values.ndim - 1, "range": values.ndim - 1}
+    for name in flip:
+        values = np.flip(values, axis=where[name])
+    out[kind] = np.ascontiguousarray(values)
     return out

@@ -15,6 +15,19 @@ DATA_NAMES = ("spectrum", "signal")
 #: What each data array needs, and what it refuses.
 _NEEDS = {"spectrum": ("frequency", "x"), "signal": ("range", "fc", "bandwidth", "x")}
 _REFUSES = {"spectrum": ("range",), "signal": ("frequency",)}
+#: The names an axis of the data array may take in ``KeyMap.axes``: the
+#: antenna axes, the data's own axis (``f`` / ``frequency`` for a spectrum,
+#: ``r`` / ``range`` for a signal) and a stack's frames.
+AXIS_NAMES = {
+    "x": "x",
+    "z": "z",
+    "f": "n",
+    "frequency": "n",
+    "r": "n",
+    "range": "n",
+    "frame": "frame",
+    "frames": "frame",
+}
 
 
 @dataclass(frozen=True)
@@ -34,6 +47,13 @@ class KeyMap:
         Factor applied to ``frequency``, ``fc`` and ``bandwidth`` (to Hz), > 0.
     conjugate : bool
         Conjugate a ``spectrum`` (one recorded as ``a exp(+j 4 pi f R / c)``).
+    axes : tuple of str, optional
+        The data array's axes in the file's order, each one of ``x``, ``z``,
+        ``f`` (``frequency``) or ``r`` (``range``), and ``frame`` for a
+        stack (:data:`AXIS_NAMES`): ``("f", "z", "x")`` for an array kept as
+        ``F(nf, nz, nx)``.  The data are permuted to the schema's
+        ``([frame,] x[, z], n)``.  None: the schema's order (or, with
+        ``transpose``, its reverse).
     """
 
     pairs: tuple
@@ -41,6 +61,7 @@ class KeyMap:
     scale_x: float = 1.0
     scale_f: float = 1.0
     conjugate: bool = False
+    axes: tuple | None = None
 
     def __post_init__(self):
         pairs = tuple((str(a), str(b)) for a, b in self.pairs)
@@ -78,6 +99,33 @@ class KeyMap:
             raise InputError("conjugate applies to a spectrum, not to a time-domain signal")
         for what in ("scale_x", "scale_f"):
             object.__setattr__(self, what, _finite_scalar(what, getattr(self, what)))
+        if self.axes is not None:
+            object.__setattr__(self, "axes", _axes(self.axes, kind, "z" in names))
+            if self.transpose:
+                raise InputError(
+                    "give either --axes (axes=) or --transpose (transpose=True), not both"
+                )
+
+    def order(self, ndim: int) -> tuple | None:
+        """The permutation taking an ``ndim``-axis data array of the file to
+        the schema's axis order (``np.transpose``'s ``axes``), or None where
+        the file keeps that order already.
+
+        Raises
+        ------
+        InputError
+            ``axes`` names another number of axes than the array has.
+        """
+        if self.axes is None:
+            return tuple(range(ndim))[::-1] if self.transpose else None
+        if len(self.axes) != ndim:
+            raise InputError(
+                f"--axes (axes=) names {len(self.axes)} axes ({','.join(self.axes)}), "
+                f"the data array has {ndim}"
+            )
+        canon = [AXIS_NAMES[a] for a in self.axes]
+        want = [a for a in ("frame", "x", "z", "n") if a in canon]
+        return tuple(canon.index(a) for a in want)
 
     @classmethod
     def parse(cls, text: str, **options) -> KeyMap:
@@ -97,3 +145,33 @@ class KeyMap:
     def kind(self) -> str:
         """``"spectrum"`` or ``"signal"``."""
         return next(a for a, _ in self.pairs if a in DATA_NAMES)
+
+
+def _axes(axes, kind: str, planar: bool) -> tuple:
+    """``axes`` (a tuple of names, or a comma-separated string) checked: each
+    of :data:`AXIS_NAMES` at most once, ``x`` and the data's own axis
+    present, ``z`` exactly when the array is planar."""
+    if isinstance(axes, str):
+        axes = axes.split(",")
+    out = tuple(str(a).strip().lower() for a in axes)
+    own = "f, frequency" if kind == "spectrum" else "r, range"
+    for a in out:
+        if a not in AXIS_NAMES:
+            raise InputError(
+                f"unknown axis {a!r} in --axes (axes=); name each of x, z (planar), "
+                f"{own} and frame (a stack), e.g. f,x"
+            )
+        if AXIS_NAMES[a] == "n" and a not in own.split(", "):
+            raise InputError(f"axis {a!r} does not go with {kind} (its axis is {own})")
+    canon = [AXIS_NAMES[a] for a in out]
+    for c in set(canon):
+        if canon.count(c) > 1:
+            raise InputError(f"--axes (axes=) names the {c if c != 'n' else own} axis twice")
+    need = ["x", "n"] + (["z"] if planar else [])
+    missing = [c for c in need if c not in canon]
+    if missing:
+        what = ", ".join(own if c == "n" else c for c in missing)
+        raise InputError(f"--axes (axes=) lacks {what}")
+    if "z" in canon and not planar:
+        raise InputError("--axes (axes=) names z, but the mapping gives no z")
+    return out

@@ -50,7 +50,7 @@ FORMATS = {
     ),
     "arrays": Format(
         (".mat", ".npz", ".npy", ".h5", ".hdf5"),
-        ("map", "transpose", "scale_x", "scale_f", "conjugate"),
+        ("map", "transpose", "axes", "scale_x", "scale_f", "conjugate"),
         ("map",),
         "named arrays (MATLAB, NumPy, HDF5) by a key mapping",
     ),
@@ -122,8 +122,8 @@ def convert(inputs, fmt: str | None = None, **options) -> tuple:
         The reader's options (:data:`FORMATS`; None means not given):
         gprmax ``background, band, waveform`` (a
         :class:`rpm_cl.io.gprmax.SourceWaveform`) ``, sidecar, df, rx``;
-        arrays ``map`` (``"spectrum=F,..."``) ``, transpose, scale_x,
-        scale_f, conjugate``; dzt ``band, dx, time_zero, channel,
+        arrays ``map`` (``"spectrum=F,..."``) ``, transpose, axes`` (``"f,x"``)
+        ``, scale_x, scale_f, conjugate``; dzt ``band, dx, time_zero, channel,
         subtract_mean``; dca1000 ``slope, adc_rate, samples, start_freq,
         adc_start_time, chirps, rx`` (receivers) ``, layout, dx, rx_spacing,
         receiver``.
@@ -190,6 +190,7 @@ def _arrays(inputs, o):
     km = KeyMap.parse(
         o["map"],
         transpose=bool(o.get("transpose")),
+        axes=o.get("axes"),
         scale_x=o.get("scale_x", 1.0),
         scale_f=o.get("scale_f", 1.0),
         conjugate=bool(o.get("conjugate")),
