@@ -435,3 +435,15 @@ def test_cli_convert_axes(tmp_path, capsys):
     out.unlink()
     assert "--axes" in _one_error(capsys, argv + ["--axes", "f,x"])
     assert not out.exists()
+
+
+def test_a_decreasing_axis_in_a_schema_file_names_the_fix(tmp_path):
+    rng = np.random.default_rng(3)
+    spec = rng.standard_normal((5, 8)) + 1j * rng.standard_normal((5, 8))
+    f = 1e9 + np.arange(8) * 1e6
+    np.savez(tmp_path / "d.npz", spectrum=spec, frequency=f, x=np.arange(5.0)[::-1])
+    with pytest.raises(InputError, match="it decreases: reverse it .*rpm-cl convert"):
+        load_data(tmp_path / "d.npz")
+    out = convert(tmp_path / "d.npz", map="spectrum=spectrum,frequency=frequency,x=x")[1]
+    np.testing.assert_array_equal(out["x"], np.arange(5.0))
+    np.testing.assert_array_equal(out["spectrum"], spec[::-1])

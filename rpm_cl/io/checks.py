@@ -100,6 +100,11 @@ def _uniform_axis(name: str, values, min_len: int = 1, unit: str = "m") -> np.nd
         raise InputError(f"{name} contains NaN or Inf")
     if a.size >= 2:
         step = np.diff(a)
+        if np.all(step < 0):
+            raise InputError(
+                f"{name} must be strictly increasing, and it decreases: reverse it with "
+                f"the data's axis (rpm-cl convert IN --map ... does)"
+            )
         if np.any(step <= 0):
             raise InputError(f"{name} must be strictly increasing")
         tol = 1e-6 * abs(step.mean()) + 8 * eps * float(np.max(np.abs(a))) + 1e-12
