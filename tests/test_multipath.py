@@ -45,6 +45,29 @@ def test_ghost_points_of_two_points_are_their_envelope():
     np.testing.assert_allclose(ghost_points(ant, a, b), want, atol=1e-7)
 
 
+def test_ghost_points_of_extended_legs_in_3d_follow_the_range_walk():
+    """Legs of several points off the plane z = 0, seen by a planar array:
+    the ghost point is X - R grad R (x, z) at y = R sqrt(1 - |grad R|^2), with
+    grad R the central differences of double_bounce (an independent route
+    to the gradient the function forms in closed form)."""
+    rng = np.random.default_rng(11)
+    xg, zg = np.meshgrid(np.linspace(-0.05, 0.05, 6), np.linspace(-0.04, 0.04, 5))
+    ant = np.column_stack([xg.ravel(), 0 * xg.ravel(), zg.ravel()])
+    a = np.array([-0.1, 0.4, 0.03]) + 0.01 * rng.standard_normal((5, 3))
+    b = np.array([0.12, 0.38, -0.02]) + 0.01 * rng.standard_normal((4, 3))
+    r = double_bounce(ant, a, b)
+    h = 1e-6
+    grad = np.zeros_like(ant)
+    for axis in (0, 2):
+        e = np.zeros(3)
+        e[axis] = h
+        grad[:, axis] = (double_bounce(ant + e, a, b) - double_bounce(ant - e, a, b)) / (2 * h)
+    across = 1 - grad[:, 0] ** 2 - grad[:, 2] ** 2
+    want = ant - r[:, None] * grad
+    want[:, 1] = r * np.sqrt(across)
+    np.testing.assert_allclose(ghost_points(ant, a, b), want[across > 0], atol=1e-8)
+
+
 def _two_targets_and_ghost(seed, snr_db, ghost=0.3):
     """Two point targets and their double bounce (both paths, each ``ghost``
     of a target's amplitude), 0.25 GHz at 22 GHz, 31 antennas at 4 mm, noise in

@@ -130,7 +130,8 @@ REPEAT_LEVEL = 0.1
 #: ... and the leg holds RPs at no fewer than this share of the cluster's
 #: antennas (and at 3 or more).
 REPEAT_SHARED = 0.5
-#: Step of the central differences of the predicted ranges, m.
+#: Step of the central differences of the predicted ranges above a
+#: half-space, m (in air the gradient is closed-form: :func:`_bounce_gradient`).
 GRADIENT_STEP = 1e-4
 #: Image points of an object used to predict its double bounces, and
 #: antennas of a cluster the prediction is made for (evenly spread): the
@@ -259,12 +260,12 @@ def flag_multipath(
         ghost = False
         on_found = objects.covered(mine) > 0.5
         pairs = []
-        mine_rp = (np.asarray(rps.antenna)[cl_rp == c], rr)
+        mine_rp = _nearest_per_antenna(np.asarray(rps.antenna)[cl_rp == c], rr)
         if not on_found and wavelength is not None and seen:
             # the antennas' own re-reflection of an echo found already
             leg_amp = np.asarray(strength)
             ghost = any(
-                repeats(mine_rp, seen[i], resolution, wavelength)
+                _repeats(mine_rp, seen[i], resolution, wavelength)
                 for i in np.flatnonzero(amp <= GHOST_AMP * leg_amp)
             )
         if not ghost and not on_found and len(legs.clusters) > 1:
@@ -557,11 +558,16 @@ def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray, medium=None
         The points of the antennas where the predicted range walk is a
         direction (|grad R| < 1), m.
     """
-    r = double_bounce(antennas, a, b, medium)
-    grad = np.zeros((len(antennas), 3))
     # everything in the plane z = 0 (a linear array's scene): the range is
     # even in z there, its z slope exactly 0
     flat = not (antennas[:, 2].any() or a[:, 2].any() or b[:, 2].any())
+    if medium is None:
+        r, grad = _bounce_gradient(antennas, a, b)
+        if flat:
+            grad[:, 2] = 0.0
+        return _envelope(antennas, r, grad)
+    r = double_bounce(antennas, a, b, medium)
+    grad = np.zeros((len(antennas), 3))
     for axis in (0,) if flat else (0, 2):
         e = np.zeros(3)
         e[axis] = GRADIENT_STEP
@@ -570,14 +576,39 @@ def ghost_points(antennas: np.ndarray, a: np.ndarray, b: np.ndarray, medium=None
         ) / (2 * GRADIENT_STEP)
     across = 1.0 - grad[:, 0] ** 2 - grad[:, 2] ** 2
     ok = across > 0
-    if medium is not None:
-        from ..io.medium import point_on_ray
+    from ..io.medium import point_on_ray
 
-        p = np.sqrt(np.maximum(1.0 - across, 0.0))
-        h = -grad[:, [0, 2]]
-        e = np.where(p[:, None] > 0, h / np.where(p > 0, p, 1.0)[:, None], [1.0, 0.0])
-        pt, _ = point_on_ray(medium, antennas, np.where(ok, p, 0.0), e, r)
-        return pt[ok]
+    p = np.sqrt(np.maximum(1.0 - across, 0.0))
+    h = -grad[:, [0, 2]]
+    e = np.where(p[:, None] > 0, h / np.where(p > 0, p, 1.0)[:, None], [1.0, 0.0])
+    pt, _ = point_on_ray(medium, antennas, np.where(ok, p, 0.0), e, r)
+    return pt[ok]
+
+
+def _bounce_gradient(antennas: np.ndarray, a: np.ndarray, b: np.ndarray):
+    """In air: :func:`double_bounce`'s range (N,) and its gradient in the
+    antenna's position (N, 3), exact: the path through the points A_i, B_j
+    that give the least range moves with the antenna as half the sum of the
+    unit vectors from them to it (the choice of points is fixed where the
+    least is unique, i.e. almost everywhere)."""
+    da = np.linalg.norm(antennas[:, None, :] - a[None], axis=2)  # (N, Ma)
+    db = np.linalg.norm(antennas[:, None, :] - b[None], axis=2)  # (N, Mb)
+    ab = np.linalg.norm(a[:, None, :] - b[None], axis=2)  # (Ma, Mb)
+    total = (da[:, :, None] + ab[None] + db[:, None, :]).reshape(len(antennas), -1)
+    best = np.argmin(total, axis=1)
+    i, j = np.divmod(best, b.shape[0])
+    n = np.arange(len(antennas))
+    ua = (antennas - a[i]) / np.maximum(da[n, i], 1e-300)[:, None]
+    ub = (antennas - b[j]) / np.maximum(db[n, j], 1e-300)[:, None]
+    return 0.5 * total[n, best], 0.5 * (ua + ub)
+
+
+def _envelope(antennas: np.ndarray, r: np.ndarray, grad: np.ndarray) -> np.ndarray:
+    """The envelope point of each antenna's range sphere ``r`` with range
+    gradient ``grad`` (air): ``a - r grad``, at ``y = r sqrt(1 - |grad_xz|^2)``;
+    the antennas where that is real."""
+    across = 1.0 - grad[:, 0] ** 2 - grad[:, 2] ** 2
+    ok = across > 0
     out = antennas - r[:, None] * grad
     out[:, 1] = r * np.sqrt(np.where(ok, across, 0.0))
     return out[ok]
@@ -598,8 +629,14 @@ def repeats(cluster, leg, resolution: float, wavelength: float) -> bool:
     resolution, wavelength : float
         m.
     """
-    ant_c, r_c = _nearest_per_antenna(*cluster)
-    ant_l, r_l = _nearest_per_antenna(*leg)
+    return _repeats(
+        _nearest_per_antenna(*cluster), _nearest_per_antenna(*leg), resolution, wavelength
+    )
+
+
+def _repeats(cluster, leg, resolution: float, wavelength: float) -> bool:
+    """:func:`repeats` of the (antennas, ranges) of :func:`_nearest_per_antenna`."""
+    (ant_c, r_c), (ant_l, r_l) = cluster, leg
     if ant_c.size == 0 or ant_l.size == 0:
         return False
     pos = np.searchsorted(ant_l, ant_c)
