@@ -12,7 +12,8 @@ some pair of clusters already accepted as single-bounce (nearer ones: a
 double bounce is longer than both of its legs), its image points lie where
 RPM would image that double bounce: the envelope points
 ``X + R_AB (-dR_AB/dX, sqrt(1 - |grad R_AB|^2), -dR_AB/dZ)`` of the predicted
-ranges at the cluster's own antennas (gradients by central differences of
+ranges at the cluster's own antennas (in air the gradient of the shortest
+path in closed form, above a half-space by central differences of
 :data:`GRADIENT_STEP`).  "Lie there" is relative to how far the predicted
 ghost is from its legs: the cluster's median distance to the predicted
 points (its part along the line of sight weighted by :data:`RADIAL_WEIGHT`)
