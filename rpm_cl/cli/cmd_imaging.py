@@ -51,7 +51,10 @@ def cmd_image(args) -> int:
     dropped = "".join(
         f", {n} {why}"
         for why, n in (
-            ("double-bounce points dropped", result.dropped.get("multipath", 0)),
+            (
+                "multipath points (double bounces, repeats) dropped",
+                result.dropped.get("multipath", 0),
+            ),
             ("points beyond the antennas' reach dropped", result.dropped.get("reach", 0)),
             ("points of the antennas' own coupling dropped", result.dropped.get("coupling", 0)),
             ("points beside a coherent peak dropped", result.dropped.get("coherence", 0)),
