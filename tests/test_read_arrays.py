@@ -447,3 +447,45 @@ def test_a_decreasing_axis_in_a_schema_file_names_the_fix(tmp_path):
     out = convert(tmp_path / "d.npz", map="spectrum=spectrum,frequency=frequency,x=x")[1]
     np.testing.assert_array_equal(out["x"], np.arange(5.0))
     np.testing.assert_array_equal(out["spectrum"], spec[::-1])
+
+
+def test_float32_frequency_and_range_axes_load_and_convert(tmp_path):
+    """Axes stored as float32 (MATLAB single, GHz): their rounding is far
+    below the uniformity test's, in a schema file and through --map."""
+    f = np.linspace(18e9, 26e9, 161)
+    spec = np.exp(-4j * np.pi * f[None, :] * np.array([0.4, 0.41, 0.42])[:, None] / C0)
+    np.savez(tmp_path / "s.npz", spectrum=spec, frequency=f.astype(np.float32), x=np.arange(3.0) * 4e-3)
+    data = load_data(tmp_path / "s.npz")
+    assert data.spectrum.frequency.dtype == np.float64
+    np.testing.assert_allclose(data.spectrum.frequency, f, rtol=1e-7)
+    np.savez(tmp_path / "g.npz", F=spec.T, f=(f / 1e9).astype(np.float32), x=np.arange(3.0) * 4e-3)
+    out = convert(
+        tmp_path / "g.npz", map="spectrum=F,frequency=f,x=x", transpose=True, scale_f=1e9
+    )[1]
+    np.testing.assert_allclose(out["frequency"], f, rtol=1e-7)
+    assert np.ptp(np.diff(out["frequency"])) < 1e-3  # uniform to the Hz
+    r = np.arange(64) * 0.01
+    np.savez(
+        tmp_path / "t.npz",
+        signal=np.ones((3, 64), complex),
+        range=r.astype(np.float32),
+        x=np.arange(3.0) * 4e-3,
+        fc=20e9,
+        bandwidth=2e9,
+    )
+    np.testing.assert_allclose(load_data(tmp_path / "t.npz").range, r, atol=1e-7)
+
+
+def test_a_frequency_axis_rounded_on_export_is_put_on_its_grid(tmp_path):
+    f = np.linspace(22.2e9, 26.2e9, 11)
+    spec = np.ones((3, 11), complex)
+    rounded = np.round(f / 1e9 + [0, 0, 0.002, 0, 0, 0, 0, 0, 0, 0, 0], 4)  # 2 MHz off
+    np.savez(tmp_path / "g.npz", F=spec, f=rounded, x=np.arange(3.0))
+    with pytest.warns(DataWarning, match=r"frequency \(f\) is not uniformly spaced"):
+        out = convert(tmp_path / "g.npz", map="spectrum=F,frequency=f,x=x", scale_f=1e9)[1]
+    np.testing.assert_allclose(out["frequency"], f, atol=1e6)
+    bad = rounded.copy()
+    bad[2] += 0.02  # 20 MHz: 5 % of a step
+    np.savez(tmp_path / "b.npz", F=spec, f=bad, x=np.arange(3.0))
+    with pytest.raises(InputError, match="frequency must be uniformly spaced"):
+        convert(tmp_path / "b.npz", map="spectrum=F,frequency=f,x=x", scale_f=1e9)

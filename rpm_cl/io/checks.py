@@ -113,6 +113,10 @@ def _uniform_axis(name: str, values, min_len: int = 1, unit: str = "m") -> np.nd
                 f"{name} must be uniformly spaced (steps vary from "
                 f"{step.min():.6g} to {step.max():.6g} {unit})"
             )
+        if eps > np.finfo(np.float64).eps:
+            # stored in a coarser type (float32): the uniform axis its values
+            # round, in float64, so that a check of the float64 axis passes
+            a = a[0] + (a[-1] - a[0]) / (a.size - 1) * np.arange(a.size)
     a.setflags(write=False)
     return a
 

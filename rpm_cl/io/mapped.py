@@ -186,14 +186,24 @@ SNAP_FRACTION = 0.1
 #: ... and without a warning within this fraction (a float32 axis's
 #: rounding, 1e-7 of its largest value, is a few 1e-5 of a 3 mm step at 0.5 m).
 SNAP_QUIET = 1e-3
+#: A frequency or range axis is put on its uniform grid within this fraction
+#: of a step (float32 storage, values rounded on export, e.g. GHz to four
+#: decimals): a frequency off by a hundredth of a step turns an echo at the
+#: far end of the unambiguous range by 0.06 rad.
+SNAP_AXIS_FRACTION = 0.01
+#: (fraction, quiet fraction) of :func:`_snapped` for an axis of samples
+#: (False) and for the antenna positions (True).
+SNAP = {False: (SNAP_AXIS_FRACTION, SNAP_QUIET), True: (SNAP_FRACTION, SNAP_QUIET)}
 
 
-def _snapped(name: str, key: str, v: np.ndarray) -> np.ndarray:
-    """Positions ``v`` (float64, >= 2 values, increasing) on the uniform
-    grid that fits them best (least squares), when every one lies within
-    :data:`SNAP_FRACTION` of a step of it (with a warning beyond
-    :data:`SNAP_QUIET`); ``v`` unchanged farther from uniform (the schema's
-    check then refuses it)."""
+def _snapped(
+    name: str, key: str, v: np.ndarray, fraction: float = SNAP_FRACTION, quiet: float = SNAP_QUIET
+) -> np.ndarray:
+    """An axis ``v`` (float64, >= 2 values, increasing) on the uniform grid
+    that fits it best (least squares), when every value lies within
+    ``fraction`` of a step of it (with a warning beyond ``quiet``); ``v``
+    unchanged when the schema's check takes it as uniform already, or when
+    it lies farther from uniform (the check then refuses it)."""
     import warnings
 
     from .checks import DataWarning
@@ -208,14 +218,15 @@ def _snapped(name: str, key: str, v: np.ndarray) -> np.ndarray:
     step, start = np.polyfit(i, v, 1)
     fit = start + step * i
     off = float(np.max(np.abs(v - fit)))
-    if step == 0 or off > SNAP_FRACTION * abs(step):
+    if step == 0 or off > fraction * abs(step):
         return v
-    if off <= SNAP_QUIET * abs(step):  # the rounding of stored values (float32 axes)
+    if off <= quiet * abs(step):  # the rounding of stored values (float32 axes)
         return fit
+    unit = "Hz" if name == "frequency" else "m"
     warnings.warn(
-        f"{name} ({key}) is not uniformly spaced: positions lie up to {off:.3g} m "
-        f"({100 * off / abs(step):.2g} % of the {abs(step):.4g} m step) from a uniform "
-        f"grid; they are put on that grid",
+        f"{name} ({key}) is not uniformly spaced: its values lie up to {off:.3g} {unit} "
+        f"({100 * off / abs(step):.2g} % of the {abs(step):.4g} {unit} step) from a "
+        f"uniform grid; they are put on that grid",
         DataWarning,
         stacklevel=4,
     )
@@ -346,9 +357,7 @@ def convert(inputs, keymap: KeyMap) -> dict:
             if v.size >= 2 and np.all(np.diff(v) < 0):
                 v = v[::-1]
                 flip.append(name)
-            if name in ("x", "z"):
-                v = _snapped(name, keys[name], v)
-            out[name] = v
+            out[name] = _snapped(name, keys[name], v, *SNAP[name in ("x", "z")])
     for name in _SCALARS:
         if name in raw:
             out[name] = _scalar(name, keys[name], raw[name]) * keymap.scale_f
