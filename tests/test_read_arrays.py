@@ -454,7 +454,9 @@ def test_float32_frequency_and_range_axes_load_and_convert(tmp_path):
     below the uniformity test's, in a schema file and through --map."""
     f = np.linspace(18e9, 26e9, 161)
     spec = np.exp(-4j * np.pi * f[None, :] * np.array([0.4, 0.41, 0.42])[:, None] / C0)
-    np.savez(tmp_path / "s.npz", spectrum=spec, frequency=f.astype(np.float32), x=np.arange(3.0) * 4e-3)
+    np.savez(
+        tmp_path / "s.npz", spectrum=spec, frequency=f.astype(np.float32), x=np.arange(3.0) * 4e-3
+    )
     data = load_data(tmp_path / "s.npz")
     assert data.spectrum.frequency.dtype == np.float64
     np.testing.assert_allclose(data.spectrum.frequency, f, rtol=1e-7)

@@ -45,7 +45,8 @@ def input_opts(sp) -> None:
         action="store_true",
         help="conjugate a spectrum before compressing it (samples recorded as "
         "exp(+j 4 pi f R / c), whose echoes land at the unambiguous range "
-        "minus their range)",
+        "minus their range), or range profiles recorded with the carrier phase "
+        "exp(+j 2 k_c R) (their targets come out mirrored across the array)",
     )
     sp.add_argument(
         "--max-memory",
@@ -188,7 +189,8 @@ def _arrays_opts(g) -> None:
     g.add_argument(
         "--conjugate",
         action="store_true",
-        help="conjugate a spectrum recorded as exp(+j 4 pi f R / c)",
+        help="conjugate a spectrum recorded as exp(+j 4 pi f R / c), or profiles "
+        "recorded with the carrier phase exp(+j 2 k_c R)",
     )
 
 

@@ -179,10 +179,8 @@ def _build(
     if key == "signal":
         if "frequency" in src:
             raise InputError("'frequency' goes with 'spectrum', not with 'signal'")
-        if conjugate:
-            raise InputError(
-                "conjugate applies to a spectrum (frequency-domain input), not to 'signal'"
-            )
+        if conjugate:  # profiles recorded with the carrier phase exp(+j 2 k_c R)
+            values = np.conj(values)
         waveform = Waveform(_need(src, "fc"), _need(src, "bandwidth"))
         data = RadarData(values, array, _need(src, "range"), waveform, truth)
         check_plausible(data)
@@ -230,7 +228,9 @@ def load_data(
         Conjugate a ``spectrum`` before compressing it: for samples recorded
         as ``a exp(+j 4 pi f R / c)`` (whose echoes otherwise land at the
         unambiguous range minus their range; a warning says when the data
-        look so).  Refused for time-domain data.
+        look so).  Time-domain profiles recorded with the carrier phase
+        ``exp(+j 2 k_c R)`` are conjugated as they are (their envelope is
+        the same; the phase's sign mirrors every direction across the array).
     with_truth : bool
         Read the ``truth_*`` members (scoring); False leaves them unread.
     max_memory : int or str, optional

@@ -27,8 +27,8 @@ Complex arrays: MATLAB v7.3 stores them as an HDF5 compound of ``real`` and
 so a real data array is taken as complex.
 
 Nothing about the sign is changed: the file must hold an echo of range R as
-``a exp(-j 4 pi f R / c)`` (``conjugate=True`` takes the conjugate of a
-spectrum recorded as ``exp(+j ...)``).  ``scale_x`` multiplies ``x`` and
+``a exp(-j 4 pi f R / c)``, a profile's carrier phase as ``exp(-j 2 k_c R)``
+(``conjugate=True`` takes the conjugate of data recorded as ``exp(+j ...)``).  ``scale_x`` multiplies ``x`` and
 ``z`` (1e-3 for millimetres), ``scale_f`` ``frequency``, ``fc`` and
 ``bandwidth`` (1e9 for GHz).
 

@@ -46,7 +46,9 @@ class KeyMap:
     scale_f : float
         Factor applied to ``frequency``, ``fc`` and ``bandwidth`` (to Hz), > 0.
     conjugate : bool
-        Conjugate a ``spectrum`` (one recorded as ``a exp(+j 4 pi f R / c)``).
+        Conjugate the data array: a ``spectrum`` recorded as ``a exp(+j 4 pi
+        f R / c)``, or range profiles recorded with the carrier phase
+        ``exp(+j 2 k_c R)``.
     axes : tuple of str, optional
         The data array's axes in the file's order, each one of ``x``, ``z``,
         ``f`` (``frequency``) or ``r`` (``range``), and ``frame`` for a
@@ -95,8 +97,6 @@ class KeyMap:
             raise InputError(
                 f"the mapping lacks {', '.join(missing)} ({kind} needs {', '.join(_NEEDS[kind])})"
             )
-        if self.conjugate and kind != "spectrum":
-            raise InputError("conjugate applies to a spectrum, not to a time-domain signal")
         for what in ("scale_x", "scale_f"):
             object.__setattr__(self, what, _finite_scalar(what, getattr(self, what)))
         if self.axes is not None:
