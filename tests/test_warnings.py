@@ -15,7 +15,7 @@ import pytest
 
 from rpm_cl.cli import main
 from rpm_cl.imaging import run_method
-from rpm_cl.io.data import C0, Array, DataWarning, InputError
+from rpm_cl.io.data import C0, Array, DataWarning
 from rpm_cl.io.formats import (
     RANGE_WINDOWS,
     load_data,
