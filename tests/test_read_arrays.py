@@ -137,8 +137,19 @@ def test_conjugate_and_a_real_array_taken_as_complex(tmp_path):
     conj = _read(MAT5, conjugate=True)
     np.testing.assert_array_equal(conj["spectrum"], np.conj(ref["spectrum"]))
     np.savez(tmp_path / "r.npz", F=np.ones((41, 16)), f=RF.MAT["f"], da=RF.MAT["x_mm"])
-    out = _read(tmp_path / "r.npz")
+    with pytest.warns(DataWarning, match=r"spectrum \(F\) is real: .* mirror image"):
+        out = _read(tmp_path / "r.npz")
     assert out["spectrum"].dtype == np.complex128 and np.all(out["spectrum"] == 1)
+    np.savez(
+        tmp_path / "t.npz",
+        s=np.ones((16, 16)),
+        r=np.arange(16) * 0.01,
+        fc=np.float64(20e9),
+        bw=np.float64(2e9),
+        da=RF.MAT["x_mm"],
+    )
+    with pytest.warns(DataWarning, match=r"signal \(s\) is real: .* carrier phase"):
+        convert(tmp_path / "t.npz", map="signal=s,range=r,fc=fc,bandwidth=bw,x=da", scale_x=1e-3)
 
 
 def test_planar_mapping_checks_the_z_axis(tmp_path):

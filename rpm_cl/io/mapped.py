@@ -251,10 +251,38 @@ def _data(kind: str, key: str, v: np.ndarray, keymap: KeyMap) -> np.ndarray:
     if v.dtype.kind == "c":
         v = v.astype(np.complex64 if v.dtype == np.complex64 else np.complex128, copy=False)
     else:  # MATLAB saves an all-real complex array as real
+        _warn_real(kind, key)
         v = v.astype(np.complex64 if v.dtype == np.float32 else np.complex128)
     if not np.all(np.isfinite(v)):
         raise InputError(f"{kind} ({key}) contains NaN or Inf")
     return np.conj(v) if keymap.conjugate else v
+
+
+def _warn_real(kind: str, key: str) -> None:
+    """A real data array is taken as complex with a zero imaginary part
+    (what MATLAB saves for an all-real complex array); say what that means
+    for the image, since real data are more often samples without their
+    quadrature part, or magnitudes."""
+    import warnings
+
+    from .checks import DataWarning
+
+    if kind == "spectrum":
+        what = (
+            "real samples (the in-phase part alone) hold each echo's mirror image too, "
+            "at the unambiguous range c/(2 df) minus its range: give I + jQ where the "
+            "radar records both"
+        )
+    else:
+        what = (
+            "the engine places points by the profiles' carrier phase, which real or "
+            "magnitude-only profiles do not hold: give complex baseband profiles"
+        )
+    warnings.warn(
+        f"{kind} ({key}) is real: taken as complex with a zero imaginary part; {what}",
+        DataWarning,
+        stacklevel=5,
+    )
 
 
 def _fits(shape: tuple, core: tuple) -> bool:
