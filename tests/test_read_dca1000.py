@@ -184,7 +184,9 @@ def test_real_samples_through_their_analytic_signal(tmp_path):
         ({"receiver": 4}, "receiver 4: the capture holds 4"),
         ({"dx": None}, "--dx .* or --rx-spacing"),
         ({"rx_spacing": 2e-3}, "--dx .* or --rx-spacing"),
-        ({"start_freq": 1.0, "slope": -1.0}, "slope must be > 0"),
+        ({"start_freq": 1e9, "slope": -1.0}, "slope must be > 0"),
+        ({"start_freq": 77.0}, r"start frequency 77 Hz .* GHz numbers"),
+        ({"slope": 29.982e6}, r"ramp sweeps .* is the slope 2.9982e\+07 in MHz/us x 1e6"),
     ],
 )
 def test_capture_errors_are_one_line(change, message):

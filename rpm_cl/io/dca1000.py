@@ -64,7 +64,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .data import InputError, _finite_scalar
+from .checks import FC_MIN, unit_hint
+from .data import C0, InputError, _finite_scalar
 
 __all__ = [
     "LAYOUTS",
@@ -128,11 +129,23 @@ class Chirp:
         object.__setattr__(self, "slope", _finite_scalar("slope", self.slope))
         object.__setattr__(self, "adc_rate", _finite_scalar("ADC rate", self.adc_rate))
         object.__setattr__(self, "start_freq", _finite_scalar("start frequency", self.start_freq))
+        if self.start_freq < FC_MIN:
+            raise InputError(
+                f"start frequency {self.start_freq:g} Hz is below {FC_MIN:g} Hz: it looks "
+                f"like {unit_hint(self.start_freq)}; give it in Hz"
+            )
         t0 = _finite_scalar("ADC start time", self.adc_start_time, positive=False)
         if t0 < 0:
             raise InputError(f"ADC start time must be >= 0 s, got {t0:g}")
         object.__setattr__(self, "adc_start_time", t0)
         object.__setattr__(self, "samples", _count("samples", self.samples, 2))
+        band = self.slope * self.samples / self.adc_rate
+        if band < FC_MIN:
+            raise InputError(
+                f"the ramp sweeps {band:.3g} Hz over {self.samples} samples at "
+                f"{self.adc_rate:g} samples/s (a range resolution of {C0 / (2 * band):.3g} m): "
+                f"is the slope {self.slope:g} in MHz/us x 1e6? give it in Hz/s (MHz/us x 1e12)"
+            )
         object.__setattr__(self, "chirps", _count("chirps", self.chirps))
         rx = _count("receivers", self.receivers)
         if rx > 4:
