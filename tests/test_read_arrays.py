@@ -195,14 +195,18 @@ def test_refusals_before_reading(tmp_path, monkeypatch):
         tmp_path / "s.mat", {"S": {"F": np.ones((2, 2))}, "C": np.array([[1, "a"]], dtype=object)}
     )
     with pytest.raises(InputError, match="struct of a v4-v7.2 file"):
-        convert(tmp_path / "s.mat", map="spectrum=S,frequency=C,x=C")
+        convert(tmp_path / "s.mat", map="spectrum=S,frequency=S,x=S")
     with pytest.raises(InputError, match="MATLAB cell"):
         convert(tmp_path / "s.mat", map="spectrum=C,frequency=C,x=C")
-    # sizes from the headers: an oversized array is refused before its data are read
+    # sizes from the headers: an oversized array is refused before its data
+    # are read (the small axes are read first)
     monkeypatch.setattr(M, "MAX_ELEMENTS", 100)
+    from scipy.io import loadmat
 
-    def no_read(*a, **k):
-        raise AssertionError("data read before the size check")
+    def no_read(path, variable_names=(), **k):
+        if "F" in variable_names:
+            raise AssertionError("data read before the size check")
+        return loadmat(path, variable_names=variable_names, **k)
 
     monkeypatch.setattr("scipy.io.loadmat", no_read)
     with pytest.raises(InputError, match="656 values, more than 100"):
@@ -502,3 +506,35 @@ def test_a_frequency_axis_rounded_on_export_is_put_on_its_grid(tmp_path):
     np.savez(tmp_path / "b.npz", F=spec, f=bad, x=np.arange(3.0))
     with pytest.raises(InputError, match="frequency must be uniformly spaced"):
         convert(tmp_path / "b.npz", map="spectrum=F,frequency=f,x=x", scale_f=1e9)
+
+
+def test_convert_refuses_deflated_bombs_and_checks_the_shape_unread(tmp_path, monkeypatch):
+    """A deflated .mat variable or HDF5 dataset declaring a hundred times
+    its stored bytes is refused from its header (the threshold lowered here
+    so that a small file shows it), and a data array of the wrong shape is
+    refused before its data are read."""
+    from scipy.io import loadmat, savemat
+
+    from rpm_cl.io import guard
+
+    monkeypatch.setattr(guard, "BOMB_MIN_BYTES", 1 << 10)
+    f, x = 1e9 + np.arange(300) * 1e6, np.arange(200) * 1e-3
+    savemat(tmp_path / "b.mat", {"F": np.zeros((300, 200)), "f": f, "x": x}, do_compression=True)
+    with pytest.raises(InputError, match="F declares .* compression bomb"):
+        convert(tmp_path / "b.mat", map="spectrum=F,frequency=f,x=x", transpose=True)
+    with h5py.File(tmp_path / "b.h5", "w") as h:
+        h.create_dataset("F", data=np.zeros((200, 300)), compression="gzip", chunks=(200, 300))
+        h["f"], h["x"] = f, x
+    with pytest.raises(InputError, match="F declares .* compression bomb"):
+        convert(tmp_path / "b.h5", map="spectrum=F,frequency=f,x=x")
+    monkeypatch.setattr(guard, "BOMB_MIN_BYTES", 1 << 40)
+    savemat(tmp_path / "w.mat", {"F": np.ones((300, 201)), "f": f, "x": x})
+
+    def no_data(path, variable_names=(), **k):
+        if "F" in variable_names:
+            raise AssertionError("data read before the shape check")
+        return loadmat(path, variable_names=variable_names, **k)
+
+    monkeypatch.setattr("scipy.io.loadmat", no_data)
+    with pytest.raises(InputError, match=r"has shape \(300, 201\); expected \(200, 300\)"):
+        convert(tmp_path / "w.mat", map="spectrum=F,frequency=f,x=x", transpose=True)

@@ -115,6 +115,16 @@ class _Sources:
 
         return _guarded(src.path, get)
 
+    def shape(self, key: str, name: str) -> tuple:
+        """The shape ``key``'s header declares (no data read)."""
+        from .sources import _guarded
+
+        src = self._find(key)
+        if src is None:
+            held = ", ".join(sorted(self.where)[:20]) or "nothing"
+            raise InputError(f"no {key!r} (for {name}) in {self._files()}; it holds: {held}")
+        return tuple(_guarded(src.path, lambda: src.header(key))[0])
+
     def _find(self, key):
         if key in self.where:
             return self.where[key]
@@ -290,15 +300,15 @@ def _fits(shape: tuple, core: tuple) -> bool:
 
 
 def _check_shape(
-    kind: str, key: str, v: np.ndarray, core: tuple, what: str, keymap: KeyMap, raw: tuple
+    kind: str, key: str, shape: tuple, core: tuple, what: str, keymap: KeyMap, raw: tuple
 ) -> None:
-    """``v`` (the data array as permuted) fits ``core`` or a stack of it;
-    else one line naming the expected shape and, where the file's array
-    ``raw`` (its shape) fits another order of its axes, the ``--axes`` that
+    """``shape`` (the data array's, as permuted) fits ``core`` or a stack of
+    it; else one line naming the expected shape and, where the file's array
+    (of shape ``raw``) fits another order of its axes, the ``--axes`` that
     gives it."""
     import itertools
 
-    if _fits(v.shape, core):
+    if _fits(tuple(shape), core):
         return
     hint = ""
     own = "f" if kind == "spectrum" else "r"
@@ -360,8 +370,6 @@ def convert(inputs, keymap: KeyMap) -> dict:
         ``--transpose`` where it would fit), a non-numeric or oversized
         array, an unreadable file.
     """
-    from .compress import _frequency_axis
-
     if isinstance(inputs, (str, os.PathLike)):
         inputs = [inputs]
     paths = [os.fspath(p) for p in inputs]
@@ -369,9 +377,19 @@ def convert(inputs, keymap: KeyMap) -> dict:
         raise InputError("no input given")
     srcs = _Sources(paths)
     try:
-        raw = {name: srcs.read(key, name) for name, key in keymap.pairs}
+        return _convert(srcs, keymap)
     finally:
         srcs.close()
+
+
+def _convert(srcs: _Sources, keymap: KeyMap) -> dict:
+    """:func:`convert` on open sources: the axes and scalars are read
+    first, and the data array's shape (from its header) is checked against
+    them before its data are."""
+    from .compress import _frequency_axis
+
+    kind = keymap.kind
+    raw = {name: srcs.read(key, name) for name, key in keymap.pairs if name != kind}
     keys = dict(keymap.pairs)
     out = {}
     flip = []  # axes given in decreasing order: reversed, with the data
@@ -389,9 +407,6 @@ def convert(inputs, keymap: KeyMap) -> dict:
     for name in _SCALARS:
         if name in raw:
             out[name] = _scalar(name, keys[name], raw[name]) * keymap.scale_f
-    kind = keymap.kind
-    shape_in = tuple(raw[kind].shape)
-    values = _data(kind, keys[kind], raw[kind], keymap)
     array = Array(out["x"], out.get("z"))
     if kind == "spectrum":
         freq = _frequency_axis(out["frequency"])
@@ -409,7 +424,11 @@ def convert(inputs, keymap: KeyMap) -> dict:
         Waveform(out["fc"], out["bandwidth"])
     axes = " x ".join(f"{a} {s}" for a, s in zip(("x", "z"), array.shape))
     core = array.shape + (n_axis,)
-    _check_shape(kind, keys[kind], values, core, f"{axes} x {what} {n_axis}", keymap, shape_in)
+    shape_in = srcs.shape(keys[kind], kind)
+    order = keymap.order(len(shape_in))
+    shape = shape_in if order is None else tuple(shape_in[i] for i in order)
+    _check_shape(kind, keys[kind], shape, core, f"{axes} x {what} {n_axis}", keymap, shape_in)
+    values = _data(kind, keys[kind], srcs.read(keys[kind], kind), keymap)
     lead = values.ndim - len(core)  # a stack's frame axis
     where = {"x": lead, "z": lead + 1, "frequency": values.ndim - 1, "range": values.ndim - 1}
     for name in flip:

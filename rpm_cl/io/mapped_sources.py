@@ -11,7 +11,7 @@ import os
 import numpy as np
 
 from .checks import InputError
-from .guard import h5_inside
+from .guard import check_declared, h5_chunks_bounded, h5_inside, h5_stored
 from .sources import read_npy_header
 
 #: Input extensions.
@@ -32,6 +32,21 @@ _MATLAB_NUMERIC = (
     "int64",
     "uint64",
 )
+
+
+#: Bytes a value of each numeric class takes at least (a complex one twice).
+_MATLAB_BYTES = {
+    "double": 8,
+    "single": 4,
+    "int8": 1,
+    "uint8": 1,
+    "int16": 2,
+    "uint16": 2,
+    "int32": 4,
+    "uint32": 4,
+    "int64": 8,
+    "uint64": 8,
+}
 
 
 def _h5py():
@@ -101,6 +116,11 @@ class _MatSource:
                 else ""
             )
             raise InputError(f"{key} is a MATLAB {cls}, not a numeric array{how}")
+        # a v5 variable may be deflated: what it declares against the whole
+        # file, before loadmat inflates it
+        check_declared(
+            key, int(np.prod(shape, dtype=object)) * _MATLAB_BYTES[cls], os.path.getsize(self.path)
+        )
         return shape, None
 
     def read(self, key):
@@ -169,6 +189,8 @@ class _H5Source:
         elif dt.kind not in "iufc":
             raise InputError(f"{key} is not a numeric array (dtype {dt})")
         shape = tuple(ds.shape)
+        check_declared(key, int(np.prod(shape, dtype=object)) * ds.dtype.itemsize, h5_stored(ds))
+        h5_chunks_bounded(ds, key)
         return (shape[::-1] if self.matlab else shape), dt
 
     def read(self, key):
