@@ -174,6 +174,14 @@ def test_kilohertz_numbers_warned_in_both_domains(tmp_path):
             load_data(path)
 
 
+def test_x_in_micrometres_is_blamed_on_x_not_on_the_carrier(tmp_path):
+    """A 5 um pitch at 20 GHz: the carrier is a radar's, so the positions
+    are named (a scale applied twice), not the frequencies."""
+    spec = _file(tmp_path, "f.npz", x=ARRAY.x * 1e-3)
+    with pytest.warns(DataWarning, match=r"is x in um, or scaled to m twice\? give x in m"):
+        load_data(spec)
+
+
 def test_x_in_millimetres_warned_in_both_domains(tmp_path, capsys):
     spec = _file(tmp_path, "f.npz", x=ARRAY.x * 1e3)
     td = _time_domain(tmp_path, x=simulate_preset("paper-2d")[0].array.x * 1e3)

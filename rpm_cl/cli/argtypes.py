@@ -140,4 +140,11 @@ def _band(text):
         raise argparse.ArgumentTypeError(
             f"band must be F0:F1 in Hz with 0 < F0 < F1 (e.g. 2e9:4e9), got {text!r}"
         )
+    from ..io.checks import FC_MIN, unit_hint
+
+    if f1 < FC_MIN:
+        raise argparse.ArgumentTypeError(
+            f"band {text} reaches only {f1:g} Hz, below {FC_MIN:g} Hz: it looks like "
+            f"{unit_hint(f1)}; give it in Hz (e.g. 2e9:4e9)"
+        )
     return f0, f1

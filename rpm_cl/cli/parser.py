@@ -29,7 +29,10 @@ from .parser_runs import add_batch, add_bench, add_demo, add_reproduce
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit 2 (argparse prints usage too)
-        raise CLIError(f"{self.prog}: {message}")
+        # "rpm-cl: error: " comes first: the top level's name once, a
+        # command's by its name ("convert: argument --band: ...")
+        cmd = self.prog.removeprefix("rpm-cl").strip()
+        raise CLIError(f"{cmd}: {message}" if cmd else message)
 
 
 def build(handlers: dict) -> argparse.ArgumentParser:

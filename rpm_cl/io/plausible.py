@@ -19,6 +19,11 @@ from .radar import BANDWIDTH_SPAN_WARN, RadarData, _bandwidth_line
 #: radar read as 20 MHz has a 15 m wavelength, 3000 of its 5 mm pitches).
 PITCH_MAX_WAVELENGTHS = 20.0
 PITCH_MIN_PER_WAVELENGTH = 300.0
+#: A pitch below 1 / PITCH_MIN_PER_WAVELENGTH of the wavelength is blamed on
+#: the positions (um, or a scale applied twice) where the carrier is at
+#: least this (GPR antennas start near 100 MHz): a carrier read in kHz
+#: numbers would lie below it.
+PITCH_CARRIER_TRUSTED = 1e8
 #: An echo's range profile is as wide as the range resolution c / 2B: its
 #: autocorrelation falls to half within about 0.6 of it (less for a rect
 #: window).  Profiles correlated over more than ECHO_WIDTH_MAX resolutions
@@ -54,10 +59,15 @@ def check_plausible(data: RadarData) -> None:
             stacklevel=3,
         )
     elif pitch < lam / PITCH_MIN_PER_WAVELENGTH:
+        # a carrier in the radar bands is more likely right than the pitch
+        cause = (
+            f"is {where} in um, or scaled to m twice? give {where} in m"
+            if data.waveform.fc >= PITCH_CARRIER_TRUSTED
+            else "are the frequencies in kHz numbers? give them in Hz (x 1e3)"
+        )
         warnings.warn(
             f"the antenna pitch {pitch:g} m is 1/{lam / pitch:.0f} of the wavelength "
-            f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): are the frequencies in "
-            f"kHz numbers? give them in Hz (x 1e3)",
+            f"({lam:.3g} m at fc = {data.waveform.fc:g} Hz): {cause}",
             DataWarning,
             stacklevel=3,
         )
