@@ -112,6 +112,12 @@ VARIANTS = {
         ("coupling 3 falling 6 dB, 30 dB", 3.0, 0.2, 30.0, 6.0),
     ],
     "coupling": [("coupling 3 falling 6 dB, 30 dB", 3.0, 0.2, 30.0, 6.0)],
+    "clean": [
+        ("sample alone, noise-free", 0.0, 0.0, None, 0.0),
+        ("sample alone, 60 dB", 0.0, 0.0, 60.0, 0.0),
+        ("coupling 3 + repeat 0.2, 60 dB", 3.0, 0.2, 60.0, 0.0),
+        ("coupling 3 + repeat 0.2, noise-free", 3.0, 0.2, None, 0.0),
+    ],
 }
 
 

@@ -48,6 +48,12 @@
    359 of its 782 points more than 50 mm off; at 64 x 64 five such clusters).
    A target's dechirped peak lies where its spread was centred (the k of the
    array's centre), so the alignment's aliases are unchanged.
+   Where the data carry their samples (a compressed spectrum, whose window
+   is known), a centre must also stand LEAK_MARGIN times above the range
+   sidelobes that the map's stronger gates put at its gate at its own k
+   (:func:`rpm_cl.extract.kspace_detect.above_leakage`): with the noise far
+   below them, a plain regime's threshold took a flat plate's sidelobes
+   for echoes.
    Skips: a centre must also exceed the noise floor (``noise_pfa``: the
    level pure noise reaches anywhere in the map with that probability, from
    a known or estimated noise power, :func:`noise_floor`), and range gates
@@ -157,6 +163,7 @@ from .kspace_detect import (
     _regimes,
     _runs,
     _taper,
+    above_leakage,
     coherent_centres,
     wants_coherent_centres,
 )
@@ -463,7 +470,7 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
         # the untapered one is formed: only one map over the searched gates
         # is held at a time (0.28 GB each for 187 x 144 antennas at pad 4 over
         # 81 gates)
-        idx = _centres_of(det, det0, runs, size, n_k, threshold, nr)
+        idx = above_leakage(_centres_of(det, det0, runs, size, n_k, threshold, nr), det, det0, data)
         del det
     # aligned clusters are cut from the shifted profiles, not from S(k, R):
     # then only its magnitude is kept (a 128 x 128 array's complex map is
@@ -471,6 +478,7 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
     spec, mag, span = _spectra(data, params, need, dechirp, not _align_on(data, params))
     if not params.detect_taper:
         idx = _centres_of(mag, span.start, runs, size, n_k, threshold, nr)
+        idx = above_leakage(idx, mag, span.start, data)
     if wants_coherent_centres(data, params):
         rel = 10.0 ** (params.peak_threshold_db / 20.0)
         extra = coherent_centres(data, idx, runs, k_axes[0], rel, periods[0], gate)
