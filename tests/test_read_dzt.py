@@ -140,6 +140,8 @@ def _with(path, offset, fmt, value, data=None):
         (2, "<H", 100, "beyond the file"),
         (26, "<f", 0.0, "time window must be > 0"),
         (14, "<f", -1.0, "scans per metre must be >= 0"),
+        (14, "<f", 1e-30, r"1e-30 scans per metre .* is no survey's: give the scan spacing"),
+        (14, "<f", 1e30, r"1e\+30 scans per metre .* is no survey's"),
         (4, "<H", 60000, "0 scans of"),
     ],
 )

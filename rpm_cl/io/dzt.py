@@ -113,6 +113,11 @@ _FIELDS = struct.Struct("<HHHHHfffff")  # offsets 0 .. 30
 _NCHAN = struct.Struct("<Hf")  # offsets 52, 54
 
 
+#: Scans per metre a header may give without ``--dx``: a trace every 100 m
+#: to one every 10 um (a corrupt or unset field reads as 1e-30 or 1e30).
+SPM_MIN, SPM_MAX = 0.01, 1e5
+
+
 @dataclass(frozen=True)
 class DztHeader:
     """The fields of a DZT header the conversion uses.
@@ -394,6 +399,12 @@ def convert(
         if hdr.scans_per_metre == 0:
             raise InputError(
                 f"{path}: a time-triggered survey (0 scans per metre): give the "
+                f"scan spacing (--dx M)"
+            )
+        if not SPM_MIN <= hdr.scans_per_metre <= SPM_MAX:
+            raise InputError(
+                f"{path}: the header's {hdr.scans_per_metre:g} scans per metre (a "
+                f"{1.0 / hdr.scans_per_metre:.3g} m trace spacing) is no survey's: give the "
                 f"scan spacing (--dx M)"
             )
         dx = 1.0 / hdr.scans_per_metre
