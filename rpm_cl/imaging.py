@@ -127,8 +127,8 @@ def run_method(name: str, data: RadarData, params: ImagingParams, engine) -> Ima
         ``kspace-rpm`` and ``phase-rpm`` (the k-space decomposition's
         methods) on data whose range sidelobes
         (``data.range_sidelobe_db``, known for a compressed spectrum) reach
-        above the k-space peak threshold: each strong echo's sidelobes would
-        become clusters of spurious points.
+        above the k-space peak threshold: the decomposition drops the
+        sidelobes' centres, and with them any weaker echo at their direction.
 
     Notes
     -----
@@ -229,11 +229,12 @@ SIDELOBE_WINDOWS = (("hann", -31.5), ("hamming", -42.6), ("blackman", -58.2))
 def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
     """Warn when the range sidelobes reach above the k-space peak threshold.
 
-    The fix named is a window with lower sidelobes, below the threshold
-    (measured on the data's own frequency samples where it has them): a
-    threshold raised above them removes the sidelobes' clusters too, but
-    with them every target weaker than the sidelobes of the strongest.
-    Where no window's lie below it, the threshold is what to change."""
+    The decomposition drops centres that the stronger echoes' sidelobes at
+    their k explain (:func:`rpm_cl.extract.kspace_detect.above_leakage`),
+    and with them any weaker echo there: the fix named is a window with
+    lower sidelobes, below the threshold (measured on the data's own
+    frequency samples where it has them).  Where no window's lie below it,
+    the threshold is what to change."""
     import warnings
 
     from .io.data import DataWarning
@@ -264,8 +265,8 @@ def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
         )
     warnings.warn(
         f"the range compression's sidelobes reach {sl:.1f} dB, above the k-space "
-        f"peak threshold {threshold_db:g} dB: each strong echo's sidelobes become "
-        f"clusters of spurious points; {fix}",
+        f"peak threshold {threshold_db:g} dB: echoes weaker than a stronger one's "
+        f"sidelobes at their direction are dropped with those sidelobes; {fix}",
         DataWarning,
         stacklevel=3,
     )

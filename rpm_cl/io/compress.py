@@ -255,6 +255,12 @@ def range_compress(spectrum, frequency, fc: float, window: str = "hann"):
     return s.astype(out_dtype, copy=False), rng
 
 
+#: A spectrum's bandwidth may exceed the band its samples span (n_f df) by
+#: this factor at most (rounding of a nominal width): beyond, it promises a
+#: range resolution the samples do not hold, and the derived widths follow it.
+BANDWIDTH_OVER_SAMPLED = 1.01
+
+
 def _compress_checked(values, freq, fc, bw, window, array):
     y = np.asarray(values)
     want = array.shape + (freq.size,)
@@ -282,6 +288,13 @@ def _compress_checked(values, freq, fc, bw, window, array):
     import warnings
 
     band = float(freq[-1] - freq[0])
+    sampled = band + float(freq[1] - freq[0])  # nf df: what the samples span
+    if waveform.bandwidth > BANDWIDTH_OVER_SAMPLED * sampled:
+        raise InputError(
+            f"bandwidth = {waveform.bandwidth:g} Hz is wider than the {sampled:g} Hz the "
+            f"frequency samples span: the range resolution cannot beat theirs; give the "
+            f"bandwidth of the band sampled (or leave it out: the window's, by default)"
+        )
     for ratio in (BANDWIDTH_SPAN_MAX, BANDWIDTH_SPAN_WARN):  # as RadarData's span test
         if waveform.bandwidth * ratio < band:
             line = (
