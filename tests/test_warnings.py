@@ -15,7 +15,7 @@ import pytest
 
 from rpm_cl.cli import main
 from rpm_cl.imaging import run_method
-from rpm_cl.io.data import C0, Array, DataWarning
+from rpm_cl.io.data import C0, Array, DataWarning, InputError
 from rpm_cl.io.formats import (
     RANGE_WINDOWS,
     load_data,
@@ -266,3 +266,10 @@ def test_echo_near_the_unambiguous_range_warned(tmp_path):
     ):
         load_data(spec)
     _silent(load_data, _file(tmp_path, "near.npz"))
+
+
+def test_a_bandwidth_wider_than_the_samples_span_is_refused(tmp_path):
+    span = FREQ[-1] - FREQ[0] + (FREQ[1] - FREQ[0])
+    _silent(load_data, _file(tmp_path, "ok.npz", bandwidth=np.float64(span)))
+    with pytest.raises(InputError, match="wider than the .* Hz the frequency samples span"):
+        load_data(_file(tmp_path, "wide.npz", bandwidth=np.float64(3 * span)))
