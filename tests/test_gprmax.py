@@ -136,6 +136,30 @@ def test_per_trace_files_give_the_merged_result(tmp_path, wide):
     assert "truth_boundary" not in got  # no sidecar: no truth
 
 
+def test_a_background_scanned_the_other_way_is_matched_by_position(tmp_path, wide):
+    """The merged scan's traces run along +x; the background's files are
+    read in the opposite order: its traces are put in the scan's order by
+    their positions before they are subtracted."""
+    bg = _split(BACKGROUND, tmp_path / "b", order=list(range(40, -1, -1)), stem="bg")
+    merged = G.read_bscan(bg)
+    assert merged.x[0] > merged.x[-1]  # the other way
+    got = G.convert(TARGETS, bg, (1.5e9, 5e9), waveform=RICKER)
+    np.testing.assert_allclose(got["spectrum"], wide["spectrum"], rtol=1e-12, atol=0)
+
+
+def test_per_trace_files_given_twice_or_without_a_position_are_named(tmp_path):
+    tr = _split(TARGETS, tmp_path / "t", order=[0, 1, 2, 3])
+    with pytest.raises(
+        InputError, match=r"trace2.h5 and .*trace2.h5 hold traces at the same antenna"
+    ):
+        G.read_bscan(tr + [tr[1]])
+    bare = _split(TARGETS, tmp_path / "n", order=[4], stem="nopos")[0]
+    with h5py.File(bare, "r+") as f:
+        del f["rxs/rx1"].attrs["Position"]
+    with pytest.raises(InputError, match=r"nopos5.h5 holds no receiver position while .*trace1.h5"):
+        G.read_bscan(tr + [bare])
+
+
 def test_x_is_the_transmitter_receiver_midpoint(tmp_path, scans):
     tr = _split(TARGETS, tmp_path / "t", tx_dx=0.002)  # one cell apart
     np.testing.assert_allclose(G.read_bscan(tr).x, scans[0].x + 0.001, atol=1e-12)

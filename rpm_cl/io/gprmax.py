@@ -80,7 +80,7 @@ from .gprmax_h5 import (
     _open_h5,
     _position,
 )
-from .gprmax_scan import POSITION_TOL, BScan, _midpoints  # noqa: F401 - importable from here
+from .gprmax_scan import POSITION_TOL, BScan, _midpoints
 from .gprmax_sidecar import MAX_SIDECAR, Sidecar, read_sidecar  # noqa: F401 - importable from here
 from .gprmax_spectrum import (  # noqa: F401 - importable from here
     MAX_FREQUENCIES,
@@ -218,9 +218,24 @@ def _read_traces(paths: list, rx: int) -> BScan:
         rxs.append(rx_pos)
         txs.append(tx_pos)
         cols.append(col)
-    pos_rx = None if any(p is None for p in rxs) else np.stack(rxs)
+    missing = [p for p, pos in zip(paths, rxs) if pos is None]
+    if missing and len(missing) < len(paths):
+        having = next(p for p, pos in zip(paths, rxs) if pos is not None)
+        raise InputError(
+            f"{missing[0]} holds no receiver position while {having} does: a file of another run?"
+        )
+    pos_rx = None if missing else np.stack(rxs)
     pos_tx = None if any(p is None for p in txs) else np.stack(txs)
     x, y = _midpoints(paths[0], pos_rx, pos_tx)
+    if x is not None:
+        same = np.flatnonzero(np.abs(x[:, None] - x[None, :]) <= POSITION_TOL)
+        pairs = [(a, b) for a, b in zip(*np.divmod(same, len(x))) if a < b]
+        if pairs:
+            a, b = pairs[0]
+            raise InputError(
+                f"{paths[a]} and {paths[b]} hold traces at the same antenna position "
+                f"(x = {x[a]:g} m): a file given twice?"
+            )
     src = f"{paths[0]} (+{len(paths) - 1} files)"
     return BScan(np.stack(cols, axis=1), ref[1], ref[2], x, y, src, wave)
 

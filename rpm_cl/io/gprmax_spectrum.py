@@ -78,6 +78,22 @@ def _band(band, scan: BScan, df) -> np.ndarray:
     return f0 + df * np.arange(nf)
 
 
+def _in_scan_order(scan: BScan, bg: BScan) -> BScan:
+    """``bg`` with its traces in the order of ``scan``'s positions, where both
+    hold the same positions in another order (a background scanned the
+    other way); else ``bg`` as it is (:func:`_matching` judges it)."""
+    from dataclasses import replace
+
+    if scan.x is None or bg.x is None or scan.x.shape != bg.x.shape:
+        return bg
+    a, b = np.argsort(scan.x, kind="stable"), np.argsort(bg.x, kind="stable")
+    if np.max(np.abs(scan.x[a] - bg.x[b])) > POSITION_TOL or np.array_equal(a, b):
+        return bg
+    order = np.empty_like(a)
+    order[a] = b  # scan trace a[i] <- background trace b[i]
+    return replace(bg, traces=bg.traces[:, order], x=bg.x[order])
+
+
 def _matching(scan: BScan, bg: BScan) -> None:
     why = None
     if scan.traces.shape != bg.traces.shape:
@@ -139,6 +155,7 @@ def to_spectrum(
         below -60 dB of its peak somewhere in the band.
     """
     if background is not None:
+        background = _in_scan_order(scan, background)
         _matching(scan, background)
     x, y = scan.x, scan.y
     if scan_x is not None:
