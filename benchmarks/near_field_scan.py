@@ -26,10 +26,14 @@ samples' coupling was removed) and its time.
 in the samples; phase-rpm then drops its RPs' points) and ``multipath =
 "flag"`` (the repeat's points kept, flagged, scored and counted).
 
+``--variants clean``: the sample noise-free and at 60 dB, alone and with
+the coupling and the repeat (a scanner's S/N can be that high, where the
+range sidelobes of the surface's echo stand far above the noise).
+
 ``--write F``: write each variant's scan to the spectrum file F (the last
 one written stays), to time a whole ``rpm-cl image`` run on it instead.
 
-    python benchmarks/near_field_scan.py [--size 60x48] [--variants default|coupling]
+    python benchmarks/near_field_scan.py [--size 60x48] [--variants default|coupling|clean]
         [--plain] [--write F.npz]
 """
 
