@@ -226,6 +226,50 @@ def _warn_empty(data: RadarData, params: ImagingParams) -> None:
 SIDELOBE_WINDOWS = (("hann", -31.5), ("hamming", -42.6), ("blackman", -58.2))
 
 
+#: Range profiles (no samples) whose echoes' symmetric sidelobes are
+#: measured: the strongest antennas' (at least half the strongest peak), at
+#: most this many.
+SIDELOBE_ANTENNAS = 64
+#: ... over this many range resolutions either side of each peak.
+SIDELOBE_REACH = 6.0
+
+
+def profile_sidelobe_db(data: RadarData) -> float | None:
+    """The range sidelobe level of range profiles given without their
+    samples, measured on the data, dB (None where no echo stands clear).
+
+    About the peak of each of the strongest antennas' profiles, the level
+    at each offset is the lesser of the two sides (a window's sidelobes lie
+    on both sides of an echo, another echo on one); the median over the
+    antennas, beyond its first minimum (the main lobe's edge) and within
+    :data:`SIDELOBE_REACH` resolutions, gives the level.  Two other echoes
+    equally far before and behind a stronger one at most antennas would
+    read as a sidelobe.
+    """
+    mag = np.abs(data.signal.reshape(-1, data.range.size))
+    peak = mag.max(axis=1)
+    if not np.any(peak > 0):
+        return None
+    strong = np.flatnonzero(peak >= 0.5 * peak.max())
+    strong = strong[np.argsort(-peak[strong], kind="stable")][:SIDELOBE_ANTENNAS]
+    reach = int(np.ceil(SIDELOBE_REACH * data.waveform.range_resolution / data.dr))
+    m = np.arange(1, reach + 1)
+    rows = []
+    for a in strong:
+        p = int(np.argmax(mag[a]))
+        if p - reach < 0 or p + reach >= data.range.size:
+            continue
+        rows.append(np.minimum(mag[a, p - m], mag[a, p + m]) / mag[a, p])
+    if not rows:
+        return None
+    sym = np.median(np.asarray(rows), axis=0)
+    rising = np.flatnonzero(np.diff(sym) > 0)
+    if not rising.size:
+        return None
+    side = sym[rising[0] + 1 :].max()
+    return float(20 * np.log10(side)) if side > 0 else None
+
+
 def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
     """Warn when the range sidelobes reach above the k-space peak threshold.
 
@@ -240,6 +284,19 @@ def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
     from .io.data import DataWarning
 
     sl = data.range_sidelobe_db
+    if sl is None and data.spectrum is None:
+        sl = profile_sidelobe_db(data)
+        if sl is not None and threshold_db < sl:
+            warnings.warn(
+                f"the range profiles' sidelobes reach {sl:.1f} dB about their echoes, above "
+                f"the k-space peak threshold {threshold_db:g} dB (profiles compressed "
+                f"without a window?): each strong echo's sidelobes may become clusters of "
+                f"spurious points; compress them with a window (hann: -31.5 dB), or give "
+                f"the frequency samples (spectrum, frequency) and --range-window",
+                DataWarning,
+                stacklevel=3,
+            )
+        return
     if sl is None or threshold_db >= sl:
         return
     levels = dict(SIDELOBE_WINDOWS)

@@ -273,3 +273,24 @@ def test_a_bandwidth_wider_than_the_samples_span_is_refused(tmp_path):
     _silent(load_data, _file(tmp_path, "ok.npz", bandwidth=np.float64(span)))
     with pytest.raises(InputError, match="wider than the .* Hz the frequency samples span"):
         load_data(_file(tmp_path, "wide.npz", bandwidth=np.float64(3 * span)))
+
+
+@pytest.mark.parametrize("window, warned", [("rect", True), ("hann", False)])
+def test_profiles_compressed_without_a_window_are_warned(tmp_path, window, warned):
+    """Range profiles given without their samples: the sidelobes are
+    measured about each echo (-13.3 dB for a plain inverse FFT, -31.5 for
+    Hann), against the k-space peak threshold (-20 dB)."""
+    from rpm_cl.imaging import profile_sidelobe_db
+    from rpm_cl.io.formats import range_compress
+
+    sig, rng = range_compress(_spectrum(), FREQ, 20e9, window)
+    path = tmp_path / f"{window}.npz"
+    np.savez(path, signal=sig, range=rng, x=ARRAY.x, fc=np.float64(20e9), bandwidth=np.float64(3e9))
+    data = load_data(path)
+    level = profile_sidelobe_db(data)
+    assert level == pytest.approx(-13.3 if window == "rect" else -31.5, abs=1.5)
+    if warned:
+        with pytest.warns(DataWarning, match=r"profiles' sidelobes reach -1\d\.\d dB .* window"):
+            _image(data)
+    else:
+        _silent(_image, data)
