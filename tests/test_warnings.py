@@ -294,3 +294,14 @@ def test_profiles_compressed_without_a_window_are_warned(tmp_path, window, warne
             _image(data)
     else:
         _silent(_image, data)
+
+
+def test_true_range_points_without_a_boundary_are_said_to_be_unscored(tmp_path):
+    rp = {"truth_rp_antenna": np.arange(3), "truth_rp_range": np.full(3, 0.6)}
+    with pytest.warns(
+        DataWarning, match="truth_rp_antenna and truth_rp_range without truth_boundary"
+    ):
+        data = load_data(_file(tmp_path, "t.npz", **rp))
+    assert data.truth is None
+    bound = {**rp, "truth_boundary": np.array([[0.05, 0.6]])}
+    assert _silent(load_data, _file(tmp_path, "b.npz", **bound)).truth is not None

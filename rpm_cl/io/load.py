@@ -158,6 +158,18 @@ def _preflight(src, key: str, n_axes: int, with_truth: bool, max_memory) -> None
 
 def _truth(src):
     if "truth_boundary" not in src:
+        given = [k for k in ("truth_rp_antenna", "truth_rp_range") if k in src]
+        if given:
+            import warnings
+
+            from .checks import DataWarning
+
+            warnings.warn(
+                f"{' and '.join(given)} without truth_boundary: not scored (the truth is "
+                f"read with truth_boundary, the targets' boundary samples; give it too)",
+                DataWarning,
+                stacklevel=5,
+            )
         return None
     scene = src.text("truth_scene") if "truth_scene" in src else "{}"
     # the true RPs are optional (a surveyed boundary alone scores Err_RPM)
