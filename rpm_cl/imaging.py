@@ -232,6 +232,12 @@ SIDELOBE_WINDOWS = (("hann", -31.5), ("hamming", -42.6), ("blackman", -58.2))
 SIDELOBE_ANTENNAS = 64
 #: ... over this many range resolutions either side of each peak.
 SIDELOBE_REACH = 6.0
+#: ... where they stand this many times above the profile's median (its
+#: noise, where echoes fill few of its gates).
+SIDELOBE_OVER_NOISE = 4.0
+#: The main lobe of an echo's profile ends where it first falls under this
+#: share of its peak (-26 dB).
+SIDELOBE_LOBE_EDGE = 0.05
 
 
 def profile_sidelobe_db(data: RadarData) -> float | None:
@@ -241,8 +247,10 @@ def profile_sidelobe_db(data: RadarData) -> float | None:
     About the peak of each of the strongest antennas' profiles, the level
     at each offset is the lesser of the two sides (a window's sidelobes lie
     on both sides of an echo, another echo on one); the median over the
-    antennas, beyond its first minimum (the main lobe's edge) and within
-    :data:`SIDELOBE_REACH` resolutions, gives the level.  Two other echoes
+    antennas, beyond the main lobe's edge (:data:`SIDELOBE_LOBE_EDGE`) and within
+    :data:`SIDELOBE_REACH` resolutions, gives the level; offsets at which
+    a profile stands less than :data:`SIDELOBE_OVER_NOISE` times above its
+    median (the noise, symmetric too) count as no sidelobe.  Two other echoes
     equally far before and behind a stronger one at most antennas would
     read as a sidelobe.
     """
@@ -259,14 +267,24 @@ def profile_sidelobe_db(data: RadarData) -> float | None:
         p = int(np.argmax(mag[a]))
         if p - reach < 0 or p + reach >= data.range.size:
             continue
-        rows.append(np.minimum(mag[a, p - m], mag[a, p + m]) / mag[a, p])
+        side = np.minimum(mag[a, p - m], mag[a, p + m])
+        # the noise is symmetric about an echo too: only what stands
+        # SIDELOBE_OVER_NOISE above the profile's median counts
+        side = np.where(side > SIDELOBE_OVER_NOISE * np.median(mag[a]), side, 0.0)
+        rows.append(side / mag[a, p])
     if not rows:
         return None
     sym = np.median(np.asarray(rows), axis=0)
-    rising = np.flatnonzero(np.diff(sym) > 0)
-    if not rising.size:
+    # the main lobe ends at the first null after it falls under
+    # SIDELOBE_LOBE_EDGE of the peak (noise ripples the slope above that, so
+    # the first local minimum will not do)
+    below = np.flatnonzero(sym < SIDELOBE_LOBE_EDGE)
+    if not below.size:
         return None
-    side = sym[rising[0] + 1 :].max()
+    j = int(below[0])
+    while j + 1 < sym.size and sym[j + 1] <= sym[j]:  # on down to the null
+        j += 1
+    side = sym[j:].max()
     return float(20 * np.log10(side)) if side > 0 else None
 
 
@@ -320,10 +338,15 @@ def _check_sidelobes(data: RadarData, threshold_db: float) -> None:
             f"no window's sidelobes lie below it (blackman {levels['blackman']:.1f} dB): "
             f"raise --peak-threshold-db above {sl:.1f}"
         )
+    cost = (
+        "echoes weaker than a stronger one's sidelobes at their direction are dropped "
+        "with those sidelobes"
+        if data.compression is not None
+        else "each strong echo's sidelobes may become clusters of spurious points"
+    )
     warnings.warn(
         f"the range compression's sidelobes reach {sl:.1f} dB, above the k-space "
-        f"peak threshold {threshold_db:g} dB: echoes weaker than a stronger one's "
-        f"sidelobes at their direction are dropped with those sidelobes; {fix}",
+        f"peak threshold {threshold_db:g} dB: {cost}; {fix}",
         DataWarning,
         stacklevel=3,
     )

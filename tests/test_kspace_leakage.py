@@ -62,7 +62,7 @@ def test_the_bound_is_the_leakage_at_the_centres_own_k():
     gate is kept, and one at its k far beyond the sidelobes' reach too."""
     freq = np.linspace(23e9, 25e9, 161)
     data = spectrum_data(np.ones((3, freq.size), complex), freq, Array(X[:3]))
-    env, _ = sidelobe_envelope(data)
+    env = sidelobe_envelope(data)
     off = int(np.argmax(env))  # the first sidelobe's offset, gates
     det = np.zeros((64, data.range.size))
     det[10, 100] = 1.0
@@ -73,16 +73,17 @@ def test_the_bound_is_the_leakage_at_the_centres_own_k():
     idx = np.array([[10, 100], [10, 100 + off], [30, 100 + off], [10, far]])
     kept = above_leakage(idx, det, 0, data)
     assert [tuple(c) for c in kept] == [(10, 100), (30, 100 + off), (10, far)]
-    # range profiles without their samples: the window is unknown, all kept
-    td = replace(data, spectrum=None)
+    # profiles of no known compression (given without their samples, or
+    # after a gain): all kept
+    td = replace(data, spectrum=None, compression=None)
     assert len(above_leakage(idx, det, 0, td)) == 4
 
 
 def test_the_sidelobe_envelope_of_a_hann_compression():
     freq = np.linspace(23e9, 25e9, 161)
     data = spectrum_data(np.ones((3, freq.size), complex), freq, Array(X[:3]))
-    env, whole = sidelobe_envelope(data)
-    assert whole  # the whole periodic axis: offsets wrap round it
+    env = sidelobe_envelope(data)
+    assert env.size == data.compression.gates // 2 + 1  # offsets round the axis
     db = 20 * np.log10(env[env > 0])
     # Hann's first sidelobe is -31.5 dB; the envelope only falls from it
     assert db.max() == pytest.approx(-31.5, abs=0.5)
@@ -91,3 +92,37 @@ def test_the_sidelobe_envelope_of_a_hann_compression():
     null = np.flatnonzero(env > 0)[0] * data.dr
     assert null == pytest.approx(2 * C0 / (2 * 2e9), rel=0.05)
     assert LEAK_MARGIN >= 1
+
+
+@pytest.mark.parametrize("nf", [100, 101])  # an even and an odd compressed axis (1600, 1617)
+def test_offsets_wrap_round_the_compressed_axis(nf):
+    """A candidate on the far side of the axis's wrap is as far from the
+    echo as one on the near side at the same offset."""
+    freq = np.linspace(23e9, 25e9, nf)
+    data = spectrum_data(np.ones((3, nf), complex), freq, Array(X[:3]))
+    n = data.compression.gates
+    env = sidelobe_envelope(data)
+    off = int(np.argmax(env))
+    det = np.zeros((8, n))
+    det[2, 5] = 1.0
+    det[2, 5 + off] = det[2, (5 - off) % n] = 1.5 * env[off]  # explained by the echo
+    idx = np.array([[2, 5], [2, 5 + off], [2, (5 - off) % n]])
+    assert [tuple(c) for c in above_leakage(idx, det, 0, data)] == [(2, 5)]
+
+
+@pytest.mark.parametrize("steps", [{"background": "mean"}, {"time_zero": 0.05}])
+def test_the_bound_holds_after_a_background_or_a_time_zero(steps):
+    """A background or a cut of the axis leaves each echo the window's
+    response (the frequency samples are dropped, the compression is kept):
+    the plate images without its sidelobes still."""
+    from rpm_cl.extract.preprocess import preprocess
+
+    freq = np.linspace(22e9, 26e9, 201)
+    data = spectrum_data(_spectrum(freq, _facets(-0.05, 0.05, 0.40)), freq, Array(X))
+    pre = preprocess(data, **steps)
+    assert pre.spectrum is None and pre.compression == data.compression
+    assert preprocess(data, gain_db_per_m=6.0).compression is None
+    pts = run_method("phase-rpm", data, default_params(data, **steps), reference).image.points
+    assert len(pts) >= 20
+    y0 = 0.40 - steps.get("time_zero", 0.0)
+    assert np.all(np.abs(pts[:, 1] - y0) < 0.01)

@@ -158,29 +158,27 @@ def _ranked_centres(found, size, n_k: int, threshold, nr: int) -> np.ndarray:
 LEAK_MARGIN = 2.0
 
 
-def sidelobe_envelope(data: RadarData) -> tuple[np.ndarray, bool] | None:
+def sidelobe_envelope(data: RadarData) -> np.ndarray | None:
     """The range sidelobes of the data's compression, as a bound by gate
     offset: ``env[m]`` is the largest response of a unit echo at ``m`` gates
-    or more away (0 within the main lobe, out to its first null), for
-    ``m = 0 .. N // 2`` on the compressed axis of ``N`` gates; and whether
-    the data's axis is that whole periodic axis (offsets wrap round it).
-    None for range profiles without their samples (the window is unknown).
+    or more away round the compressed axis's ``N`` gates (0 within the main
+    lobe, out to its first null), ``m = 0 .. N // 2``.  None where the
+    profiles are no compression's of known window (range profiles given
+    without their samples, or after a gain: ``RadarData.compression``).
     """
-    from ..io.compress import range_compress
+    from ..io.compress import _window
 
-    spec = data.spectrum
-    if spec is None:
+    comp = data.compression
+    if comp is None:
         return None
-    f = np.asarray(spec.frequency, np.float64)
-    resp = np.abs(range_compress(np.ones((1, f.size)), f, float(f[0]), spec.window)[0][0])
-    n = resp.size
-    half = resp[: n // 2 + 1]
+    w = _window(comp.window, comp.samples)
+    resp = np.abs(np.fft.ifft(w / w.sum(), n=comp.gates)) * comp.gates
+    half = resp[: comp.gates // 2 + 1]
     rising = np.flatnonzero(np.diff(half) > 0)
     null = int(rising[0]) if rising.size else half.size  # the main lobe's first null
     env = np.maximum.accumulate(half[::-1])[::-1]  # the largest at this offset or beyond
     env[:null] = 0.0
-    whole = data.range.size == n and abs(float(data.range[0])) < 0.5 * data.dr
-    return env, whole
+    return env
 
 
 def above_leakage(idx: np.ndarray, det: np.ndarray, det0: int, data: RadarData) -> np.ndarray:
@@ -195,25 +193,22 @@ def above_leakage(idx: np.ndarray, det: np.ndarray, det0: int, data: RadarData) 
     threshold (``REGIME_GAIN_DB`` below the strongest) took those sidelobes
     for centres, at the first sidelobe or wrapped to the end of the axis.
     The bound at a centre's gate is the largest over the map's gates at its
-    k of ``|S(k, R')|`` times the sidelobe envelope at the offset
-    (:func:`sidelobe_envelope`; round the axis where it is whole).  Range
-    profiles without their samples keep every centre.
+    k of ``|S(k, R')|`` times the sidelobe envelope at the offset round the
+    compressed axis (:func:`sidelobe_envelope`).  Profiles of no known
+    compression keep every centre.
     """
     idx = np.asarray(idx, np.intp)
-    bound = sidelobe_envelope(data) if idx.size else None
-    if bound is None:
+    env = sidelobe_envelope(data) if idx.size else None
+    if env is None:
         return idx
-    env, whole = bound
-    n = det.shape[-1]
-    gates = det0 + np.arange(n)
-    period = 2 * (env.size - 1) if whole else None
+    period = data.compression.gates  # the compressed axis, whatever part is kept
+    gates = det0 + np.arange(det.shape[-1])
     keep = np.ones(len(idx), bool)
     for i, c in enumerate(idx):
         row = det[tuple(c[:-1])]
-        d = np.abs(gates - c[-1])
-        if period is not None:
-            d = np.minimum(d, period - d)
-        leak = np.where(d < env.size, env[np.minimum(d, env.size - 1)], 0.0) * row
+        d = np.abs(gates - c[-1]) % period
+        d = np.minimum(d, period - d)
+        leak = env[np.minimum(d, env.size - 1)] * row
         keep[i] = row[c[-1] - det0] > LEAK_MARGIN * float(leak.max())
     return idx[keep]
 

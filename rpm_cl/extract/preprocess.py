@@ -395,6 +395,9 @@ def preprocess(
         range=rng,
         truth=shift_truth(data.truth, time_zero),
         spectrum=data.spectrum if keep_spectrum else None,
+        # a background or a cut leaves each echo the window's response; a
+        # gain reshapes it along the range
+        compression=None if gain_db_per_m else data.compression,
     )
 
 

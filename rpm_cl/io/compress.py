@@ -26,6 +26,7 @@ from .radar import (
     BANDWIDTH_SPAN_MAX,
     BANDWIDTH_SPAN_WARN,
     RANGE_WINDOWS,
+    Compression,
     RadarData,
     Spectrum,
     profile_power,
@@ -340,4 +341,5 @@ def spectrum_data(values, freq, array, fc=None, bw=None, window="hann", truth=No
         truth,
         range_sidelobe_db(freq, window, waveform.bandwidth),
         Spectrum(values, freq, window),
+        Compression(window, freq.size, rng.size),
     )

@@ -212,6 +212,7 @@ def paraxial_data(data: RadarData, medium: Medium) -> RadarData:
         range=data.range * scale + offset,
         waveform=Waveform(w.fc / scale, w.bandwidth / scale),
         spectrum=None,  # the paraxial scene is no scaling of the samples
+        compression=None,  # ... and its profiles are resampled
     )
 
 

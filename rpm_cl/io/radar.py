@@ -63,6 +63,33 @@ RANGE_WINDOWS = {
 
 
 @dataclass(frozen=True)
+class Compression:
+    """How a :class:`RadarData`'s profiles were compressed from frequency
+    samples (:func:`rpm_cl.io.compress.range_compress`): the window over
+    ``samples`` frequencies, inverse-transformed onto ``gates`` range gates
+    (the periodic axis of the unambiguous range).  An echo's profile is the
+    window's response about it, whatever was done since to the profiles
+    but a gain (a background, a cut of the axis, a medium's scaling of the
+    ranges): the k-space search bounds its range sidelobes by it
+    (:func:`rpm_cl.extract.kspace_detect.sidelobe_envelope`)."""
+
+    window: str
+    samples: int
+    gates: int
+
+    def __post_init__(self):
+        if self.window not in RANGE_WINDOWS:
+            raise InputError(
+                f"unknown range window {self.window!r}; choose from {', '.join(RANGE_WINDOWS)}"
+            )
+        if not 2 <= int(self.samples) <= int(self.gates):
+            raise InputError(
+                f"a compression of {self.samples} samples onto {self.gates} gates: the "
+                f"samples must be 2 or more and no more than the gates"
+            )
+
+
+@dataclass(frozen=True)
 class Spectrum:
     """The frequency samples a :class:`RadarData`'s signal was compressed
     from (:func:`rpm_cl.io.compress.range_compress`): any range's profile
@@ -143,6 +170,11 @@ class RadarData:
         (:mod:`rpm_cl.extract.phase`).  Whatever makes new profiles from
         the data (``dataclasses.replace(data, signal=...)``) must pass
         ``spectrum=None`` with them, or the sums describe the old ones.
+    compression : Compression, optional
+        The window and transform the profiles were compressed with, where
+        the input was a spectrum; kept through what leaves each echo's
+        profile the window's response (a background, a cut of the range
+        axis), None after a gain or a resampling of the profiles.
     """
 
     signal: np.ndarray
@@ -152,6 +184,7 @@ class RadarData:
     truth: Truth | None = field(default=None)
     range_sidelobe_db: float | None = field(default=None)
     spectrum: Spectrum | None = field(default=None)
+    compression: Compression | None = field(default=None)
 
     def __post_init__(self):
         s = np.asarray(self.signal)
