@@ -227,11 +227,11 @@ def _read_traces(paths: list, rx: int) -> BScan:
     pos_rx = None if missing else np.stack(rxs)
     pos_tx = None if any(p is None for p in txs) else np.stack(txs)
     x, y = _midpoints(paths[0], pos_rx, pos_tx)
-    if x is not None:
-        same = np.flatnonzero(np.abs(x[:, None] - x[None, :]) <= POSITION_TOL)
-        pairs = [(a, b) for a, b in zip(*np.divmod(same, len(x))) if a < b]
-        if pairs:
-            a, b = pairs[0]
+    if x is not None and len(x) > 1:
+        o = np.argsort(x, kind="stable")
+        same = np.flatnonzero(np.diff(x[o]) <= POSITION_TOL)
+        if same.size:
+            a, b = sorted((int(o[same[0]]), int(o[same[0] + 1])))
             raise InputError(
                 f"{paths[a]} and {paths[b]} hold traces at the same antenna position "
                 f"(x = {x[a]:g} m): a file given twice?"

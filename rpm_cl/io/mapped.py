@@ -93,13 +93,18 @@ class _Sources:
             self.close()  # the files opened so far
             raise
 
-    def read(self, key: str, name: str):
-        from .sources import _guarded
-
+    def _source(self, key: str, name: str):
+        """The file that holds ``key``; one line naming what they hold if none."""
         src = self._find(key)
         if src is None:
             held = ", ".join(sorted(self.where)[:20]) or "nothing"
             raise InputError(f"no {key!r} (for {name}) in {self._files()}; it holds: {held}")
+        return src
+
+    def read(self, key: str, name: str):
+        from .sources import _guarded
+
+        src = self._source(key, name)
 
         def get():
             shape, _ = src.header(key)
@@ -119,10 +124,7 @@ class _Sources:
         """The shape ``key``'s header declares (no data read)."""
         from .sources import _guarded
 
-        src = self._find(key)
-        if src is None:
-            held = ", ".join(sorted(self.where)[:20]) or "nothing"
-            raise InputError(f"no {key!r} (for {name}) in {self._files()}; it holds: {held}")
+        src = self._source(key, name)
         return tuple(_guarded(src.path, lambda: src.header(key))[0])
 
     def _find(self, key):
@@ -191,7 +193,8 @@ def _grid_axis(name: str, key: str, v: np.ndarray) -> np.ndarray:
 #: offset); farther, the axis is refused as not uniform.  A recorded scan's
 #: positions carry its stage's jitter, while the engine's decomposition and
 #: back-projection sample the aperture on a uniform grid: an offset of a
-#: tenth of a 3 mm step turns a 24 GHz echo's phase by at most 0.15 rad.
+#: tenth of a 3 mm step turns a 24 GHz echo's phase by at most 0.30 rad
+#: (2 k times the offset).
 SNAP_FRACTION = 0.1
 #: ... and without a warning within this fraction (a float32 axis's
 #: rounding, 1e-7 of its largest value, is a few 1e-5 of a 3 mm step at 0.5 m).
@@ -207,13 +210,21 @@ SNAP = {False: (SNAP_AXIS_FRACTION, SNAP_QUIET), True: (SNAP_FRACTION, SNAP_QUIE
 
 
 def _snapped(
-    name: str, key: str, v: np.ndarray, fraction: float = SNAP_FRACTION, quiet: float = SNAP_QUIET
+    name: str,
+    key: str,
+    v: np.ndarray,
+    fraction: float = SNAP_FRACTION,
+    quiet: float = SNAP_QUIET,
+    stored: float = 0.0,
 ) -> np.ndarray:
     """An axis ``v`` (float64, >= 2 values, increasing) on the uniform grid
     that fits it best (least squares), when every value lies within
     ``fraction`` of a step of it (with a warning beyond ``quiet``); ``v``
     unchanged when the schema's check takes it as uniform already, or when
-    it lies farther from uniform (the check then refuses it)."""
+    it lies farther from uniform (the check then refuses it).  ``stored``:
+    the relative rounding of the type the values were stored in (float32's
+    eps), whose ``8 eps max|v|`` is allowed on top of both bounds, silently,
+    as the schema's check allows it."""
     import warnings
 
     from .checks import DataWarning
@@ -228,9 +239,10 @@ def _snapped(
     step, start = np.polyfit(i, v, 1)
     fit = start + step * i
     off = float(np.max(np.abs(v - fit)))
-    if step == 0 or off > fraction * abs(step):
+    rounding = 8 * stored * float(np.max(np.abs(v)))
+    if step == 0 or off > fraction * abs(step) + rounding:
         return v
-    if off <= quiet * abs(step):  # the rounding of stored values (float32 axes)
+    if off <= quiet * abs(step) + rounding:  # the rounding of stored values
         return fit
     unit = "Hz" if name == "frequency" else "m"
     warnings.warn(
@@ -395,7 +407,10 @@ def _convert(srcs: _Sources, keymap: KeyMap) -> dict:
     flip = []  # axes given in decreasing order: reversed, with the data
     for name in _AXES:
         if name in raw:
-            v = _vector(name, keys[name], raw[name]).astype(np.float64)
+            v = _vector(name, keys[name], raw[name])
+            # the rounding of the stored type (float32, MATLAB's single)
+            stored = np.finfo(v.dtype).eps if v.dtype.kind == "f" else 0.0
+            v = v.astype(np.float64)
             if name in ("x", "z"):
                 v = v * keymap.scale_x
             elif name == "frequency":
@@ -403,7 +418,7 @@ def _convert(srcs: _Sources, keymap: KeyMap) -> dict:
             if v.size >= 2 and np.all(np.diff(v) < 0):
                 v = v[::-1]
                 flip.append(name)
-            out[name] = _snapped(name, keys[name], v, *SNAP[name in ("x", "z")])
+            out[name] = _snapped(name, keys[name], v, *SNAP[name in ("x", "z")], stored)
     for name in _SCALARS:
         if name in raw:
             out[name] = _scalar(name, keys[name], raw[name]) * keymap.scale_f

@@ -118,12 +118,15 @@ class KeyMap:
         """
         if self.axes is None:
             return tuple(range(ndim))[::-1] if self.transpose else None
-        if len(self.axes) != ndim:
+        axes = self.axes
+        if len(axes) == ndim + 1 and axes[-1] in ("frame", "frames"):
+            axes = axes[:-1]  # MATLAB drops a trailing axis of one: a single frame
+        if len(axes) != ndim:
             raise InputError(
                 f"--axes (axes=) names {len(self.axes)} axes ({','.join(self.axes)}), "
                 f"the data array has {ndim}"
             )
-        canon = [AXIS_NAMES[a] for a in self.axes]
+        canon = [AXIS_NAMES[a] for a in axes]
         want = [a for a in ("frame", "x", "z", "n") if a in canon]
         return tuple(canon.index(a) for a in want)
 

@@ -18,23 +18,9 @@ from .sources import read_npy_header
 MAPPED_EXTENSIONS = (".mat", ".npz", ".npy", ".h5", ".hdf5")
 
 
-#: MATLAB classes read (numbers; ``logical``, ``char``, ``cell``, ``struct``,
-#: ``function_handle`` ... are not).
-_MATLAB_NUMERIC = (
-    "double",
-    "single",
-    "int8",
-    "uint8",
-    "int16",
-    "uint16",
-    "int32",
-    "uint32",
-    "int64",
-    "uint64",
-)
-
-
-#: Bytes a value of each numeric class takes at least (a complex one twice).
+#: The MATLAB classes read (numbers; ``logical``, ``char``, ``cell``,
+#: ``struct``, ``function_handle`` ... are not), and the bytes a value of
+#: each takes at least (a complex one twice).
 _MATLAB_BYTES = {
     "double": 8,
     "single": 4,
@@ -47,6 +33,7 @@ _MATLAB_BYTES = {
     "int64": 8,
     "uint64": 8,
 }
+_MATLAB_NUMERIC = tuple(_MATLAB_BYTES)
 
 
 def _h5py():

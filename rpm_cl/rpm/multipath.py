@@ -164,15 +164,12 @@ def double_bounce(antennas: np.ndarray, a: np.ndarray, b: np.ndarray, medium=Non
         m.
     """
     if medium is None:
-        da = np.linalg.norm(antennas[:, None, :] - a[None], axis=2)  # (N, Ma)
-        db = np.linalg.norm(antennas[:, None, :] - b[None], axis=2)  # (N, Mb)
-        ab = np.linalg.norm(a[:, None, :] - b[None], axis=2)  # (Ma, Mb)
-    else:
-        from ..io.medium import one_way
+        return _bounce_gradient(antennas, a, b)[0]
+    from ..io.medium import one_way
 
-        da = one_way(medium, antennas[:, None, :], a[None])
-        db = one_way(medium, antennas[:, None, :], b[None])
-        ab = medium.n * np.linalg.norm(a[:, None, :] - b[None], axis=2)
+    da = one_way(medium, antennas[:, None, :], a[None])
+    db = one_way(medium, antennas[:, None, :], b[None])
+    ab = medium.n * np.linalg.norm(a[:, None, :] - b[None], axis=2)
     total = da[:, :, None] + ab[None] + db[:, None, :]
     return 0.5 * total.reshape(len(antennas), -1).min(axis=1)
 
