@@ -138,3 +138,30 @@ def test_max_range_counts_from_time_zero(scene):
 def test_nothing_left_refused(scene):
     with pytest.raises(InputError, match="fewer than 2 range gates"):
         preprocess(scene[0], time_zero=5.0, max_range=6.0)
+
+
+def test_a_coupling_straddling_time_zero_on_a_spectrums_axis_is_found(tmp_path):
+    """A spectrum's range axis is periodic: a coupling whose main lobe
+    straddles time zero (a GPR trace cut at its direct wave's peak) peaks
+    at the axis's end as often as at its start.  auto removes it as it does
+    one just after time zero, and the load does not take it for a target
+    wrapped from beyond the unambiguous range."""
+    import warnings
+
+    from rpm_cl.io.data import C0, DataWarning
+    from rpm_cl.io.formats import load_data
+
+    f = np.linspace(1e9, 3e9, 81)
+    x = np.arange(24) * 0.02
+    target = np.hypot(x - 0.2, 0.3)[:, None]
+    spec = 0.2 * np.exp(-4j * np.pi * f[None] * target / C0) / target
+    for r_c in (0.01, -0.01):  # just after time zero, and just before it: wrapped
+        coupled = spec + 3 * np.exp(-4j * np.pi * f[None] * r_c / C0)
+        np.savez(tmp_path / "c.npz", spectrum=coupled, frequency=f, x=x)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", DataWarning)
+            data = load_data(tmp_path / "c.npz")
+        peak = data.range[np.abs(data.signal).mean(axis=0).argmax()]
+        assert (peak < 0.1) if r_c > 0 else (peak > data.range[-1] - 0.1)
+        assert coupling_dominates(data)
+        np.testing.assert_array_equal(preprocess(data).signal, preprocess(data, "mean").signal)

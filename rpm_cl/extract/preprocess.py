@@ -110,16 +110,34 @@ def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
     """
     if data.array.planar or data.array.shape[0] < 4:
         return False
+    periodic = _periodic(data)
     rng = data.range - time_zero
+    if periodic:
+        rng = np.where(rng > 0.5 * periodic, rng - periodic, rng)
     s = data.signal.reshape(-1, rng.size)
     strongest = np.abs(s).argmax(axis=1)
-    g = int(np.median(strongest))
+    # the antennas' median strongest range, round a periodic axis (a coupling
+    # whose main lobe straddles time zero peaks at its end as often)
+    g = int(strongest[np.argsort(rng[strongest], kind="stable")[strongest.size // 2]])
     res = data.waveform.range_resolution
-    if not (0 <= rng[g] <= res):
+    # on a periodic axis, a coupling at time zero straddles it, and peaks
+    # before it as often as after
+    if not ((-res if periodic else 0.0) <= rng[g] <= res):
         return False
     if np.mean(np.abs(rng[strongest] - rng[g]) <= res) < COUPLING_SAME:
         return False
     return _mostly_common(s[:, g])
+
+
+def _periodic(data: RadarData) -> float:
+    """The period of the data's range axis, m, where it is a compressed
+    spectrum's whole unambiguous range (``RadarData.compression``): a
+    coupling at time zero whose main lobe straddles it wraps to the axis's
+    end.  0 where the axis is no such period."""
+    comp = data.compression
+    if comp is None or data.range.size != comp.gates:
+        return 0.0
+    return comp.gates * data.dr
 
 
 def _mostly_common(v) -> bool:

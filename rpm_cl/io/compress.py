@@ -100,8 +100,35 @@ CONJUGATE_FAR_FROM = 0.75
 #: the median over the axis, so not noise) in the last WRAP_EDGE of the
 #: unambiguous range is warned about as possibly wrapped from beyond.
 WRAP_EDGE = 0.05
+#: An echo at the end of the axis with this share of its power or more
+#: common to all the antennas (four or more) ...
+WRAP_COMMON_SHARE = 0.9
+#: ... whose lobe runs on past the wrap (the first gate holds at least this
+#: share of its peak's power) is the antennas' coupling at time zero
+#: (:func:`_straddling_lobe`): no conjugated spectrum's, no wrapped target's.
+WRAP_STRADDLE = 0.25
 WRAP_LEVEL = 0.01
 WRAP_ABOVE_MEDIAN = 10.0
+
+
+def _straddling_lobe(signal, power) -> bool:
+    """Whether the data hold an echo the antennas all see alike whose main
+    lobe runs round the periodic axis's wrap: a coupling at time zero (a
+    GPR trace cut at its direct wave's peak).  Its peak lies in the last
+    :data:`WRAP_EDGE` of the axis with at least :data:`WRAP_COMMON_SHARE`
+    of its power common to the antennas (four or more), and the first gate
+    holds :data:`WRAP_STRADDLE` of its power (``power``: per gate, summed
+    over the antennas)."""
+    n = power.size
+    flat = np.asarray(signal).reshape(-1, n)
+    if flat.shape[0] < 4 or n < 4:
+        return False
+    e0 = int((1.0 - WRAP_EDGE) * n)
+    g = e0 + int(np.argmax(power[e0:]))
+    if not (power[g] > 0 and power[0] >= WRAP_STRADDLE * power[g]):
+        return False
+    v = flat[:, g].astype(np.complex128) / float(np.abs(flat[:, g]).max())
+    return abs(v.mean()) ** 2 >= WRAP_COMMON_SHARE * float(np.mean(np.abs(v) ** 2))
 
 
 def _check_conjugated(signal, rng) -> None:
@@ -115,6 +142,14 @@ def _check_conjugated(signal, rng) -> None:
     power = profile_power(signal, rng.size)
     if not power.max() > 0:
         return
+    # the antennas' own coupling at time zero, its lobe round the wrap, is
+    # neither a conjugated echo nor one from beyond the range: judged without
+    # what every antenna sees alike (the coupling and its side lobes)
+    if _straddling_lobe(signal, power):
+        flat = np.asarray(signal).reshape(-1, rng.size)
+        power = profile_power(flat - flat.mean(axis=0), rng.size)
+        if not power.max() > 0:
+            return
     r_u = float(rng[-1] + (rng[1] - rng[0]))
     share = float(power[rng >= CONJUGATE_FAR_FROM * r_u].sum() / power.sum())
     if share >= CONJUGATE_FAR_SHARE:
