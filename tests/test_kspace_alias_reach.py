@@ -58,3 +58,25 @@ def test_clusters_of_the_spheres_take_their_own_direction(monkeypatch):
     monkeypatch.setattr(KA, "ALIAS_REACH", np.inf)
     loose = _slopes_fit(decompose(data, params), data)
     assert held.sum() > np.isfinite(loose).sum() >= 6
+
+
+def test_range_points_beyond_the_data_axis_are_dropped():
+    """An aligned profile holds range[g] + offset[X]: a peak that a cluster's
+    offset puts beyond the data's range axis was read where the data hold
+    nothing (a steep walk over a long line reached 68 m on a 3.6 m axis)."""
+    from rpm_cl.extract.rangepoints import rps_from_decomposition
+    from rpm_cl.extract.types import Cluster, Decomposition
+    from rpm_cl.io.data import Array, RadarData, Waveform
+
+    x = np.arange(4) * 0.01
+    rng = np.arange(400) * 2.5e-3  # 0 .. 1 m
+    wf = Waveform(20e9, 2e9)
+    data = RadarData(np.zeros((4, rng.size), complex), Array(x), rng, wf)
+    sig = np.zeros((4, 40), complex)
+    sig[:, 20] = 1.0  # each antenna's peak at gate 100 + 20 of the slice: 0.3 m
+    offset = np.array([0.0, 0.2, -0.35, 0.9])  # 0.3 + offset: 0.3, 0.5, -0.05, 1.2 m
+    c = Cluster(np.zeros(1), 0.3, slice(100, 140), sig, 1.0, offset, np.zeros(1))
+    dec = Decomposition((np.zeros(4),), np.zeros((4, rng.size)), (c,), gate0=0)
+    rps = rps_from_decomposition(data, dec, -20.0)
+    np.testing.assert_array_equal(rps.antenna, [0, 1])
+    np.testing.assert_allclose(rps.range, [0.3, 0.5], atol=1e-9)

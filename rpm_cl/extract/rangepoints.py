@@ -169,11 +169,18 @@ def rps_from_decomposition(
     """
     rel = 10.0 ** (rp_threshold_db / 20.0)
     ants, rs, amps, cl, zs = [], [], [], [], []
+    lo, hi = float(data.range[0]), float(data.range[-1])
     for m, c in enumerate(dec.clusters):
         env = np.abs(c.signal).reshape(-1, c.signal.shape[-1])
         row, pos, val = profile_peaks(env, rel)
+        r = data.range[c.r_slice.start] + pos * data.dr + np.ravel(c.offset)[row]
+        # an aligned profile holds range[g] + offset[X]: a peak the
+        # alignment put beyond the data's axis was read where it holds
+        # nothing (a steep walk over a long line reaches tens of m)
+        inside = (r >= lo) & (r <= hi)
+        row, pos, val, r = row[inside], pos[inside], val[inside], r[inside]
         ants.append(row)
-        rs.append(data.range[c.r_slice.start] + pos * data.dr + np.ravel(c.offset)[row])
+        rs.append(r)
         amps.append(val)
         cl.append(np.full(row.size, m))
         zs.append(_carrier(data, c, row, pos))
