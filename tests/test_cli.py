@@ -492,3 +492,43 @@ def test_bench_roofline_and_equal_accuracy(capsys):
     assert len(das) == 2 and all(float(ln.split()[9]) > 0 for ln in das)  # % of peak
     equal = [ln for ln in lines if " mm  both reach " in ln]
     assert len(equal) == 4 and all("RPM / DAS = " in ln for ln in equal)
+
+
+def test_das_and_rma_take_the_steps_before_imaging(tmp_path, capsys):
+    """A B-scan whose strongest echo is the antennas' own coupling: das and
+    rma remove it as image does (background auto: the mean profile), take
+    --background and --config [imaging] too, and --time-zero."""
+    from rpm_cl.io.data import C0
+
+    f = np.linspace(1e9, 3e9, 81)
+    x = np.arange(24) * 0.02
+    r = np.hypot(x - 0.23, 0.3)[:, None]
+    spec = 0.2 * np.exp(-4j * np.pi * f[None] * r / C0) / r + 3 * np.exp(
+        -4j * np.pi * f * 0.01 / C0
+    )
+    np.savez(tmp_path / "b.npz", spectrum=spec, frequency=f, x=x)
+    grid = ["--grid", "0:0.46:0.01,0.005:0.6:0.005", "--backend", "numpy"]
+    images = {}
+    for name, extra in (
+        ("auto", []),
+        ("mean", ["--background", "mean"]),
+        ("none", ["--background", "none"]),
+        ("cfg", ["--config", str(tmp_path / "c.toml")]),
+    ):
+        (tmp_path / "c.toml").write_text('[imaging]\nbackground = "none"\n')
+        out = tmp_path / f"{name}.npz"
+        assert main(["das", str(tmp_path / "b.npz"), "-o", str(out), *grid, *extra]) == 0
+        images[name] = np.abs(np.load(out)["image"])
+    capsys.readouterr()
+    np.testing.assert_array_equal(images["auto"], images["mean"])
+    np.testing.assert_array_equal(images["cfg"], images["none"])
+    # the coupling's side lobes add to every pixel where it is left in
+    assert np.max(np.abs(images["none"] - images["auto"])) > 0.1 * images["auto"].max()
+    assert main(["rma", str(tmp_path / "b.npz"), "-o", str(tmp_path / "r.npz")]) == 0
+    assert (
+        main(
+            ["rma", str(tmp_path / "b.npz"), "-o", str(tmp_path / "r0.npz"), "--time-zero", "0.05"]
+        )
+        == 0
+    )
+    assert np.load(tmp_path / "r0.npz")["y"][0] >= 0

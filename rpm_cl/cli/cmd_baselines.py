@@ -9,7 +9,7 @@ import logging
 from dataclasses import asdict
 
 from .. import __version__
-from .common import _load_input, _medium
+from .common import _load_input, _medium, _preprocessed
 from .errors import CLIError
 
 log = logging.getLogger("rpm_cl")
@@ -21,7 +21,7 @@ def cmd_das(args) -> int:
     from ..io.formats import VOLUME_EXTENSIONS, check_output, write_volume
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = _load_input(args, with_truth=False)
+    data = _preprocessed(args, _load_input(args, with_truth=False))
     grid = parse_grid(args.grid)
     if grid.dim != data.array.dim:
         raise CLIError(
@@ -116,7 +116,7 @@ def cmd_rma(args) -> int:
     from ..io.formats import VOLUME_EXTENSIONS, check_output, write_volume
 
     check_output(args.output, VOLUME_EXTENSIONS, "image")
-    data = _load_input(args, with_truth=False)
+    data = _preprocessed(args, _load_input(args, with_truth=False))
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
     medium = _medium(args)

@@ -92,6 +92,20 @@ def _accuracy_line(s: dict) -> str:
     )
 
 
+def _preprocessed(args, data):
+    """``data`` after the steps before imaging that ``--config`` [imaging] and
+    the flags set (background, time zero, gain, region; the defaults
+    ``image`` takes otherwise: :func:`rpm_cl.imaging.prepared`), for the
+    coherent baselines."""
+    from ..imaging import prepared
+    from ..rpm.params import PREPROCESS_FIELDS, default_params
+    from .config import flag_values, merge
+
+    values = merge(args.cfg_file, flag_values(args))
+    given = {n: v for (sec, n), v in values.items() if sec == "imaging" and n in PREPROCESS_FIELDS}
+    return prepared(data, default_params(data, **given))[0]
+
+
 def _load_input(args, **kw):
     """``args.input`` as the input options say (frame, range window,
     conjugation, memory limit); ``kw`` as for

@@ -172,10 +172,11 @@ def _values(params, engine=None) -> dict:
     return out
 
 
-def add_flags(parser, sections=("kspace", "rpm", "imaging")) -> None:
+def add_flags(parser, sections=("kspace", "rpm", "imaging"), only=None) -> None:
     """Add a flag for every field of ``sections`` to an argparse parser (an
     argument group each); a flag not given leaves no attribute
-    (``argparse.SUPPRESS``), so :func:`flag_values` sees what was given."""
+    (``argparse.SUPPRESS``), so :func:`flag_values` sees what was given.
+    ``only``: the field names to add (all where None)."""
     titles = {
         "kspace": "k-space decomposition",
         "rpm": "RPM",
@@ -185,7 +186,7 @@ def add_flags(parser, sections=("kspace", "rpm", "imaging")) -> None:
     }
     groups = {}
     for s in settings():
-        if s.section not in sections:
+        if s.section not in sections or (only is not None and s.name not in only):
             continue
         if s.section not in groups:
             groups[s.section] = parser.add_argument_group(

@@ -78,6 +78,16 @@ def param_opts(sp) -> None:
     add_flags(sp, ("kspace", "rpm", "medium", "imaging"))
 
 
+def preprocess_opts(sp) -> None:
+    """The flags of the steps before imaging ([imaging] ``background``,
+    ``time_zero``, ``gain_db_per_m``, ``max_range``), for ``das`` and
+    ``rma``: they image the data as ``image`` does, after those steps."""
+    from ..rpm.params import PREPROCESS_FIELDS
+    from .config import add_flags
+
+    add_flags(sp, ("imaging",), only=PREPROCESS_FIELDS)
+
+
 def medium_opts(sp) -> None:
     """``--config`` and a flag per field of the [medium] section (``das``,
     ``rma``: the material the waves travel in)."""

@@ -23,7 +23,15 @@ from .argtypes import (
     _snr,
 )
 from .errors import CLIError
-from .options import common_opts, convert_opts, device_opts, input_opts, medium_opts, param_opts
+from .options import (
+    common_opts,
+    convert_opts,
+    device_opts,
+    input_opts,
+    medium_opts,
+    param_opts,
+    preprocess_opts,
+)
 from .parser_runs import add_batch, add_bench, add_demo, add_reproduce
 
 
@@ -247,6 +255,7 @@ def add_das(sub) -> argparse.ArgumentParser:
     input_opts(sp)
     device_opts(sp)
     medium_opts(sp)
+    preprocess_opts(sp)
     return sp
 
 
@@ -262,6 +271,7 @@ def add_rma(sub) -> argparse.ArgumentParser:
     )
     input_opts(sp)
     medium_opts(sp)
+    preprocess_opts(sp)
     return sp
 
 
