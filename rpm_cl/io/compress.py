@@ -107,6 +107,10 @@ WRAP_COMMON_SHARE = 0.9
 #: share of its peak's power) is the antennas' coupling at time zero
 #: (:func:`_straddling_lobe`): no conjugated spectrum's, no wrapped target's.
 WRAP_STRADDLE = 0.25
+#: Data that hold nothing beyond such a coupling but rounding (their largest
+#: sample of what the antennas do not share under this share of the largest
+#: sample) are not judged at all.
+WRAP_REST = 1e-6
 WRAP_LEVEL = 0.01
 WRAP_ABOVE_MEDIAN = 10.0
 
@@ -147,9 +151,11 @@ def _check_conjugated(signal, rng) -> None:
     # what every antenna sees alike (the coupling and its side lobes)
     if _straddling_lobe(signal, power):
         flat = np.asarray(signal).reshape(-1, rng.size)
-        power = profile_power(flat - flat.mean(axis=0), rng.size)
-        if not power.max() > 0:
+        top = np.abs(flat).max()
+        rest = flat - flat.mean(axis=0)
+        if not np.abs(rest).max() > WRAP_REST * top:  # the common echo alone
             return
+        power = profile_power(rest, rng.size)
     r_u = float(rng[-1] + (rng[1] - rng[0]))
     share = float(power[rng >= CONJUGATE_FAR_FROM * r_u].sum() / power.sum())
     if share >= CONJUGATE_FAR_SHARE:
