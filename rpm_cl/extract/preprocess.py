@@ -43,6 +43,7 @@ import numpy as np
 
 from ..io.data import InputError, RadarData
 from ..io.model import C0
+from ..io.radar import mostly_common
 
 __all__ = [
     "BACKGROUNDS",
@@ -142,14 +143,8 @@ def _periodic(data: RadarData) -> float:
 
 def _mostly_common(v) -> bool:
     """Whether at least :data:`COUPLING_SHARE` of the power of the complex
-    samples ``v`` is their mean's, ``|mean v|^2 / mean |v|^2`` (False for
-    none, all zero or not finite)."""
-    v = np.asarray(v)
-    top = float(np.abs(v).max()) if v.size else 0.0
-    if not (np.isfinite(top) and top > 0):
-        return False
-    u = v.astype(np.complex128) / top  # any scale: no overflow in the powers
-    return abs(complex(u.mean())) ** 2 >= COUPLING_SHARE * float(np.mean(np.abs(u) ** 2))
+    samples ``v`` is their mean's (:func:`rpm_cl.io.radar.mostly_common`)."""
+    return mostly_common(v, COUPLING_SHARE)
 
 
 def planar_coupling(data: RadarData, time_zero: float = 0.0) -> np.ndarray | None:

@@ -84,6 +84,15 @@ def _finite_scalar(name: str, value, positive: bool = True) -> float:
     return v
 
 
+def uniform_steps(a: np.ndarray, eps: float) -> bool:
+    """Whether the steps of ``a`` (float64, >= 2 values) agree to what the
+    schema takes as uniform: 1e-6 of the mean step plus the rounding of the
+    stored values (``eps``, the stored type's, times 8 the largest value)."""
+    step = np.diff(a)
+    tol = 1e-6 * abs(step.mean()) + 8 * eps * float(np.max(np.abs(a))) + 1e-12
+    return bool(np.max(np.abs(step - step.mean())) <= tol)
+
+
 def _uniform_axis(name: str, values, min_len: int = 1, unit: str = "m") -> np.ndarray:
     a = np.asarray(values)
     if a.ndim != 1:
@@ -107,8 +116,7 @@ def _uniform_axis(name: str, values, min_len: int = 1, unit: str = "m") -> np.nd
             )
         if np.any(step <= 0):
             raise InputError(f"{name} must be strictly increasing")
-        tol = 1e-6 * abs(step.mean()) + 8 * eps * float(np.max(np.abs(a))) + 1e-12
-        if np.max(np.abs(step - step.mean())) > tol:
+        if not uniform_steps(a, eps):
             raise InputError(
                 f"{name} must be uniformly spaced (steps vary from "
                 f"{step.min():.6g} to {step.max():.6g} {unit})"

@@ -29,7 +29,9 @@ from .radar import (
     Compression,
     RadarData,
     Spectrum,
+    mostly_common,
     profile_power,
+    window_key,
 )
 from .windows import window
 
@@ -55,9 +57,7 @@ def next_fast_len(n: int) -> int:
 
 
 def _window_name(name) -> str:
-    if name not in RANGE_WINDOWS:
-        raise InputError(f"unknown range window {name!r}; choose from {', '.join(RANGE_WINDOWS)}")
-    return RANGE_WINDOWS[name]
+    return RANGE_WINDOWS[window_key(name)]
 
 
 def _window(name: str, n: int) -> np.ndarray:
@@ -131,8 +131,7 @@ def _straddling_lobe(signal, power) -> bool:
     g = e0 + int(np.argmax(power[e0:]))
     if not (power[g] > 0 and power[0] >= WRAP_STRADDLE * power[g]):
         return False
-    v = flat[:, g].astype(np.complex128) / float(np.abs(flat[:, g]).max())
-    return abs(v.mean()) ** 2 >= WRAP_COMMON_SHARE * float(np.mean(np.abs(v) ** 2))
+    return mostly_common(flat[:, g], WRAP_COMMON_SHARE)
 
 
 def _check_conjugated(signal, rng) -> None:

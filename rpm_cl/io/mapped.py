@@ -52,7 +52,7 @@ import os
 
 import numpy as np
 
-from .checks import InputError, _finite_scalar, _uniform_axis
+from .checks import InputError, _finite_scalar, _uniform_axis, uniform_steps
 from .mapped_keymap import DATA_NAMES, SCHEMA_NAMES, KeyMap
 from .mapped_sources import MAPPED_EXTENSIONS, _H5Source, _open_source
 from .model import Array, Waveform
@@ -231,9 +231,7 @@ def _snapped(
 
     if v.size < 3 or not np.all(np.isfinite(v)):
         return v
-    d = np.diff(v)
-    eps = np.finfo(np.float64).eps * float(np.max(np.abs(v)))
-    if np.max(np.abs(d - d.mean())) <= 1e-6 * abs(d.mean()) + 8 * eps + 1e-12:
+    if uniform_steps(v, np.finfo(np.float64).eps):
         return v  # uniform as the schema's check takes it: kept as given
     i = np.arange(v.size, dtype=np.float64)
     step, start = np.polyfit(i, v, 1)
@@ -331,12 +329,12 @@ def _check_shape(
         target = ((None,) if stack else ()) + core
         labels = (["frame"] if stack else []) + names
         for perm in itertools.permutations(range(len(raw))):
+            if stack and raw[perm[0]] <= 0:
+                continue
             if all(t is None or raw[p] == t for p, t in zip(perm, target)):
                 file_order = [""] * len(raw)
                 for p, lab in zip(perm, labels):
                     file_order[p] = lab
-                if stack and raw[perm[0]] <= 0:
-                    continue
                 hint = f"; its axes fit as --axes {','.join(file_order)} (axes=...)"
                 break
         if hint:

@@ -62,6 +62,26 @@ RANGE_WINDOWS = {
 }
 
 
+def window_key(name: str) -> str:
+    """``name`` once it is a key of :data:`RANGE_WINDOWS`; else one line
+    naming them."""
+    if name not in RANGE_WINDOWS:
+        raise InputError(f"unknown range window {name!r}; choose from {', '.join(RANGE_WINDOWS)}")
+    return name
+
+
+def mostly_common(v, share: float) -> bool:
+    """Whether at least ``share`` of the power of the complex samples ``v``
+    (one per antenna) is their mean's, ``|mean v|^2 / mean |v|^2``: an echo
+    the antennas all see alike (False for none, all zero or not finite)."""
+    v = np.asarray(v)
+    top = float(np.abs(v).max()) if v.size else 0.0
+    if not (np.isfinite(top) and top > 0):
+        return False
+    u = v.astype(np.complex128) / top  # any scale: no overflow in the powers
+    return abs(complex(u.mean())) ** 2 >= share * float(np.mean(np.abs(u) ** 2))
+
+
 @dataclass(frozen=True)
 class Compression:
     """How a :class:`RadarData`'s profiles were compressed from frequency
@@ -78,10 +98,7 @@ class Compression:
     gates: int
 
     def __post_init__(self):
-        if self.window not in RANGE_WINDOWS:
-            raise InputError(
-                f"unknown range window {self.window!r}; choose from {', '.join(RANGE_WINDOWS)}"
-            )
+        window_key(self.window)
         if not 2 <= int(self.samples) <= int(self.gates):
             raise InputError(
                 f"a compression of {self.samples} samples onto {self.gates} gates: the "
@@ -130,10 +147,7 @@ class Spectrum:
         y = y.astype(np.complex64 if y.dtype == np.complex64 else np.complex128, copy=False)
         object.__setattr__(self, "values", np.ascontiguousarray(y))
         object.__setattr__(self, "frequency", f)
-        if self.window not in RANGE_WINDOWS:
-            raise InputError(
-                f"unknown range window {self.window!r}; choose from {', '.join(RANGE_WINDOWS)}"
-            )
+        window_key(self.window)
 
     def scaled(self, factor: float) -> Spectrum:
         """The same samples at ``factor`` times the frequencies: the scene
