@@ -188,8 +188,13 @@ def prepared(data: RadarData, params: ImagingParams) -> tuple[RadarData, Imaging
         return preprocess(data, **steps), params
     # the background goes first, on every gate (it is per gate, so cutting
     # before or after it gives the same profiles); then the cut
-    whole = preprocess(data, background=params.background, coupling_zero=params.time_zero)
-    out = preprocess(whole, **{**steps, "background": "none"})
+    whole = preprocess(
+        data,
+        background=params.background,
+        align_traces=params.align_traces,
+        coupling_zero=params.time_zero,
+    )
+    out = preprocess(whole, **{**steps, "background": "none", "align_traces": False})
     if out.range.size < whole.range.size:
         from .extract.kspace import measured_noise_power
 

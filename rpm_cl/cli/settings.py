@@ -68,6 +68,9 @@ _EXTRA_DOCS = {
     "multipath": "phase-rpm: points of clusters that a double bounce between two other "
     "objects explains (rpm_cl.rpm.multipath) are dropped ('drop'), or kept with a "
     "'multipath' column in the result ('flag').",
+    "align_traces": "Before imaging, first (rpm_cl.extract.alignment): move each trace by "
+    "a fraction of a gate so that its direct wave lines up with the scan's mean, for an "
+    "impulse GPR's trigger jitter; needs the frequency samples (a spectrum input).",
     "background": "Before imaging (rpm_cl.extract.preprocess): subtract the mean or median range "
     "profile over the antennas per gate ('mean', 'median'), nothing ('none'), or the mean "
     "where a B-scan's strongest echo is the antennas' own coupling ('auto').",

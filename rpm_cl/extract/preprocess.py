@@ -1,11 +1,15 @@
 """What a GPR user does to the range profiles before imaging.
 
-Four steps, in this order, on the range-compressed data
+Four steps (five with the trace alignment), in this order, on the range-compressed data
 (:class:`rpm_cl.io.data.RadarData`); each is off by default (the paper's
 scenes need none) but for the background removal of a B-scan whose
 strongest echo is the antennas' own coupling (``background="auto"``,
 :func:`coupling_dominates`):
 
+0. **trace alignment** (``align_traces``, off by default): each trace
+   moved by a fraction of a gate so that its direct wave lines up with the
+   scan's mean (:mod:`rpm_cl.extract.alignment`): an impulse GPR's trigger
+   jitter otherwise leaves a residue of the direct wave after step 2;
 1. **time zero** (``time_zero``, m): the range at which the antenna's own
    pulse leaves it (the direct coupling, or the surface echo of a ground-
    coupled antenna) becomes 0: ``R' = R - time_zero``, gates before it
@@ -229,14 +233,12 @@ def without_echo(data: RadarData, echo: np.ndarray) -> RadarData:
     """``data`` less the frequency samples ``echo`` (nf,) at every antenna:
     in its samples, and in its profiles as its compression
     (``data.spectrum.window``) forms them, on the data's range axis."""
-    from ..io.compress import _window
     from ..io.radar import Spectrum
+    from .alignment import profiles
 
     sp = data.spectrum
     f = sp.frequency
-    w = _window(sp.window, f.size)
-    ramp = np.exp(4j * np.pi * np.outer(f - data.waveform.fc, data.range) / C0)
-    profile = (w * echo) @ ramp / w.sum()
+    profile = profiles(echo, f, sp.window, data.waveform.fc, data.range)
     signal = (data.signal - profile).astype(data.signal.dtype, copy=False)
     values = (sp.values - echo).astype(sp.values.dtype, copy=False)
     return replace(data, signal=signal, spectrum=Spectrum(values, f, sp.window))
@@ -331,7 +333,9 @@ def preprocess(
     gain_db_per_m: float = 0.0,
     max_range: float | None = None,
     *,
+    align_traces: bool = False,
     coupling_zero: float | None = None,
+    warn: bool = True,
 ) -> RadarData:
     """``data`` after the module's steps; ``data`` itself when all are off.
 
@@ -348,10 +352,18 @@ def preprocess(
         dB per metre of range after time zero.
     max_range : float, optional
         m (after time zero); None keeps every gate.
+    align_traces : bool
+        Step 0: each trace moved onto the scan's mean on the direct wave
+        (:mod:`rpm_cl.extract.alignment`); needs the frequency samples.
     coupling_zero : float, optional
         The time zero ``auto``'s coupling tests measure from, m (None:
         ``time_zero``): :func:`rpm_cl.imaging.prepared` removes the
         background on the whole axis before it cuts it at ``time_zero``.
+    warn : bool
+        Warn where a mean or median removal without the alignment leaves
+        the direct wave's timing jitter as strong as the echoes
+        (:func:`rpm_cl.extract.alignment.warn_jitter`); the derivation of
+        the defaults, which preprocesses the data once more, does not.
 
     Returns
     -------
@@ -359,15 +371,21 @@ def preprocess(
         The same antennas; the range axis shifted by ``-time_zero`` and
         cut to ``[0, max_range]``; the truth's RP ranges shifted alike; the
         frequency samples (``spectrum``) kept where nothing but
-        ``max_range`` and a planar scan's coupling removal apply (the
-        coupling taken out of them too).
+        ``max_range``, a trace alignment and a planar scan's coupling
+        removal apply (the alignment and the coupling's removal made in
+        them too).
 
     Raises
     ------
     InputError
-        A setting out of range, or no range gate left.
+        A setting out of range, no range gate left, or a trace alignment
+        of data without their frequency samples.
     """
     check(background, time_zero, gain_db_per_m, max_range)
+    if align_traces:
+        from .alignment import aligned, trace_shifts
+
+        data = aligned(data, trace_shifts(data))
     zero = time_zero if coupling_zero is None else coupling_zero
     if background == "auto" and data.array.planar:
         echo = planar_coupling(data, zero)
@@ -376,6 +394,10 @@ def preprocess(
         background = "none"
     elif background == "auto":
         background = "mean" if coupling_dominates(data, zero) else "none"
+    if warn and background in ("mean", "median") and not align_traces and not data.array.planar:
+        from .alignment import warn_jitter
+
+        warn_jitter(data)
     if background == "none" and time_zero == 0 and gain_db_per_m == 0 and max_range is None:
         return data
     rng = data.range - time_zero

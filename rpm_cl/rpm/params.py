@@ -58,7 +58,7 @@ SIGMA_R_RANGE_ERROR = 0.01
 RP_THRESHOLD_DB_DEFAULT = -10.0
 
 #: The ImagingParams fields of :mod:`rpm_cl.extract.preprocess`.
-PREPROCESS_FIELDS = ("background", "time_zero", "gain_db_per_m", "max_range")
+PREPROCESS_FIELDS = ("align_traces", "background", "time_zero", "gain_db_per_m", "max_range")
 
 __all__ = [
     "COHERENCE_DB_DEFAULT",
@@ -257,6 +257,7 @@ class ImagingParams:
     coherence: bool = True
     coherence_db: float = COHERENCE_DB_DEFAULT
     segments: bool = True
+    align_traces: bool = False
     background: Literal["auto", "none", "mean", "median"] = "auto"
     time_zero: float = 0.0
     gain_db_per_m: float = 0.0
@@ -337,7 +338,8 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     if unknown:
         raise InputError(f"unknown imaging parameter {unknown[0]!r}")
     medium = Medium(**{k: v for k, v in ov.items() if k in medium_names})
-    data = preprocess(data, **{k: v for k, v in ov.items() if k in PREPROCESS_FIELDS})
+    # the pipeline preprocesses again (rpm_cl.imaging.prepared), and warns there
+    data = preprocess(data, **{k: v for k, v in ov.items() if k in PREPROCESS_FIELDS}, warn=False)
     seen = seen_data(data, medium)  # what the decomposition and RPM see
     r_echo = _strongest_range(seen)
     if arr.planar:

@@ -1,0 +1,279 @@
+"""Per-trace time-zero alignment of a scan on its direct wave.
+
+An impulse GPR's sampler is triggered anew for every trace, and its timing
+wanders by picoseconds to tens of picoseconds from trace to trace (trigger
+jitter, drift).  The whole trace moves with it: the direct wave (the
+antennas' own coupling, or a ground-coupled antenna's surface echo) and
+every echo behind it.  The direct wave is 20-40 dB above the targets, so a
+mean-trace background removal (:mod:`rpm_cl.extract.preprocess`) leaves of
+it ``2 k_c delta`` times its amplitude where a trace sits ``delta`` off the
+mean, a residue with a random phase per trace that swamps the targets:
+20 ps at 1.6 GHz (3 mm of range) leaves 0.2 of the direct wave.
+
+:func:`trace_shifts` measures each trace's offset on the direct wave, and
+:func:`aligned` moves every trace by it, the standard GPR step before the
+background removal.
+
+Measurement
+-----------
+The direct wave is the strongest gate ``g_0`` of the scan's mean profile.
+Its leading flank, the gates from where the mean profile's magnitude last
+rises above :data:`LEAD_FLOOR` of that peak up to ``g_0`` (round the axis's
+end where it is the compression's whole period), holds the direct wave and
+nothing later: every echo of the scene arrives after it.  Each trace's
+gates there are taken back to the band (the inverse of the compression
+there, ``q(f) = sum_g s(R_g) exp(-j 4 pi (f - f_c) R_g / c)``), and so are
+the mean's (``q_ref``).  A trace whose echoes arrive ``delta`` late has
+``q(f) = q_ref(f) exp(-j 4 pi f delta / c)``, the carrier included; its
+offset is the maximum of ::
+
+    J(delta) = Re sum_f q(f) conj(q_ref(f)) exp(+j 4 pi f delta / c)
+
+within a quarter of the carrier's period of range (``c / (4 f_c)``, where
+``J`` has no other maximum as high), on a grid and then by Newton steps.
+Holding the carrier's phase to the delay makes the estimate unbiased where
+the flank is cut from a lobe; the envelope's cross-correlation alone is
+pulled towards 0 by the fixed cut (measured: a fifth of the true offsets).
+The cut is fixed while the traces move, which pulls this estimate, too,
+towards 0 (by 3.5 % on a 1-3 GHz line); so the traces' flanks are formed
+again from their samples moved by the offsets found, and what is left
+measured against their new mean and added (:data:`PASSES` in all: the
+pull shrinks as the traces come into line).  The offsets' mean is taken
+off, so the scan's mean time zero stays where it was.
+
+Moving a trace by ``delta`` multiplies its samples by
+``exp(+j 4 pi f delta / c)``; its profiles are formed from them again as
+the compression forms them (:func:`rpm_cl.io.compress.range_compress`), on
+the data's range axis.  The data must hold their frequency samples
+(``RadarData.spectrum``: a spectrum input, a DZT or gprMax conversion).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..io.data import DataWarning, InputError, RadarData
+from ..io.model import C0
+
+__all__ = [
+    "JITTER_WARN",
+    "LEAD_FLOOR",
+    "PASSES",
+    "aligned",
+    "profiles",
+    "trace_shifts",
+    "warn_jitter",
+]
+
+#: The leading flank of the direct wave starts where the mean profile's
+#: magnitude last rises above this share of its peak (-20 dB).
+LEAD_FLOOR = 0.1
+#: Measurements of the offsets, each of what the one before left, on the
+#: traces as it aligned them, against their mean.
+PASSES = 3
+#: Grid steps per quarter period of the highest frequency, before the
+#: Newton steps.
+GRID_PER_QUARTER = 8
+#: Newton steps from the grid's best offset.
+NEWTON_STEPS = 4
+#: :func:`warn_jitter` warns where the direct wave's residue that the
+#: traces' timing leaves after a mean removal is at least this share of the
+#: strongest echo left beyond the direct wave.
+JITTER_WARN = 0.5
+
+
+def profiles(values: np.ndarray, frequency: np.ndarray, window: str, fc: float, rng) -> np.ndarray:
+    """Range profiles of frequency samples on the gates ``rng`` as
+    :func:`rpm_cl.io.compress.range_compress` forms them:
+    ``s(R) = sum_f w_f Y_f exp(+j 4 pi (f - fc) R / c) / sum_f w_f``.
+
+    Parameters
+    ----------
+    values : ndarray, complex, shape (..., nf)
+    frequency : ndarray, shape (nf,)
+        Hz.
+    window : str
+        A key of :data:`rpm_cl.io.compress.RANGE_WINDOWS`.
+    fc : float
+        Hz.
+    rng : ndarray, shape (ng,)
+        m.
+
+    Returns
+    -------
+    ndarray, complex128, shape (..., ng)
+    """
+    from ..io.compress import _window
+
+    w = _window(window, frequency.size)
+    ramp = np.exp(4j * np.pi * np.outer(frequency - fc, rng) / C0)
+    return (values * w) @ ramp / w.sum()
+
+
+def _lead_gates(mean: np.ndarray, periodic: bool) -> np.ndarray:
+    """The gates of the leading flank of the strongest peak of ``|mean|``,
+    in order, ending at the peak (module notes); round the axis's start to
+    its end where ``periodic``.  At least the gate before the peak."""
+    a = np.abs(mean)
+    n = a.size
+    g0 = int(a.argmax())
+    floor = LEAD_FLOOR * a[g0]
+    gates = [g0]
+    g = g0
+    while len(gates) < n:
+        prev = g - 1
+        if prev < 0:
+            if not periodic:
+                break
+            prev += n
+        if not (floor < a[prev] <= a[g]):
+            break
+        gates.append(prev)
+        g = prev
+    if len(gates) == 1:  # a peak at the axis's start: its flank is cut off
+        return np.array([g0, g0 + 1] if g0 + 1 < n else [g0 - 1, g0])
+    return np.array(gates[::-1])
+
+
+def _best_offset(x: np.ndarray, f: np.ndarray, span: float) -> np.ndarray:
+    """For each row of the cross-spectra ``x`` (n, nf), the ``delta`` within
+    ``+-span`` (m) that maximises ``Re sum_f x exp(+j 4 pi f delta / c)``."""
+    k = 4.0 * np.pi * f / C0
+    step = C0 / (8.0 * f[-1] * GRID_PER_QUARTER)
+    grid = np.linspace(-span, span, 2 * int(np.ceil(span / step)) + 1)
+    d = grid[np.argmax((x @ np.exp(1j * np.outer(k, grid))).real, axis=1)]
+    for _ in range(NEWTON_STEPS):
+        e = x * np.exp(1j * np.outer(d, k))
+        slope = -(e @ k).imag  # d J / d delta
+        curve = -(e @ (k * k)).real  # d2 J / d delta2, < 0 at a maximum
+        safe = np.where(curve < 0, curve, -np.inf)
+        d = np.clip(d - slope / safe, -span, span)
+    return d
+
+
+def trace_shifts(data: RadarData) -> np.ndarray:
+    """Each trace's offset on the direct wave from the scan's mean, m of
+    range (module notes): trace ``i``'s echoes lie at ``R + delta_i``.
+
+    Parameters
+    ----------
+    data : RadarData
+        With its frequency samples (``data.spectrum``).
+
+    Returns
+    -------
+    ndarray, float64, shape data.array.shape
+        Mean 0.
+
+    Raises
+    ------
+    InputError
+        No frequency samples, or fewer than 2 traces.
+    """
+    sp = data.spectrum
+    if sp is None:
+        raise InputError(
+            "trace alignment moves each trace by a fraction of a gate, which needs the "
+            "frequency samples: give the scan as a spectrum (or convert it with rpm-cl convert)"
+        )
+    n = int(np.prod(data.array.shape))
+    if n < 2:
+        raise InputError("trace alignment needs 2 traces or more")
+    from .preprocess import _periodic
+
+    f = sp.frequency
+    fc = data.waveform.fc
+    p = data.signal.reshape(n, -1)
+    lead = data.range[_lead_gates(p.mean(axis=0), bool(_periodic(data)))]
+    back = np.exp(-4j * np.pi * np.outer(lead, f - fc) / C0)
+    values = sp.values.reshape(n, f.size).astype(np.complex128)
+    span = C0 / (4.0 * fc)
+    shifts = np.zeros(n)
+    for _ in range(PASSES):
+        moved = values * np.exp(4j * np.pi * np.outer(shifts, f) / C0)
+        q = profiles(moved, f, sp.window, fc, lead) @ back
+        shifts += _best_offset(q * q.mean(axis=0).conj(), f, span)
+        shifts -= shifts.mean()
+    edge = np.abs(shifts) > 0.95 * span
+    if edge.any():
+        import warnings
+
+        warnings.warn(
+            f"trace alignment: {int(edge.sum())} of {n} traces are {span * 1e3:.3g} mm or more "
+            f"off the mean on the direct wave, a quarter of the carrier's period, where the "
+            f"measurement is ambiguous: their timing is not to be trusted",
+            DataWarning,
+            stacklevel=3,
+        )
+    return shifts.reshape(data.array.shape)
+
+
+def aligned(data: RadarData, shifts: np.ndarray) -> RadarData:
+    """``data`` with trace ``i`` moved by ``-shifts[i]`` (m of range): its
+    samples times ``exp(+j 4 pi f delta_i / c)``, its profiles formed from
+    them again on the data's range axis (:func:`profiles`).
+
+    Parameters
+    ----------
+    data : RadarData
+        With its frequency samples.
+    shifts : ndarray, shape data.array.shape
+        m (:func:`trace_shifts`).
+    """
+    from ..io.radar import Spectrum
+
+    sp = data.spectrum
+    f = sp.frequency
+    d = np.asarray(shifts, dtype=np.float64)[..., None]
+    values = (sp.values * np.exp(4j * np.pi * d * f / C0)).astype(sp.values.dtype, copy=False)
+    signal = profiles(values, f, sp.window, data.waveform.fc, data.range)
+    return replace(
+        data,
+        signal=signal.astype(data.signal.dtype, copy=False),
+        spectrum=Spectrum(values, f, sp.window),
+    )
+
+
+def warn_jitter(data: RadarData) -> None:
+    """Warn (one line, with the fix) where a background removal of ``data``
+    without alignment leaves a residue of the direct wave that its traces'
+    timing makes as strong as the echoes.
+
+    The residue a trace ``delta`` off the mean keeps is ``2 k_c |delta|``
+    times the direct wave's peak in the mean profile; its rms over the
+    traces is compared with the strongest echo the removal leaves beyond
+    two range resolutions of the direct wave, and the warning given from
+    :data:`JITTER_WARN` of it.  Data without their frequency samples, or
+    with fewer than 4 traces, are not measured.
+
+    Parameters
+    ----------
+    data : RadarData
+        Before the removal (the direct wave in).
+    """
+    n = int(np.prod(data.array.shape))
+    if data.spectrum is None or n < 4:
+        return
+    shifts = trace_shifts(data).ravel()
+    p = data.signal.reshape(n, -1)
+    mean = p.mean(axis=0)
+    g0 = int(np.abs(mean).argmax())
+    far = np.abs(data.range - data.range[g0]) > 2.0 * data.waveform.range_resolution
+    if not far.any():
+        return
+    left = float(np.abs(p[:, far] - mean[far]).max())
+    kc = 4.0 * np.pi * data.waveform.fc / C0
+    rms = float(np.sqrt(np.mean(shifts**2)))
+    residue = kc * rms * float(np.abs(mean[g0]))
+    if residue >= JITTER_WARN * left:
+        import warnings
+
+        warnings.warn(
+            f"the direct wave's timing wanders by {2e12 * rms / C0:.3g} ps rms from trace to "
+            f"trace ({rms * 1e3:.3g} mm of range): the background removal leaves "
+            f"{residue / left:.2g} times the strongest echo of it: try --align-traces true",
+            DataWarning,
+            stacklevel=3,
+        )
