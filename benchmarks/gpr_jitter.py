@@ -45,26 +45,26 @@ import numpy as np
 from rpm_cl.io.model import C0
 
 LINES = {
-    "a": dict(
-        fc=1.6e9,
-        eps=7.0,
-        nx=300,
-        dx=0.01,
-        window=12e-9,
-        bars=[(0.40 + 0.2 * k, 0.060) for k in range(12)],
-        seed=0,
-        noise=0.01,
-    ),
-    "b": dict(
-        fc=2.0e9,
-        eps=6.0,
-        nx=200,
-        dx=0.02,
-        window=15e-9,
-        bars=[(0.70 + 0.25 * k, 0.040 + 0.080 * k / 9) for k in range(10)],
-        seed=2,
-        noise=0.02,
-    ),
+    "a": {
+        "fc": 1.6e9,
+        "eps": 7.0,
+        "nx": 300,
+        "dx": 0.01,
+        "window": 12e-9,
+        "bars": [(0.40 + 0.2 * k, 0.060) for k in range(12)],
+        "seed": 0,
+        "noise": 0.01,
+    },
+    "b": {
+        "fc": 2.0e9,
+        "eps": 6.0,
+        "nx": 200,
+        "dx": 0.02,
+        "window": 15e-9,
+        "bars": [(0.70 + 0.25 * k, 0.040 + 0.080 * k / 9) for k in range(10)],
+        "seed": 2,
+        "noise": 0.02,
+    },
 }
 SAMPLES = 512
 N0 = 40.3  # the transmit instant, in samples

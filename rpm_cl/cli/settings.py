@@ -70,7 +70,7 @@ _EXTRA_DOCS = {
     "'multipath' column in the result ('flag').",
     "align_traces": "Before imaging, first (rpm_cl.extract.alignment): move each trace by "
     "a fraction of a gate so that its direct wave lines up with the scan's mean, for an "
-    "impulse GPR's trigger jitter; needs the frequency samples (a spectrum input).",
+    "impulse GPR's trigger jitter.",
     "background": "Before imaging (rpm_cl.extract.preprocess): subtract the mean or median range "
     "profile over the antennas per gate ('mean', 'median'), nothing ('none'), or the mean "
     "where a B-scan's strongest echo is the antennas' own coupling ('auto').",

@@ -44,8 +44,11 @@ off, so the scan's mean time zero stays where it was.
 Moving a trace by ``delta`` multiplies its samples by
 ``exp(+j 4 pi f delta / c)``; its profiles are formed from them again as
 the compression forms them (:func:`rpm_cl.io.compress.range_compress`), on
-the data's range axis.  The data must hold their frequency samples
+the data's range axis, where the data hold their frequency samples
 (``RadarData.spectrum``: a spectrum input, a DZT or gprMax conversion).
+Range profiles given alone are moved by interpolation,
+``exp(+j 2 k_c delta) s(R + delta)``, and their flanks taken back to a
+grid over the waveform's band.
 """
 
 from __future__ import annotations
@@ -58,6 +61,7 @@ from ..io.data import DataWarning, InputError, RadarData
 from ..io.model import C0
 
 __all__ = [
+    "BAND_SAMPLES",
     "JITTER_WARN",
     "LEAD_FLOOR",
     "PASSES",
@@ -153,6 +157,36 @@ def _best_offset(x: np.ndarray, f: np.ndarray, span: float) -> np.ndarray:
     return d
 
 
+#: Frequencies over the band that range profiles without their samples are
+#: taken back to (:func:`trace_shifts`).
+BAND_SAMPLES = 64
+
+
+def _moved(data: RadarData, shifts: np.ndarray, gates=None) -> np.ndarray:
+    """The traces' profiles (n, gates) moved by ``-shifts`` (n,), m: from
+    the samples times ``exp(+j 4 pi f delta / c)`` where the data keep
+    them, else ``exp(+j 2 k_c delta) s(R + delta)``, the profile
+    interpolated by its Fourier transform along the range (zero-padded to
+    twice the axis, unless the axis is the compression's whole period)."""
+    n = shifts.size
+    rng = data.range if gates is None else data.range[gates]
+    fc = data.waveform.fc
+    sp = data.spectrum
+    if sp is not None:
+        f = sp.frequency
+        values = sp.values.reshape(n, f.size) * np.exp(4j * np.pi * np.outer(shifts, f) / C0)
+        return profiles(values, f, sp.window, fc, rng)
+    from scipy.fft import fft, fftfreq, ifft, next_fast_len
+
+    p = data.signal.reshape(n, -1)
+    size = p.shape[1] if data.range_period else next_fast_len(2 * p.shape[1])
+    nu = fftfreq(size, data.dr)  # cycles per m of range
+    spec = fft(p, n=size, axis=1) * np.exp(2j * np.pi * np.outer(shifts, nu))
+    out = ifft(spec, axis=1)[:, : p.shape[1]]
+    out *= np.exp(4j * np.pi * fc * shifts / C0)[:, None]
+    return out if gates is None else out[:, gates]
+
+
 def trace_shifts(data: RadarData) -> np.ndarray:
     """Each trace's offset on the direct wave from the scan's mean, m of
     range (module notes): trace ``i``'s echoes lie at ``R + delta_i``.
@@ -160,7 +194,9 @@ def trace_shifts(data: RadarData) -> np.ndarray:
     Parameters
     ----------
     data : RadarData
-        With its frequency samples (``data.spectrum``).
+        With its frequency samples (``data.spectrum``), or profiles alone:
+        then the flank is taken back to :data:`BAND_SAMPLES` frequencies
+        over the waveform's band, and moved as :func:`_moved` says.
 
     Returns
     -------
@@ -170,30 +206,22 @@ def trace_shifts(data: RadarData) -> np.ndarray:
     Raises
     ------
     InputError
-        No frequency samples, or fewer than 2 traces.
+        Fewer than 2 traces.
     """
-    sp = data.spectrum
-    if sp is None:
-        raise InputError(
-            "trace alignment moves each trace by a fraction of a gate, which needs the "
-            "frequency samples: give the scan as a spectrum (or convert it with rpm-cl convert)"
-        )
     n = int(np.prod(data.array.shape))
     if n < 2:
         raise InputError("trace alignment needs 2 traces or more")
-    from .preprocess import _periodic
-
-    f = sp.frequency
     fc = data.waveform.fc
-    p = data.signal.reshape(n, -1)
-    lead = data.range[_lead_gates(p.mean(axis=0), bool(_periodic(data)))]
-    back = np.exp(-4j * np.pi * np.outer(lead, f - fc) / C0)
-    values = sp.values.reshape(n, f.size).astype(np.complex128)
+    if data.spectrum is not None:
+        f = data.spectrum.frequency
+    else:
+        f = fc + data.waveform.bandwidth * np.linspace(-0.5, 0.5, BAND_SAMPLES)
+    gates = _lead_gates(data.signal.reshape(n, -1).mean(axis=0), bool(data.range_period))
+    back = np.exp(-4j * np.pi * np.outer(data.range[gates], f - fc) / C0)
     span = C0 / (4.0 * fc)
     shifts = np.zeros(n)
     for _ in range(PASSES):
-        moved = values * np.exp(4j * np.pi * np.outer(shifts, f) / C0)
-        q = profiles(moved, f, sp.window, fc, lead) @ back
+        q = _moved(data, shifts, gates) @ back
         shifts += _best_offset(q * q.mean(axis=0).conj(), f, span)
         shifts -= shifts.mean()
     edge = np.abs(shifts) > 0.95 * span
@@ -212,27 +240,29 @@ def trace_shifts(data: RadarData) -> np.ndarray:
 
 def aligned(data: RadarData, shifts: np.ndarray) -> RadarData:
     """``data`` with trace ``i`` moved by ``-shifts[i]`` (m of range): its
-    samples times ``exp(+j 4 pi f delta_i / c)``, its profiles formed from
-    them again on the data's range axis (:func:`profiles`).
+    samples times ``exp(+j 4 pi f delta_i / c)`` and its profiles formed
+    from them again on the data's range axis (:func:`profiles`), or, for
+    profiles alone, the profiles moved (:func:`_moved`).
 
     Parameters
     ----------
     data : RadarData
-        With its frequency samples.
     shifts : ndarray, shape data.array.shape
         m (:func:`trace_shifts`).
     """
     from ..io.radar import Spectrum
 
+    d = np.asarray(shifts, dtype=np.float64).ravel()
+    signal = _moved(data, d).reshape(data.signal.shape).astype(data.signal.dtype, copy=False)
     sp = data.spectrum
+    if sp is None:
+        return replace(data, signal=signal)
     f = sp.frequency
-    d = np.asarray(shifts, dtype=np.float64)[..., None]
-    values = (sp.values * np.exp(4j * np.pi * d * f / C0)).astype(sp.values.dtype, copy=False)
-    signal = profiles(values, f, sp.window, data.waveform.fc, data.range)
+    values = sp.values * np.exp(4j * np.pi * d.reshape(data.array.shape + (1,)) * f / C0)
     return replace(
         data,
-        signal=signal.astype(data.signal.dtype, copy=False),
-        spectrum=Spectrum(values, f, sp.window),
+        signal=signal,
+        spectrum=Spectrum(values.astype(sp.values.dtype, copy=False), f, sp.window),
     )
 
 
@@ -245,8 +275,11 @@ def warn_jitter(data: RadarData) -> None:
     times the direct wave's peak in the mean profile; its rms over the
     traces is compared with the strongest echo the removal leaves beyond
     two range resolutions of the direct wave, and the warning given from
-    :data:`JITTER_WARN` of it.  Data without their frequency samples, or
-    with fewer than 4 traces, are not measured.
+    :data:`JITTER_WARN` of it.  For data whose strongest echo is the
+    antennas' coupling (:func:`rpm_cl.extract.preprocess.coupling_dominates`,
+    which :func:`rpm_cl.extract.preprocess.preprocess` asks first): a flat
+    surface's echo, common to all antennas too, walks with the geometry,
+    not with a trigger.
 
     Parameters
     ----------
@@ -254,7 +287,7 @@ def warn_jitter(data: RadarData) -> None:
         Before the removal (the direct wave in).
     """
     n = int(np.prod(data.array.shape))
-    if data.spectrum is None or n < 4:
+    if n < 4:
         return
     shifts = trace_shifts(data).ravel()
     p = data.signal.reshape(n, -1)

@@ -115,7 +115,7 @@ def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
     """
     if data.array.planar or data.array.shape[0] < 4:
         return False
-    periodic = _periodic(data)
+    periodic = data.range_period
     rng = data.range - time_zero
     if periodic:
         rng = np.where(rng > 0.5 * periodic, rng - periodic, rng)
@@ -132,17 +132,6 @@ def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
     if np.mean(np.abs(rng[strongest] - rng[g]) <= res) < COUPLING_SAME:
         return False
     return _mostly_common(s[:, g])
-
-
-def _periodic(data: RadarData) -> float:
-    """The period of the data's range axis, m, where it is a compressed
-    spectrum's whole unambiguous range (``RadarData.compression``): a
-    coupling at time zero whose main lobe straddles it wraps to the axis's
-    end.  0 where the axis is no such period."""
-    comp = data.compression
-    if comp is None or data.range.size != comp.gates:
-        return 0.0
-    return comp.gates * data.dr
 
 
 def _mostly_common(v) -> bool:
@@ -354,7 +343,7 @@ def preprocess(
         m (after time zero); None keeps every gate.
     align_traces : bool
         Step 0: each trace moved onto the scan's mean on the direct wave
-        (:mod:`rpm_cl.extract.alignment`); needs the frequency samples.
+        (:mod:`rpm_cl.extract.alignment`).
     coupling_zero : float, optional
         The time zero ``auto``'s coupling tests measure from, m (None:
         ``time_zero``): :func:`rpm_cl.imaging.prepared` removes the
@@ -378,8 +367,7 @@ def preprocess(
     Raises
     ------
     InputError
-        A setting out of range, no range gate left, or a trace alignment
-        of data without their frequency samples.
+        A setting out of range, or no range gate left.
     """
     check(background, time_zero, gain_db_per_m, max_range)
     if align_traces:
@@ -394,7 +382,8 @@ def preprocess(
         background = "none"
     elif background == "auto":
         background = "mean" if coupling_dominates(data, zero) else "none"
-    if warn and background in ("mean", "median") and not align_traces and not data.array.planar:
+    removes = background in ("mean", "median")
+    if warn and removes and not align_traces and coupling_dominates(data, zero):
         from .alignment import warn_jitter
 
         warn_jitter(data)

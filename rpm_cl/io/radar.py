@@ -279,3 +279,14 @@ class RadarData:
     def dr(self) -> float:
         """Range sample spacing, m."""
         return float(self.range[1] - self.range[0])
+
+    @property
+    def range_period(self) -> float:
+        """The period of the range axis, m, where it is a compressed
+        spectrum's whole unambiguous range (``compression``): an echo whose
+        main lobe straddles the axis's start wraps to its end.  0 where the
+        axis is no such period."""
+        comp = self.compression
+        if comp is None or self.range.size != comp.gates:
+            return 0.0
+        return comp.gates * self.dr
