@@ -76,6 +76,18 @@ def ricker(t, fc):
     return (1 - 2 * a) * np.exp(-a)
 
 
+def ringing(t, fc):
+    """A ringing antenna's pulse: a cosine under an envelope that rises
+    from a quarter period before the transmit instant and peaks 0.45
+    periods after it."""
+    ts = t + 0.25 / fc
+    env = np.where(ts > 0, (ts * fc) ** 2 * np.exp(-ts * fc * 2.2), 0.0)
+    return env * np.cos(2 * np.pi * fc * t) / 0.15
+
+
+PULSES = {"ricker": ricker, "ringing": ringing}
+
+
 def traces(line: dict, jitter: float, coupling_only: bool = False) -> tuple:
     """The line's traces (nx, SAMPLES), their delays (s) and x (m); with
     ``coupling_only`` the direct coupling's pulse alone is delayed."""
@@ -84,17 +96,20 @@ def traces(line: dict, jitter: float, coupling_only: bool = False) -> tuple:
     t = (np.arange(SAMPLES) - N0) * dt
     x = np.arange(line["nx"]) * line["dx"]
     v = C0 / np.sqrt(line["eps"])
+    pulse = PULSES[line.get("pulse", "ricker")]
     tau = jitter * rng.standard_normal(x.size)
     out = np.zeros((x.size, SAMPLES))
     for i, xi in enumerate(x):
         ti = t - (0.0 if coupling_only else tau[i])
         a = 6.0 * (1 + 0.03 * rng.standard_normal())
-        out[i] = -a * ricker(t - tau[i], fc) + 0.4 * a * ricker(ti - 1.1 / fc, fc)
+        out[i] = -a * pulse(t - tau[i], fc) + 0.4 * a * pulse(ti - 1.1 / fc, fc)
         for xb, cover in line["bars"]:
             r = np.hypot(xi - xb, cover + RADIUS) - RADIUS
             beam = np.exp(-((np.arctan2(abs(xi - xb), cover + RADIUS) / np.deg2rad(40)) ** 2))
-            out[i] += 0.05 / r * beam * np.exp(-8 * r) * ricker(ti - 2 * r / v, fc)
+            out[i] += 0.05 / r * beam * np.exp(-8 * r) * pulse(ti - 2 * r / v, fc)
     out += line["noise"] * rng.standard_normal(out.shape)
+    gain = line.get("gain_db_per_ns", 0.0)  # a recorder's range gain, from time zero
+    out *= 10 ** (gain * np.clip(t * 1e9, 0, None) / 20)
     return out, tau, x
 
 

@@ -253,6 +253,9 @@ def resolve(data, values: dict, base: dict | None = None, sources: dict | None =
     sources = sources or {}
     explicit = {k: v for k, v in values.items() if k[0] != "engine"}
     given = {name: v for (_, name), v in explicit.items() if v is not None}
+    if explicit.get(("imaging", "time_zero"), 0.0) is None:  # "auto": from the data
+        given["time_zero"] = None
+        explicit.pop(("imaging", "time_zero"))
     try:
         params = default_params(data, **{**(base or {}), **given})
         for (section, name), v in explicit.items():

@@ -75,7 +75,9 @@ _EXTRA_DOCS = {
     "profile over the antennas per gate ('mean', 'median'), nothing ('none'), or the mean "
     "where a B-scan's strongest echo is the antennas' own coupling ('auto').",
     "time_zero": "Before imaging: this range becomes 0 (the antenna's own pulse, or the "
-    "surface echo of a ground-coupled antenna), m; earlier gates are dropped.",
+    "surface echo of a ground-coupled antenna), m; earlier gates are dropped. auto: the "
+    "envelope peak of the echo every antenna of a linear scan sees alike, where its "
+    "strongest echo is one (rpm_cl.extract.preprocess.pick_time_zero), else 0.",
     "gain_db_per_m": "Before imaging: amplitudes times 10^(g R / 20), a gain of g dB per "
     "metre of range after time_zero.",
     "max_range": "Before imaging: gates beyond this range (after time_zero) are dropped, "

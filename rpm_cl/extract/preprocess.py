@@ -45,7 +45,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..io.data import InputError, RadarData
+from ..io.data import DataWarning, InputError, RadarData
 from ..io.model import C0
 from ..io.radar import mostly_common
 
@@ -55,8 +55,11 @@ __all__ = [
     "COUPLING_SAME",
     "COUPLING_SHARE",
     "COUPLING_TERMS",
+    "LATE_PULSE",
+    "common_echo",
     "coupling_dominates",
     "coupling_rps",
+    "pick_time_zero",
     "planar_coupling",
     "preprocess",
     "shift_truth",
@@ -75,6 +78,12 @@ COUPLING_SAME = 0.9
 #: the half-space the surface with it); with the background subtracted, and
 #: on the paper's 2-D scenes, 0.03-0.12 at the strongest echo.
 COUPLING_SHARE = 0.9
+#: A linear scan's common strongest echo this many range resolutions or
+#: more past range 0, with time zero left at 0, is warned of as a pulse the
+#: record starts before (a GSSI record's direct wave some 40 samples in
+#: lies 0.6-0.8 resolutions in; a gprMax run's coupling, at its source's
+#: start, at 0).
+LATE_PULSE = 0.25
 #: Terms of a planar scan's coupling in its samples: one delay times a
 #: polynomial across the band (:func:`planar_coupling`); 2: an amplitude
 #: and phase that change linearly across it.  Measured on the physical-optics
@@ -104,34 +113,90 @@ def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
     Returns
     -------
     bool
-        True for a linear array of 4 antennas or more whose strongest gate
-        (the median over the antennas of each one's strongest) lies within
-        ``data.waveform.range_resolution`` of time zero, where the strongest
-        gates of :data:`COUPLING_SAME` of the antennas lie within that
-        resolution of it and at least :data:`COUPLING_SHARE` of the gate's
-        power is the antennas' mean.  Planar arrays: False (a flat surface
-        parallel to the scan, a near-field sample's, is as common to every
-        antenna as a coupling).
+        True where :func:`common_echo` finds the scan's strongest echo
+        common to its antennas within ``data.waveform.range_resolution`` of
+        time zero (before it too, round a periodic axis).
+    """
+    rng = common_echo(data, time_zero)
+    if rng is None:
+        return False
+    res = data.waveform.range_resolution
+    # on a periodic axis, a coupling at time zero straddles it, and peaks
+    # before it as often as after
+    return (-res if data.range_period else 0.0) <= rng <= res
+
+
+def common_echo(data: RadarData, time_zero: float = 0.0) -> float | None:
+    """The range from ``time_zero`` of a B-scan's strongest echo where it is
+    the same at (nearly) every antenna, m; None where it is not.
+
+    That echo is the median over the antennas of each one's strongest gate
+    (round a periodic axis: ranges past half its period from time zero
+    count as before it), where the strongest gates of :data:`COUPLING_SAME`
+    of the antennas lie within a range resolution of it and at least
+    :data:`COUPLING_SHARE` of the gate's power is the antennas' mean.  A
+    linear array of 4 antennas or more; planar arrays: None (a flat
+    surface parallel to the scan, a near-field sample's, is as common to
+    every antenna as a coupling).
     """
     if data.array.planar or data.array.shape[0] < 4:
-        return False
+        return None
     periodic = data.range_period
     rng = data.range - time_zero
     if periodic:
         rng = np.where(rng > 0.5 * periodic, rng - periodic, rng)
     s = data.signal.reshape(-1, rng.size)
     strongest = np.abs(s).argmax(axis=1)
-    # the antennas' median strongest range, round a periodic axis (a coupling
-    # whose main lobe straddles time zero peaks at its end as often)
     g = int(strongest[np.argsort(rng[strongest], kind="stable")[strongest.size // 2]])
     res = data.waveform.range_resolution
-    # on a periodic axis, a coupling at time zero straddles it, and peaks
-    # before it as often as after
-    if not ((-res if periodic else 0.0) <= rng[g] <= res):
-        return False
     if np.mean(np.abs(rng[strongest] - rng[g]) <= res) < COUPLING_SAME:
-        return False
-    return _mostly_common(s[:, g])
+        return None
+    if not _mostly_common(s[:, g]):
+        return None
+    return float(rng[g])
+
+
+def _warn_late_pulse(data: RadarData) -> None:
+    """Warn (one line, with the fix) where a linear scan's strongest echo,
+    the same at every antenna, lies more than :data:`LATE_PULSE` range
+    resolutions past range 0 while time zero is left at 0: a GPR record
+    that starts before the antennas' pulse, whose every depth is then too
+    deep by its range."""
+    rng = common_echo(data)
+    if rng is not None and rng > LATE_PULSE * data.waveform.range_resolution:
+        import warnings
+
+        warnings.warn(
+            f"the strongest echo, the same at every antenna, lies at range {rng:.3g} m: "
+            f"if it is the antennas' own pulse (a GPR's direct wave), every range is "
+            f"measured from before it; --time-zero auto sets time zero there",
+            DataWarning,
+            stacklevel=4,
+        )
+
+
+def pick_time_zero(data: RadarData) -> float:
+    """``time_zero = "auto"``: the range of the antennas' own pulse, m, the
+    envelope peak of the scan's mean profile at the echo
+    :func:`common_echo` finds (a parabola through the gate and its two
+    neighbours); 0 where it finds none, or where the echo straddles the
+    start of a periodic axis (it is at time zero already).
+
+    For a ground-coupled antenna that pulse is its direct wave, whose
+    envelope peak marks the surface (docs/input-format.md, GSSI); for an
+    antenna in air, its coupling at the antenna.
+    """
+    r0 = common_echo(data)
+    if r0 is None or r0 < 0:
+        return 0.0
+    g = int(np.argmin(np.abs(data.range - r0)))
+    mean = np.abs(data.signal.reshape(-1, data.range.size).mean(axis=0))
+    if 0 < g < mean.size - 1:
+        a, b, c = mean[g - 1], mean[g], mean[g + 1]
+        den = a - 2.0 * b + c
+        if den < 0:
+            r0 = float(data.range[g] + 0.5 * (a - c) / den * data.dr)
+    return max(float(r0), 0.0)
 
 
 def _mostly_common(v) -> bool:
@@ -307,8 +372,11 @@ def check(background: str, time_zero: float, gain_db_per_m: float, max_range: fl
     """Refuse settings that no data could take (one line each)."""
     if background not in BACKGROUNDS:
         raise InputError(f"background must be one of {', '.join(BACKGROUNDS)}, got {background!r}")
-    if not (np.isfinite(time_zero) and time_zero >= 0):
-        raise InputError(f"time_zero must be a range >= 0 m, got {time_zero}")
+    if time_zero is None or not (np.isfinite(time_zero) and time_zero >= 0):
+        raise InputError(
+            f'time_zero must be a range >= 0 m ("auto" is resolved by '
+            f"rpm_cl.rpm.params.default_params), got {time_zero}"
+        )
     if not (np.isfinite(gain_db_per_m) and abs(gain_db_per_m) <= 1000):
         raise InputError(f"gain_db_per_m must be within +-1000 dB/m, got {gain_db_per_m}")
     if max_range is not None and not (np.isfinite(max_range) and max_range > 0):
@@ -382,6 +450,8 @@ def preprocess(
         background = "none"
     elif background == "auto":
         background = "mean" if coupling_dominates(data, zero) else "none"
+    if warn and time_zero == 0 and coupling_zero is None:
+        _warn_late_pulse(data)
     removes = background in ("mean", "median")
     if warn and removes and not align_traces and coupling_dominates(data, zero):
         from .alignment import warn_jitter

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..extract.kspace import KSpaceParams
 from ..extract.preprocess import check as check_preprocess
-from ..extract.preprocess import preprocess
+from ..extract.preprocess import pick_time_zero, preprocess
 from ..io.data import InputError, RadarData
 from ..io.medium import Medium, seen_data
 from ..io.radar import profile_power
@@ -259,7 +259,9 @@ class ImagingParams:
     segments: bool = True
     align_traces: bool = False
     background: Literal["auto", "none", "mean", "median"] = "auto"
-    time_zero: float = 0.0
+    # None ("auto") is resolved from the data by default_params
+    # (rpm_cl.extract.preprocess.pick_time_zero); a parameter set holds a range
+    time_zero: float | None = 0.0
     gain_db_per_m: float = 0.0
     max_range: float | None = None
 
@@ -329,6 +331,8 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     from dataclasses import fields
 
     arr = data.array
+    if "time_zero" in overrides and overrides["time_zero"] is None:  # "auto"
+        overrides = {**overrides, "time_zero": pick_time_zero(data)}
     ov = {k: v for k, v in overrides.items() if v is not None}
     top = {f.name for f in fields(ImagingParams)} - {"kspace", "rpm", "medium"}
     rpm_names = {f.name for f in fields(RPMParams)}

@@ -1,0 +1,112 @@
+"""``time_zero = "auto"``: time zero at the antennas' own pulse
+(rpm_cl.extract.preprocess.pick_time_zero), and the warning where a record
+starts before it.
+
+The scans are written out in the frequency domain here: a GPR-like line
+whose record starts ``LEAD`` of range before the antennas' pulse, so that
+the direct wave and every echo lie ``LEAD`` further than their true range.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from rpm_cl.cli import main
+from rpm_cl.extract.preprocess import common_echo, pick_time_zero
+from rpm_cl.imaging import run_method
+from rpm_cl.io.compress import spectrum_data
+from rpm_cl.io.data import Array, DataWarning
+from rpm_cl.io.formats import save_data
+from rpm_cl.io.model import C0
+from rpm_cl.rpm import reference
+from rpm_cl.rpm.params import default_params
+
+X = np.arange(60) * 0.01
+FREQ = np.linspace(1.0e9, 3.0e9, 81)
+TARGETS = ((0.15, 0.25), (0.45, 0.35))  # (x, range at closest approach), m
+LEAD = 0.1234  # the record starts this much range before the pulse, m
+
+
+def _scan(lead=LEAD, direct=1.0, targets=TARGETS):
+    k = 4 * np.pi * FREQ / C0
+    values = direct * np.exp(-1j * np.outer(np.full(X.size, lead), k))
+    for xt, rt in targets:
+        values = values + 0.05 * np.exp(-1j * np.outer(lead + np.hypot(X - xt, rt), k))
+    return spectrum_data(values, FREQ, Array(X))
+
+
+def test_the_pulse_is_picked_at_its_envelope_peak():
+    """The direct wave's range, within a twentieth of a gate; None and 0
+    where the strongest echo is not the same at every antenna."""
+    data = _scan()
+    assert pick_time_zero(data) == pytest.approx(LEAD, abs=0.05 * data.dr)
+    assert common_echo(data) == pytest.approx(LEAD, abs=data.dr)
+    alone = _scan(direct=0.0)  # the targets' echoes walk: nothing common
+    assert common_echo(alone) is None and pick_time_zero(alone) == 0.0
+
+
+def test_a_pulse_straddling_the_axis_start_is_at_zero_already():
+    """Round a compressed spectrum's periodic axis a pulse 5 mm before the
+    record's start peaks at its end: time zero stays 0, not the period."""
+    data = _scan(lead=-0.005)
+    assert data.range_period > 0
+    assert common_echo(data) == pytest.approx(-0.005, abs=data.dr)
+    assert pick_time_zero(data) == 0.0
+
+
+def _points(data, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        params = default_params(data, **kw)
+        return params, run_method("phase-rpm", data, params, reference).image.points
+
+
+def test_auto_images_the_targets_where_they_are():
+    """Resolved by default_params, auto is the picked range; imaged from it,
+    each target has points within 5 mm, where time zero 0 puts every point
+    ``LEAD`` too far."""
+    data = _scan()
+    params, pts = _points(data, time_zero=None)
+    assert params.time_zero == pytest.approx(pick_time_zero(data))
+    for xt, rt in TARGETS:
+        assert np.min(np.hypot(pts[:, 0] - xt, pts[:, 1] - rt)) < 0.005
+    _, late = _points(data)
+    for xt, rt in TARGETS:
+        near = np.hypot(late[:, 0] - xt, late[:, 1] - rt) < 0.02
+        assert not near.any()
+
+
+def test_a_late_pulse_is_warned_with_the_fix():
+    """Time zero left at 0 before the pulse: one warning naming its range
+    and the fix; none with auto, nor where the pulse is at 0."""
+    from rpm_cl.imaging import prepared
+
+    data = _scan()
+    with pytest.warns(DataWarning, match=r"lies at range 0\.12.* --time-zero auto"):
+        prepared(data, default_params(data))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        prepared(data, default_params(data, time_zero=None))
+        at_zero = _scan(lead=0.0)
+        prepared(at_zero, default_params(at_zero))
+
+
+def test_auto_from_flags_and_config(tmp_path, capsys):
+    """``--time-zero auto`` and ``time_zero = "auto"`` in a config resolve
+    to the picked range, which ``rpm-cl params`` prints."""
+    data = _scan()
+    path = tmp_path / "scan.npz"
+    save_data(path, data)
+    want = pick_time_zero(data)
+
+    def printed(*argv):
+        assert main(["params", str(path), *argv]) == 0
+        line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("time_zero"))
+        return float(line.split("=")[1])
+
+    assert printed("--time-zero", "auto") == pytest.approx(want, rel=1e-6)
+    cfg = tmp_path / "p.toml"
+    cfg.write_text('[imaging]\ntime_zero = "auto"\n')
+    assert printed("--config", str(cfg)) == pytest.approx(want, rel=1e-6)
+    assert printed() == 0.0
