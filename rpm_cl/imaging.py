@@ -183,6 +183,10 @@ def prepared(data: RadarData, params: ImagingParams) -> tuple[RadarData, Imaging
     from dataclasses import replace
 
     steps = {k: getattr(params, k) for k in PREPROCESS_FIELDS}
+    if params.time_zero == 0 and params.medium.antenna_height is None:
+        from .extract.preprocess import warn_late_pulse
+
+        warn_late_pulse(data)
     cuts = params.time_zero > 0 or params.max_range is not None
     if not cuts or params.kspace.noise_power is not None or params.gain_db_per_m != 0:
         return preprocess(data, **steps), params

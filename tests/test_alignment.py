@@ -10,8 +10,8 @@ import warnings
 import numpy as np
 import pytest
 
-from rpm_cl.extract.alignment import aligned, profiles, trace_shifts, warn_jitter
-from rpm_cl.extract.preprocess import preprocess
+from rpm_cl.extract.alignment import aligned, profiles, trace_shifts
+from rpm_cl.extract.preprocess import preprocess, warn_jitter
 from rpm_cl.imaging import run_method
 from rpm_cl.io.compress import range_compress, spectrum_data
 from rpm_cl.io.data import Array, DataWarning, RadarData
@@ -168,3 +168,46 @@ def test_lead_flank_wraps_round_a_periodic_axis():
     mean[60] = 0.05  # under LEAD_FLOOR: the flank ends before it
     mean[40] = 0.2
     assert list(_lead_gates(mean, True)) == [61, 62, 63, 0]
+
+
+def test_dead_traces_neither_move_nor_move_the_others():
+    """All-zero traces have no offset to measure: they keep 0, and the live
+    traces' offsets stay within 20 um (their mean taken over them alone)."""
+    values, delta = _scan(3e-3)
+    dead = np.arange(0, 80, 10)
+    values[dead] = 0.0
+    got = trace_shifts(_data(values))
+    live = np.setdiff1d(np.arange(80), dead)
+    want = delta[live] - delta[live].mean()
+    assert np.all(got[dead] == 0.0)
+    assert np.abs(got[live] - want).max() < 2e-5
+
+
+def test_no_direct_wave_no_alignment():
+    """The strongest echo a target's (no direct wave): its offsets are its
+    range walk, and aligning on it would flatten the scene; the traces are
+    left as they are, with a warning."""
+    from rpm_cl.extract.preprocess import align
+
+    k = 4 * np.pi * FREQ / C0
+    values = sum(np.exp(-1j * np.outer(np.hypot(X - xt, rt), k)) for xt, rt in TARGETS)
+    data = _data(values)
+    with pytest.warns(DataWarning, match="no direct wave"):
+        out = align(data)
+    assert out is data
+
+
+def test_heavy_jitter_is_warned_and_aligned():
+    """40 ps (6 mm of range, 0.5 rad of the carrier's phase at 2 GHz) makes
+    the direct wave fail the coupling test unaligned: the warning is still
+    given, and auto time zero, picked on the aligned traces, still finds
+    it."""
+    from rpm_cl.extract.preprocess import coupling_dominates, pick_time_zero
+
+    data = _data(_scan(6e-3)[0])
+    assert not coupling_dominates(data)
+    with pytest.warns(DataWarning, match="--align-traces true"):
+        warn_jitter(data)
+    assert pick_time_zero(data) == 0.0
+    params = default_params(data, align_traces=True, time_zero=None)
+    assert params.time_zero == pytest.approx(DIRECT, abs=0.002)

@@ -110,3 +110,53 @@ def test_auto_from_flags_and_config(tmp_path, capsys):
     cfg.write_text('[imaging]\ntime_zero = "auto"\n')
     assert printed("--config", str(cfg)) == pytest.approx(want, rel=1e-6)
     assert printed() == 0.0
+
+
+@pytest.mark.parametrize("frac", np.linspace(0.0, 1.0, 11))
+def test_profiles_alone_keep_their_coupling_at_the_picked_zero(frac):
+    """Range profiles without their samples (an axis that is no period):
+    wherever the pulse falls between two gates, the picked time zero
+    leaves it a coupling there (within a gate before it), so the default
+    background removes it."""
+    from rpm_cl.extract.preprocess import coupling_dominates
+    from rpm_cl.io.data import RadarData
+
+    spec = _scan()
+    lead = 0.1 + frac * spec.dr
+    data = _scan(lead=lead)
+    alone = RadarData(data.signal, data.array, data.range, data.waveform)
+    zero = pick_time_zero(alone)
+    assert zero == pytest.approx(lead, abs=0.5 * data.dr)
+    assert coupling_dominates(alone, zero)
+
+
+def test_above_a_half_space_the_surface_is_the_antenna_height_in():
+    """With an antenna height the common echo is the surface's: time zero
+    lies that height before it; and a record whose surface lies there is
+    not warned of."""
+    from rpm_cl.imaging import prepared
+
+    data = _scan()
+    assert pick_time_zero(data, 0.1) == pytest.approx(LEAD - 0.1, abs=0.05 * data.dr)
+    assert pick_time_zero(data, 0.2) == 0.0
+    params = default_params(data, time_zero=None, eps_r=4.0, antenna_height=0.1)
+    assert params.time_zero == pytest.approx(LEAD - 0.1, abs=0.05 * data.dr)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        prepared(data, default_params(data, eps_r=4.0, antenna_height=0.12))
+
+
+def test_none_is_no_time_zero_word(capsys):
+    """The word "none" would read as "no time zero", which is 0, not a
+    pick: refused, with one line (max_range's "none", keep every gate,
+    stays)."""
+    assert main(["params", "x.npz", "--time-zero", "none"]) == 2
+    assert "must be a number or 'auto'" in capsys.readouterr().err
+    assert main(["params", "x.npz", "--max-range", "none"]) != 0  # x.npz is absent
+    assert "--max-range" not in capsys.readouterr().err
+
+
+def test_batch_takes_auto():
+    from rpm_cl.cli.batch_config import BatchConfig
+
+    BatchConfig(overrides=((("imaging", "time_zero"), None),))

@@ -92,7 +92,10 @@ class BatchConfig:
             KSpaceParams(**by_section.get("kspace", {}))
             RPMParams(**by_section.get("rpm", {}))
             Medium(**by_section.get("medium", {}))
-            ImagingParams(**by_section.get("imaging", {}))
+            imaging = dict(by_section.get("imaging", {}))
+            if imaging.get("time_zero", 0.0) is None:  # "auto": picked per frame
+                imaging["time_zero"] = 0.0
+            ImagingParams(**imaging)
         except TypeError as exc:
             raise InputError(f"unknown imaging parameter: {exc}") from None
         if self.precision not in ("float32", "float64"):

@@ -38,6 +38,8 @@ from ..io.data import InputError
 __all__ = ["EngineParams", "Setting", "settings"]
 
 _AUTO = ("auto", "none")
+#: Settings whose None is a value picked from the data, written only "auto".
+_PICKED = ("time_zero",)
 
 
 @dataclass(frozen=True)
@@ -128,6 +130,13 @@ class Setting:
     flag: str = ""
 
     @property
+    def auto_words(self) -> tuple:
+        """The texts that stand for None: ``auto`` and ``none``, but only
+        ``auto`` where None is a value picked from the data (time zero: "no
+        time zero" is 0, not a pick)."""
+        return ("auto",) if self.name in _PICKED else _AUTO
+
+    @property
     def dest(self) -> str:
         return f"cfg__{self.section}__{self.name}"
 
@@ -146,7 +155,7 @@ class Setting:
 
     def coerce(self, value):
         """A TOML value checked against the field's type; ValueError if wrong."""
-        if self.optional and isinstance(value, str) and value.lower() in _AUTO:
+        if self.optional and isinstance(value, str) and value.lower() in self.auto_words:
             return None
         if self.choices is not None:
             if value in self.choices:
@@ -170,7 +179,7 @@ class Setting:
         """A flag's text converted to the field's type (argparse ``type``)."""
         t = text.strip()
         try:
-            if self.optional and t.lower() in _AUTO:
+            if self.optional and t.lower() in self.auto_words:
                 return None
             if self.choices is None and self.kind is bool:
                 low = t.lower()

@@ -12,7 +12,16 @@ mean, a residue with a random phase per trace that swamps the targets:
 
 :func:`trace_shifts` measures each trace's offset on the direct wave, and
 :func:`aligned` moves every trace by it, the standard GPR step before the
-background removal.
+background removal; :func:`rpm_cl.extract.preprocess.align` does both where
+the strongest echo is a direct wave.  Trigger jitter is white from trace to trace, while the range
+walk of a target's echo (the strongest echo of a scan without a direct
+wave, or with it removed) follows the scan smoothly and is not common to
+the antennas: offsets whose neighbours along the scan correlate by
+:data:`SMOOTH` or more (:func:`smoothness`), measured on an echo that is not common to the
+antennas (:func:`rpm_cl.io.radar.mostly_common`, the coupling test's
+share), are a target's walk, and the traces are left as they are (a
+warning says so).  A slow drift of the direct wave is smooth too, but its
+echo stays common.
 
 Measurement
 -----------
@@ -29,8 +38,9 @@ offset is the maximum of ::
 
     J(delta) = Re sum_f q(f) conj(q_ref(f)) exp(+j 4 pi f delta / c)
 
-within a quarter of the carrier's period of range (``c / (4 f_c)``, where
-``J`` has no other maximum as high), on a grid and then by Newton steps.
+within half the carrier's period of range either side (``c / (4 f_c)``:
+the two-way phase turns by pi there, and ``J`` has no other maximum as
+high within it), on a grid and then by Newton steps.
 Holding the carrier's phase to the delay makes the estimate unbiased where
 the flank is cut from a lobe; the envelope's cross-correlation alone is
 pulled towards 0 by the fixed cut (measured: a fifth of the true offsets).
@@ -39,7 +49,9 @@ towards 0 (by 3.5 % on a 1-3 GHz line); so the traces' flanks are formed
 again from their samples moved by the offsets found, and what is left
 measured against their new mean and added (:data:`PASSES` in all: the
 pull shrinks as the traces come into line).  The offsets' mean is taken
-off, so the scan's mean time zero stays where it was.
+off, so the scan's mean time zero stays where it was.  A dead trace (its
+flank's energy under :data:`DEAD` of the median trace's) has no offset to
+measure: it keeps 0 and is left out of the mean.
 
 Moving a trace by ``delta`` multiplies its samples by
 ``exp(+j 4 pi f delta / c)``; its profiles are formed from them again as
@@ -62,13 +74,16 @@ from ..io.model import C0
 
 __all__ = [
     "BAND_SAMPLES",
+    "DEAD",
     "JITTER_WARN",
     "LEAD_FLOOR",
     "PASSES",
+    "SMOOTH",
     "aligned",
     "profiles",
+    "smoothness",
     "trace_shifts",
-    "warn_jitter",
+    "warn_ambiguous",
 ]
 
 #: The leading flank of the direct wave starts where the mean profile's
@@ -82,7 +97,17 @@ PASSES = 3
 GRID_PER_QUARTER = 8
 #: Newton steps from the grid's best offset.
 NEWTON_STEPS = 4
-#: :func:`warn_jitter` warns where the direct wave's residue that the
+#: A trace whose flank holds less than this share of the median trace's
+#: energy there is dead: no offset is measured on it.
+DEAD = 1e-3
+#: Offsets whose correlation between neighbours along the scan reaches
+#: this follow it smoothly (a target's walk, or a drift), where jitter's
+#: are white (about 0).
+SMOOTH = 0.5
+#: Traces moved at once where range profiles alone are interpolated (their
+#: transform along the range is the memory that grows).
+CHUNK = 1024
+#: :func:`rpm_cl.extract.preprocess.warn_jitter` warns where the direct wave's residue that the
 #: traces' timing leaves after a mean removal is at least this share of the
 #: strongest echo left beyond the direct wave.
 JITTER_WARN = 0.5
@@ -181,13 +206,17 @@ def _moved(data: RadarData, shifts: np.ndarray, gates=None) -> np.ndarray:
     p = data.signal.reshape(n, -1)
     size = p.shape[1] if data.range_period else next_fast_len(2 * p.shape[1])
     nu = fftfreq(size, data.dr)  # cycles per m of range
-    spec = fft(p, n=size, axis=1) * np.exp(2j * np.pi * np.outer(shifts, nu))
-    out = ifft(spec, axis=1)[:, : p.shape[1]]
-    out *= np.exp(4j * np.pi * fc * shifts / C0)[:, None]
-    return out if gates is None else out[:, gates]
+    keep = slice(None) if gates is None else gates
+    out = np.empty((n, rng.size), np.complex128)
+    for i in range(0, n, CHUNK):
+        d = shifts[i : i + CHUNK]
+        spec = fft(p[i : i + CHUNK], n=size, axis=1) * np.exp(2j * np.pi * np.outer(d, nu))
+        moved = ifft(spec, axis=1)[:, : p.shape[1]][:, keep]
+        out[i : i + CHUNK] = moved * np.exp(4j * np.pi * fc * d / C0)[:, None]
+    return out
 
 
-def trace_shifts(data: RadarData) -> np.ndarray:
+def trace_shifts(data: RadarData, quiet: bool = False) -> np.ndarray:
     """Each trace's offset on the direct wave from the scan's mean, m of
     range (module notes): trace ``i``'s echoes lie at ``R + delta_i``.
 
@@ -198,10 +227,13 @@ def trace_shifts(data: RadarData) -> np.ndarray:
         then the flank is taken back to :data:`BAND_SAMPLES` frequencies
         over the waveform's band, and moved as :func:`_moved` says.
 
+    quiet : bool
+        No warning of offsets at the search's edge.
+
     Returns
     -------
     ndarray, float64, shape data.array.shape
-        Mean 0.
+        Mean 0 over the live traces; 0 at the dead ones (module notes).
 
     Raises
     ------
@@ -220,22 +252,40 @@ def trace_shifts(data: RadarData) -> np.ndarray:
     back = np.exp(-4j * np.pi * np.outer(data.range[gates], f - fc) / C0)
     span = C0 / (4.0 * fc)
     shifts = np.zeros(n)
+    flank = np.abs(data.signal.reshape(n, -1)[:, gates]).astype(np.float64)
+    top = float(flank.max())
+    if not (np.isfinite(top) and top > 0):
+        return shifts.reshape(data.array.shape)
+    energy = np.sum((flank / top) ** 2, axis=1)  # any scale: no overflow
+    live = energy > DEAD * np.median(energy)
+    if live.sum() < 2:
+        return shifts.reshape(data.array.shape)
     for _ in range(PASSES):
         q = _moved(data, shifts, gates) @ back
-        shifts += _best_offset(q * q.mean(axis=0).conj(), f, span)
-        shifts -= shifts.mean()
+        q /= np.abs(q).max()
+        step = _best_offset(q * q[live].mean(axis=0).conj(), f, span)
+        shifts = np.where(live, shifts + step - step[live].mean(), 0.0)
+    shifts = shifts.reshape(data.array.shape)
+    if not quiet:
+        warn_ambiguous(data, shifts)
+    return shifts
+
+
+def warn_ambiguous(data: RadarData, shifts: np.ndarray) -> None:
+    """Warn (one line) where offsets reach the search's edge, half the
+    carrier's period of range either side, where they are ambiguous."""
+    span = C0 / (4.0 * data.waveform.fc)
     edge = np.abs(shifts) > 0.95 * span
     if edge.any():
         import warnings
 
         warnings.warn(
-            f"trace alignment: {int(edge.sum())} of {n} traces are {span * 1e3:.3g} mm or more "
-            f"off the mean on the direct wave, a quarter of the carrier's period, where the "
+            f"trace alignment: {int(edge.sum())} of {edge.size} traces are {span * 1e3:.3g} mm "
+            f"or more off the mean on the direct wave, half the carrier's period, where the "
             f"measurement is ambiguous: their timing is not to be trusted",
             DataWarning,
-            stacklevel=3,
+            stacklevel=4,
         )
-    return shifts.reshape(data.array.shape)
 
 
 def aligned(data: RadarData, shifts: np.ndarray) -> RadarData:
@@ -266,47 +316,12 @@ def aligned(data: RadarData, shifts: np.ndarray) -> RadarData:
     )
 
 
-def warn_jitter(data: RadarData) -> None:
-    """Warn (one line, with the fix) where a background removal of ``data``
-    without alignment leaves a residue of the direct wave that its traces'
-    timing makes as strong as the echoes.
-
-    The residue a trace ``delta`` off the mean keeps is ``2 k_c |delta|``
-    times the direct wave's peak in the mean profile; its rms over the
-    traces is compared with the strongest echo the removal leaves beyond
-    two range resolutions of the direct wave, and the warning given from
-    :data:`JITTER_WARN` of it.  For data whose strongest echo is the
-    antennas' coupling (:func:`rpm_cl.extract.preprocess.coupling_dominates`,
-    which :func:`rpm_cl.extract.preprocess.preprocess` asks first): a flat
-    surface's echo, common to all antennas too, walks with the geometry,
-    not with a trigger.
-
-    Parameters
-    ----------
-    data : RadarData
-        Before the removal (the direct wave in).
-    """
-    n = int(np.prod(data.array.shape))
-    if n < 4:
-        return
-    shifts = trace_shifts(data).ravel()
-    p = data.signal.reshape(n, -1)
-    mean = p.mean(axis=0)
-    g0 = int(np.abs(mean).argmax())
-    far = np.abs(data.range - data.range[g0]) > 2.0 * data.waveform.range_resolution
-    if not far.any():
-        return
-    left = float(np.abs(p[:, far] - mean[far]).max())
-    kc = 4.0 * np.pi * data.waveform.fc / C0
-    rms = float(np.sqrt(np.mean(shifts**2)))
-    residue = kc * rms * float(np.abs(mean[g0]))
-    if residue >= JITTER_WARN * left:
-        import warnings
-
-        warnings.warn(
-            f"the direct wave's timing wanders by {2e12 * rms / C0:.3g} ps rms from trace to "
-            f"trace ({rms * 1e3:.3g} mm of range): the background removal leaves "
-            f"{residue / left:.2g} times the strongest echo of it: try --align-traces true",
-            DataWarning,
-            stacklevel=3,
-        )
+def smoothness(shifts: np.ndarray) -> float:
+    """Correlation of the offsets ``shifts`` (array shape) between
+    neighbours along the scan's first axis (0 where they do not vary)."""
+    d = np.asarray(shifts, np.float64)
+    d = d - d.mean()
+    den = float(np.sum(d * d))
+    if d.shape[0] < 3 or not den > 0:
+        return 0.0
+    return float(np.sum(d[1:] * d[:-1]) / den)

@@ -48,6 +48,7 @@ import numpy as np
 from ..io.data import DataWarning, InputError, RadarData
 from ..io.model import C0
 from ..io.radar import mostly_common
+from .alignment import JITTER_WARN, SMOOTH, aligned, smoothness, trace_shifts
 
 __all__ = [
     "BACKGROUNDS",
@@ -56,6 +57,7 @@ __all__ = [
     "COUPLING_SHARE",
     "COUPLING_TERMS",
     "LATE_PULSE",
+    "align",
     "common_echo",
     "coupling_dominates",
     "coupling_rps",
@@ -63,6 +65,8 @@ __all__ = [
     "planar_coupling",
     "preprocess",
     "shift_truth",
+    "warn_jitter",
+    "warn_late_pulse",
     "without_echo",
 ]
 
@@ -83,7 +87,7 @@ COUPLING_SHARE = 0.9
 #: record starts before (a GSSI record's direct wave some 40 samples in
 #: lies 0.6-0.8 resolutions in; a gprMax run's coupling, at its source's
 #: start, at 0).
-LATE_PULSE = 0.25
+LATE_PULSE = 0.5
 #: Terms of a planar scan's coupling in its samples: one delay times a
 #: polynomial across the band (:func:`planar_coupling`); 2: an amplitude
 #: and phase that change linearly across it.  Measured on the physical-optics
@@ -114,16 +118,19 @@ def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
     -------
     bool
         True where :func:`common_echo` finds the scan's strongest echo
-        common to its antennas within ``data.waveform.range_resolution`` of
-        time zero (before it too, round a periodic axis).
+        common to its antennas within ``data.waveform.range_resolution``
+        after time zero, or before it by as much round a periodic axis and
+        by a gate elsewhere.
     """
     rng = common_echo(data, time_zero)
     if rng is None:
         return False
     res = data.waveform.range_resolution
     # on a periodic axis, a coupling at time zero straddles it, and peaks
-    # before it as often as after
-    return (-res if data.range_period else 0.0) <= rng <= res
+    # before it as often as after; elsewhere a gate's slack (a time zero
+    # picked between gates, pick_time_zero, lies up to half a gate past
+    # the coupling's strongest gate)
+    return (-res if data.range_period else -data.dr) <= rng <= res
 
 
 def common_echo(data: RadarData, time_zero: float = 0.0) -> float | None:
@@ -156,12 +163,13 @@ def common_echo(data: RadarData, time_zero: float = 0.0) -> float | None:
     return float(rng[g])
 
 
-def _warn_late_pulse(data: RadarData) -> None:
+def warn_late_pulse(data: RadarData) -> None:
     """Warn (one line, with the fix) where a linear scan's strongest echo,
     the same at every antenna, lies more than :data:`LATE_PULSE` range
     resolutions past range 0 while time zero is left at 0: a GPR record
     that starts before the antennas' pulse, whose every depth is then too
-    deep by its range."""
+    deep by its range.  Not above a half-space (an antenna height is set):
+    the surface's echo lies there, common to every antenna too."""
     rng = common_echo(data)
     if rng is not None and rng > LATE_PULSE * data.waveform.range_resolution:
         import warnings
@@ -175,16 +183,23 @@ def _warn_late_pulse(data: RadarData) -> None:
         )
 
 
-def pick_time_zero(data: RadarData) -> float:
-    """``time_zero = "auto"``: the range of the antennas' own pulse, m, the
-    envelope peak of the scan's mean profile at the echo
-    :func:`common_echo` finds (a parabola through the gate and its two
-    neighbours); 0 where it finds none, or where the echo straddles the
-    start of a periodic axis (it is at time zero already).
+def pick_time_zero(data: RadarData, antenna_height: float | None = None) -> float:
+    """``time_zero = "auto"``: the range of the antennas' own pulse, m.
 
-    For a ground-coupled antenna that pulse is its direct wave, whose
-    envelope peak marks the surface (docs/input-format.md, GSSI); for an
-    antenna in air, its coupling at the antenna.
+    The echo :func:`common_echo` finds is taken for the ground's surface:
+    time zero is its envelope peak in the scan's mean profile (a parabola
+    through the gate and its two neighbours), less ``antenna_height`` above
+    a half-space.  For a ground-coupled antenna (no height) the surface's
+    echo is its direct wave, whose envelope peak marks the surface
+    (docs/input-format.md, GSSI).  0 where no such echo is found, or where
+    it straddles the start of a periodic axis (at time zero already), or
+    lies nearer than the antenna height.
+
+    Parameters
+    ----------
+    data : RadarData
+    antenna_height : float, optional
+        m (:class:`rpm_cl.io.medium.Medium`), None for none.
     """
     r0 = common_echo(data)
     if r0 is None or r0 < 0:
@@ -196,7 +211,7 @@ def pick_time_zero(data: RadarData) -> float:
         den = a - 2.0 * b + c
         if den < 0:
             r0 = float(data.range[g] + 0.5 * (a - c) / den * data.dr)
-    return max(float(r0), 0.0)
+    return max(float(r0) - (antenna_height or 0.0), 0.0)
 
 
 def _mostly_common(v) -> bool:
@@ -439,10 +454,10 @@ def preprocess(
     """
     check(background, time_zero, gain_db_per_m, max_range)
     if align_traces:
-        from .alignment import aligned, trace_shifts
-
-        data = aligned(data, trace_shifts(data))
+        data = align(data, warn)
     zero = time_zero if coupling_zero is None else coupling_zero
+    if warn and background != "none" and not align_traces:
+        warn_jitter(data, zero)  # before auto decides: jitter can hide a coupling from it
     if background == "auto" and data.array.planar:
         echo = planar_coupling(data, zero)
         if echo is not None:
@@ -450,13 +465,6 @@ def preprocess(
         background = "none"
     elif background == "auto":
         background = "mean" if coupling_dominates(data, zero) else "none"
-    if warn and time_zero == 0 and coupling_zero is None:
-        _warn_late_pulse(data)
-    removes = background in ("mean", "median")
-    if warn and removes and not align_traces and coupling_dominates(data, zero):
-        from .alignment import warn_jitter
-
-        warn_jitter(data)
     if background == "none" and time_zero == 0 and gain_db_per_m == 0 and max_range is None:
         return data
     rng = data.range - time_zero
@@ -501,3 +509,119 @@ def shift_truth(truth, time_zero: float):
     if truth is None or not truth.has_rps or not time_zero:
         return truth
     return replace(truth, rp_range=truth.rp_range - time_zero)
+
+
+def _common_peak(data: RadarData) -> bool:
+    """Whether the strongest gate of the scan's mean profile is common to
+    its antennas (:func:`_mostly_common`)."""
+    p = data.signal.reshape(-1, data.range.size)
+    return _mostly_common(p[:, int(np.abs(p.mean(axis=0)).argmax())])
+
+
+def _walks(data: RadarData, shifts: np.ndarray) -> bool:
+    """Whether ``shifts`` are a target's range walk, not a direct wave's
+    jitter (:mod:`rpm_cl.extract.alignment` notes): smooth along the scan
+    (:data:`rpm_cl.extract.alignment.SMOOTH`), measured on an echo that is
+    not common to the antennas (:func:`_common_peak`)."""
+    return smoothness(shifts) >= SMOOTH and not _common_peak(data)
+
+
+def align(data: RadarData, warn: bool = True) -> RadarData:
+    """``data`` with its traces aligned on the direct wave
+    (:func:`rpm_cl.extract.alignment.trace_shifts`, ``aligned``), where the
+    strongest echo is one: ``data`` itself, with a warning, where the
+    offsets are a target's range walk (:func:`_walks`), or where the
+    aligned traces' strongest echo is still not common to them (no direct
+    wave: the strongest echo is a scene's, whose phase across the antennas
+    no shift within half a carrier period makes one).
+
+    Parameters
+    ----------
+    data : RadarData
+    warn : bool
+        Warn (a refusal; offsets at the search's edge).
+    """
+    from .alignment import warn_ambiguous
+
+    shifts = trace_shifts(data, quiet=True)
+    why = None
+    if _walks(data, shifts):
+        why = (
+            f"its offsets follow the scan (correlation {smoothness(shifts):.2f} between "
+            f"neighbours): a target's range walk"
+        )
+        out = data
+    else:
+        out = aligned(data, shifts)
+        if not _common_peak(out):
+            why = "aligned, it is still not the same at every antenna"
+    if why is not None:
+        if warn:
+            import warnings
+
+            warnings.warn(
+                f"--align-traces: the strongest echo is no direct wave ({why}); the traces "
+                f"are left as they are",
+                DataWarning,
+                stacklevel=3,
+            )
+        return data
+    if warn:
+        warn_ambiguous(data, shifts)
+    return out
+
+
+def warn_jitter(data: RadarData, time_zero: float = 0.0) -> None:
+    """Warn (one line, with the fix) where a background removal of ``data``
+    without alignment leaves a residue of the direct wave that its traces'
+    timing makes as strong as the echoes.
+
+    The traces' offsets on the strongest echo are measured
+    (:func:`rpm_cl.extract.alignment.trace_shifts`); where they are a
+    target's walk (:func:`_walks`), or the echo, once they are taken out,
+    is no coupling at ``time_zero`` (:func:`coupling_dominates` of the
+    aligned data: jitter large enough makes a coupling fail that test
+    unaligned),
+    nothing is said.  The residue a trace ``delta`` off the mean keeps is
+    ``2 k_c |delta|`` times the direct wave's peak in the mean profile; its
+    rms over the traces is compared with the strongest echo the removal
+    leaves beyond two range resolutions of the direct wave, and the warning
+    given from :data:`rpm_cl.extract.alignment.JITTER_WARN` of it.
+
+    Parameters
+    ----------
+    data : RadarData
+        Before the removal (the direct wave in), a linear scan of 4 traces
+        or more.
+    time_zero : float
+        m.
+    """
+    n = int(np.prod(data.array.shape))
+    if data.array.planar or n < 4:
+        return
+    shifts = trace_shifts(data, quiet=True)
+    if not np.any(shifts) or _walks(data, shifts):
+        return
+    if not coupling_dominates(aligned(data, shifts), time_zero):
+        return
+    shifts = shifts.ravel()
+    p = data.signal.reshape(n, -1)
+    mean = p.mean(axis=0)
+    g0 = int(np.abs(mean).argmax())
+    far = np.abs(data.range - data.range[g0]) > 2.0 * data.waveform.range_resolution
+    if not far.any():
+        return
+    left = float(np.abs(p[:, far] - mean[far]).max())
+    kc = 4.0 * np.pi * data.waveform.fc / C0
+    rms = float(np.sqrt(np.mean(shifts**2)))
+    residue = kc * rms * float(np.abs(mean[g0]))
+    if residue >= JITTER_WARN * left:
+        import warnings
+
+        warnings.warn(
+            f"the direct wave's timing wanders by {2e12 * rms / C0:.3g} ps rms from trace to "
+            f"trace ({rms * 1e3:.3g} mm of range): the background removal leaves "
+            f"{residue / left:.2g} times the strongest echo of it: try --align-traces true",
+            DataWarning,
+            stacklevel=4,
+        )

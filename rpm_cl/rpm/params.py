@@ -11,8 +11,8 @@ from typing import Literal
 import numpy as np
 
 from ..extract.kspace import KSpaceParams
+from ..extract.preprocess import align, pick_time_zero, preprocess
 from ..extract.preprocess import check as check_preprocess
-from ..extract.preprocess import pick_time_zero, preprocess
 from ..io.data import InputError, RadarData
 from ..io.medium import Medium, seen_data
 from ..io.radar import profile_power
@@ -332,7 +332,10 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
 
     arr = data.array
     if "time_zero" in overrides and overrides["time_zero"] is None:  # "auto"
-        overrides = {**overrides, "time_zero": pick_time_zero(data)}
+        # on the aligned traces where they are to be: jitter blurs the pulse
+        seen = align(data, warn=False) if overrides.get("align_traces") else data
+        zero = pick_time_zero(seen, overrides.get("antenna_height"))
+        overrides = {**overrides, "time_zero": zero}
     ov = {k: v for k, v in overrides.items() if v is not None}
     top = {f.name for f in fields(ImagingParams)} - {"kspace", "rpm", "medium"}
     rpm_names = {f.name for f in fields(RPMParams)}
