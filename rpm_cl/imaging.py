@@ -184,9 +184,10 @@ def prepared(data: RadarData, params: ImagingParams) -> tuple[RadarData, Imaging
 
     steps = {k: getattr(params, k) for k in PREPROCESS_FIELDS}
     if params.time_zero == 0 and params.medium.antenna_height is None:
-        from .extract.preprocess import warn_late_pulse
+        from .extract.preprocess import align, warn_late_pulse
 
-        warn_late_pulse(data)
+        # on the aligned traces where they are to be: jitter blurs the pulse
+        warn_late_pulse(align(data, warn=False) if params.align_traces else data)
     cuts = params.time_zero > 0 or params.max_range is not None
     if not cuts or params.kspace.noise_power is not None or params.gain_db_per_m != 0:
         return preprocess(data, **steps), params

@@ -342,3 +342,28 @@ def test_bad_inputs_one_line_exit_2(case, files, tmp_path, capsys):
     assert err.startswith("rpm-cl: error:") and "\n" not in err and "Traceback" not in err, err
     assert CASES[case] in err, err
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob(".tmp-*"))
+
+
+def test_compare_das_panel_takes_the_steps_before_imaging(files):
+    """The DAS panel images the data as ``rpm-cl das`` does, after the
+    background removal ``auto`` chooses: a coupling common to every
+    antenna, four times the targets' strongest echo, is gone from it."""
+    from rpm_cl.baselines.das import das_numpy
+    from rpm_cl.extract.preprocess import preprocess
+    from rpm_cl.io.data import RadarData, load_npz
+    from rpm_cl.rpm import reference
+    from rpm_cl.simulate import synthesize
+    from rpm_cl.viz.compare import compare_images
+
+    data = load_npz(files["paper-2d"])
+    n = data.array.x.size
+    peak = np.abs(data.signal).max()
+    leak = synthesize(
+        np.arange(n), np.full(n, 0.03), np.full(n, 4 * peak), n, data.waveform, data.range
+    )
+    leaky = RadarData(data.signal + leak, data.array, data.range, data.waveform, data.truth)
+    c = compare_images(leaky, reference)
+    want = das_numpy(preprocess(leaky, "mean"), c.grid)
+    assert np.max(np.abs(c.image - want)) <= 1e-9 * np.max(np.abs(want))
+    raw = das_numpy(leaky, c.grid)
+    assert np.max(np.abs(raw - want)) > 0.5 * np.max(np.abs(want))

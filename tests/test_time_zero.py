@@ -28,11 +28,13 @@ TARGETS = ((0.15, 0.25), (0.45, 0.35))  # (x, range at closest approach), m
 LEAD = 0.1234  # the record starts this much range before the pulse, m
 
 
-def _scan(lead=LEAD, direct=1.0, targets=TARGETS):
+def _scan(lead=LEAD, direct=1.0, targets=TARGETS, jitter=0.0):
+    """``jitter``: every trace ``delta_i`` late, normal with this rms, m."""
     k = 4 * np.pi * FREQ / C0
-    values = direct * np.exp(-1j * np.outer(np.full(X.size, lead), k))
+    late = lead + jitter * np.random.default_rng(5).standard_normal(X.size)
+    values = direct * np.exp(-1j * np.outer(late, k))
     for xt, rt in targets:
-        values = values + 0.05 * np.exp(-1j * np.outer(lead + np.hypot(X - xt, rt), k))
+        values = values + 0.05 * np.exp(-1j * np.outer(late + np.hypot(X - xt, rt), k))
     return spectrum_data(values, FREQ, Array(X))
 
 
@@ -160,3 +162,15 @@ def test_batch_takes_auto():
     from rpm_cl.cli.batch_config import BatchConfig
 
     BatchConfig(overrides=((("imaging", "time_zero"), None),))
+
+
+def test_a_late_pulse_under_heavy_jitter_is_warned_once_aligned():
+    """40 ps (6 mm rms) blurs the pulse past the coupling test; with
+    --align-traces the late pulse is sought on the aligned traces, and
+    warned of."""
+    from rpm_cl.imaging import prepared
+
+    data = _scan(jitter=6e-3)
+    assert common_echo(data) is None
+    with pytest.warns(DataWarning, match=r"lies at range 0\.12"):
+        prepared(data, default_params(data, align_traces=True))

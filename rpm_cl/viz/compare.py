@@ -69,7 +69,8 @@ def auto_grid(data: RadarData, points=None, margin: float = 0.15, max_side: int 
 
 
 def compare_images(data: RadarData, engine, das=None, grid=None, params=None) -> Comparison:
-    """k-space RPM and the DAS image of a linear-array file.
+    """k-space RPM and the DAS image of a linear-array file, both after
+    the steps before imaging of ``params`` (:func:`rpm_cl.imaging.prepared`).
 
     Parameters
     ----------
@@ -84,7 +85,7 @@ def compare_images(data: RadarData, engine, das=None, grid=None, params=None) ->
     params : rpm_cl.rpm.params.ImagingParams, optional
     """
     from ..baselines.das import das_numpy
-    from ..imaging import run_method
+    from ..imaging import prepared, run_method
 
     if data.array.planar:
         raise InputError("the compare figure needs a linear-array file (2-D); this array is planar")
@@ -94,10 +95,11 @@ def compare_images(data: RadarData, engine, das=None, grid=None, params=None) ->
         grid = auto_grid(data, res.image.points)
     if grid.dim != 2:
         raise InputError(f"the compare grid needs 2 axes (x, y), got {grid.dim}")
+    seen = prepared(data, p)[0]  # the steps before imaging, as for the RPM points
     image = (
-        das.backproject(data, grid, medium=p.medium)
+        das.backproject(seen, grid, medium=p.medium)
         if das is not None
-        else das_numpy(data, grid, medium=p.medium)
+        else das_numpy(seen, grid, medium=p.medium)
     )
     truth = data.truth.boundary if data.truth is not None else None
     return Comparison(res.image.points, res.image.cluster, grid, image, truth, data.array.x)

@@ -25,6 +25,7 @@ computed and drawn by :mod:`rpm_cl.viz.decomposition`, ``compare`` by
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 
@@ -152,7 +153,9 @@ def figure(
             cax = make_axes_locatable(axes[0]).append_axes("right", size="4%", pad=0.08)
             fig.colorbar(im, cax=cax, label="dB")
         fig.suptitle(f"{os.path.basename(os.fspath(path))}: {name}", fontsize=11)
-        fig.tight_layout()
+        with warnings.catch_warnings():  # the compare colorbar's axes: "not compatible"
+            warnings.filterwarnings("ignore", message=".*tight_layout", category=UserWarning)
+            fig.tight_layout()
         _finish_mpl(fig, out)
 
     if png is None:
