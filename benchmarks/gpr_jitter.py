@@ -157,6 +157,7 @@ def main(argv=None) -> int:
     from rpm_cl.io import dzt
     from rpm_cl.io.compress import spectrum_data
     from rpm_cl.io.data import Array, DataWarning
+    from rpm_cl.io.load import cut_to_record
     from rpm_cl.rpm import DeviceRPM
     from rpm_cl.rpm.params import default_params
 
@@ -175,6 +176,7 @@ def main(argv=None) -> int:
                 write_dzt(path, tr, line)
                 conv = dzt.convert(path)
             data = spectrum_data(conv["spectrum"], conv["frequency"], Array(conv["x"]))
+            data = cut_to_record(data, conv["record_range"])  # as loading the file does
             est = trace_shifts(data)
             rms = f"{1e3 * est.std():.2f}/{1e3 * tau.std() * C0 / 2:.2f} mm"
             for method in ("phase-rpm", "das"):

@@ -70,6 +70,7 @@ def main(argv=None) -> int:
     from rpm_cl.io import dzt
     from rpm_cl.io.compress import spectrum_data
     from rpm_cl.io.data import Array, DataWarning
+    from rpm_cl.io.load import cut_to_record
     from rpm_cl.rpm import DeviceRPM
     from rpm_cl.rpm.params import default_params
 
@@ -86,6 +87,7 @@ def main(argv=None) -> int:
             write_dzt(path, tr, line)
             conv = dzt.convert(path)
         data = spectrum_data(conv["spectrum"], conv["frequency"], Array(conv["x"]))
+        data = cut_to_record(data, conv["record_range"])  # as loading the file does
         transmit = N0 * line["window"] / SAMPLES * C0 / 2
         for label, zero in (("record start", 0.0), ("transmit", transmit), ("auto", None)):
             for method in ("phase-rpm", "das"):

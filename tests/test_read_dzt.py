@@ -203,3 +203,29 @@ def test_cli_convert_dzt(tmp_path, capsys):
         capsys, ["convert", str(SCAN), "--time-zero", "-3", "-o", str(tmp_path / "o.npz")]
     )
     assert not (tmp_path / "o.npz").exists()
+
+
+def test_the_padded_half_is_dropped_on_loading(tmp_path):
+    """The conversion's record_range is the window after time zero; loaded,
+    the range axis ends there (the padding's half holds nothing recorded),
+    the samples kept; a record_range that leaves no gates is one line."""
+    from rpm_cl.io.checks import InputError
+    from rpm_cl.io.dzt import convert, read_header
+    from rpm_cl.io.formats import load_data
+    from rpm_cl.io.model import C0
+
+    hdr = read_header(SCAN)
+    out = convert(SCAN, time_zero=10.0)
+    want = (hdr.samples - 10.0) * hdr.dt * C0 / 2
+    assert out["record_range"] == pytest.approx(want)
+    path = tmp_path / "s.npz"
+    np.savez(path, **out)
+    data = load_data(path)
+    assert data.range[-1] <= want < data.range[-1] + 2 * data.dr
+    assert data.spectrum is not None and data.range_period == 0
+    np.savez(path, **{**out, "record_range": 1e-9})
+    with pytest.raises(InputError, match="record_range"):
+        load_data(path)
+    np.savez(path, **{**out, "record_range": np.nan})
+    with pytest.raises(InputError, match="record_range must be finite"):
+        load_data(path)

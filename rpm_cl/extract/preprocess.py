@@ -118,19 +118,17 @@ def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
     -------
     bool
         True where :func:`common_echo` finds the scan's strongest echo
-        common to its antennas within ``data.waveform.range_resolution``
-        after time zero, or before it by as much round a periodic axis and
-        by a gate elsewhere.
+        common to its antennas within ``data.waveform.range_resolution`` of
+        time zero, before or after it.
     """
     rng = common_echo(data, time_zero)
     if rng is None:
         return False
     res = data.waveform.range_resolution
-    # on a periodic axis, a coupling at time zero straddles it, and peaks
-    # before it as often as after; elsewhere a gate's slack (a time zero
-    # picked between gates, pick_time_zero, lies up to half a gate past
-    # the coupling's strongest gate)
-    return (-res if data.range_period else -data.dr) <= rng <= res
+    # a coupling at time zero straddles it, and peaks before it as often as
+    # after (round a periodic axis, or where time zero cuts a record's axis
+    # within its lobe)
+    return -res <= rng <= res
 
 
 def common_echo(data: RadarData, time_zero: float = 0.0) -> float | None:

@@ -76,6 +76,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .data import DataWarning, InputError, _finite_scalar
+from .model import C0
 
 __all__ = [
     "ANTENNA_MHZ",
@@ -367,7 +368,10 @@ def convert(
     -------
     dict
         ``spectrum`` complex128 ``(scans, nf)`` (sample units x s),
-        ``frequency`` ``(nf,)`` Hz, ``x`` ``(scans,)`` m from 0.
+        ``frequency`` ``(nf,)`` Hz, ``x`` ``(scans,)`` m from 0,
+        ``record_range`` the range the record covers after time zero, m
+        (``(N - n0) dt c / 2``: the gates beyond it, the zero padding's,
+        are dropped on loading).
 
     Raises
     ------
@@ -426,4 +430,10 @@ def convert(
     freq = k * df
     spec = np.fft.rfft(tr, n=2 * n, axis=1)[:, k] * hdr.dt
     spec *= np.exp(2j * np.pi * freq * n0 * hdr.dt)  # t_n = (n - n0) dt
-    return {"spectrum": spec, "frequency": freq, "x": np.arange(n_scans) * dx}
+    return {
+        "spectrum": spec,
+        "frequency": freq,
+        "x": np.arange(n_scans) * dx,
+        # the record after time zero: the padded half's gates hold nothing
+        "record_range": (n - n0) * hdr.dt * C0 / 2.0,
+    }

@@ -109,6 +109,7 @@ _BESIDE = {
     "frequency": lambda key, core, n_axes: (core[-1],) if key == "spectrum" else None,
     "fc": lambda key, core, n_axes: (),
     "bandwidth": lambda key, core, n_axes: (),
+    "record_range": lambda key, core, n_axes: (),
 }
 _TRUTH = ("truth_boundary", "truth_rp_antenna", "truth_rp_range")
 #: An array beside the data larger than the data's header allows is refused
@@ -177,6 +178,38 @@ def _truth(src):
     return Truth(rp[0], rp[1], src.read("truth_boundary"), scene)
 
 
+def cut_to_record(data: RadarData, end) -> RadarData:
+    """``data`` without the gates beyond ``end``, the range its record
+    covers (m; a file's ``record_range``): what a zero-padded record's
+    transform puts there holds nothing recorded (a DZT conversion's second
+    half).  The samples and the compression are kept, as for any cut of the
+    axis.
+
+    Raises
+    ------
+    InputError
+        ``end`` not a finite number > 0, or fewer than 2 gates left.
+    """
+    from dataclasses import replace
+
+    from .checks import _finite_scalar
+
+    end = _finite_scalar("record_range", end)
+    keep = data.range <= end
+    if keep.sum() < 2:
+        raise InputError(
+            f"record_range {end:g} m leaves fewer than 2 range gates of "
+            f"{data.range[0]:g} .. {data.range[-1]:g} m"
+        )
+    if keep.all():
+        return data
+    return replace(data, signal=data.signal[..., keep], range=data.range[keep])
+
+
+def _record_cut(data: RadarData, src) -> RadarData:
+    return cut_to_record(data, src.read("record_range")) if "record_range" in src else data
+
+
 def _build(
     src, frame, range_window: str, conjugate: bool, with_truth: bool = True, max_memory=None
 ) -> RadarData:
@@ -194,7 +227,7 @@ def _build(
         if conjugate:  # profiles recorded with the carrier phase exp(+j 2 k_c R)
             values = np.conj(values)
         waveform = Waveform(_need(src, "fc"), _need(src, "bandwidth"))
-        data = RadarData(values, array, _need(src, "range"), waveform, truth)
+        data = _record_cut(RadarData(values, array, _need(src, "range"), waveform, truth), src)
         check_plausible(data)
         return data
     if "range" in src:
@@ -209,6 +242,7 @@ def _build(
     data = spectrum_data(values, freq, array, fc, bw, range_window, truth)
     if not conjugate:
         _check_conjugated(data.signal, data.range)
+    data = _record_cut(data, src)
     check_plausible(data)
     return data
 
