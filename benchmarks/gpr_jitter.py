@@ -126,6 +126,20 @@ def write_dzt(path, tr: np.ndarray, line: dict) -> None:
         fh.write(head + q.astype("<u2").tobytes())
 
 
+def as_loaded(tr: np.ndarray, line: dict):
+    """The traces ``tr`` written as a GSSI file, converted (time zero at
+    the window's start, the antenna's nominal band) and loaded, as
+    ``rpm-cl convert`` then ``rpm-cl image`` take them."""
+    from rpm_cl.io import dzt
+    from rpm_cl.io.formats import load_data
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "line.dzt")
+        write_dzt(path, tr, line)
+        np.savez(os.path.join(tmp, "line.npz"), **dzt.convert(path))
+        return load_data(os.path.join(tmp, "line.npz"))
+
+
 def score(points: np.ndarray, line: dict) -> tuple:
     bars = np.array(line["bars"])
     if not len(points):
@@ -154,10 +168,7 @@ def main(argv=None) -> int:
     from rpm_cl.cl import create_env
     from rpm_cl.extract.alignment import trace_shifts
     from rpm_cl.imaging import run_method
-    from rpm_cl.io import dzt
-    from rpm_cl.io.compress import spectrum_data
-    from rpm_cl.io.data import Array, DataWarning
-    from rpm_cl.io.load import cut_to_record
+    from rpm_cl.io.data import DataWarning
     from rpm_cl.rpm import DeviceRPM
     from rpm_cl.rpm.params import default_params
 
@@ -171,12 +182,7 @@ def main(argv=None) -> int:
         zero = N0 * line["window"] / SAMPLES * C0 / 2  # the direct wave's range, m
         for ps in args.jitter_ps:
             tr, tau, _ = traces(line, ps * 1e-12, args.coupling_only)
-            with tempfile.TemporaryDirectory() as tmp:
-                path = os.path.join(tmp, "line.dzt")
-                write_dzt(path, tr, line)
-                conv = dzt.convert(path)
-            data = spectrum_data(conv["spectrum"], conv["frequency"], Array(conv["x"]))
-            data = cut_to_record(data, conv["record_range"])  # as loading the file does
+            data = as_loaded(tr, line)
             est = trace_shifts(data)
             rms = f"{1e3 * est.std():.2f}/{1e3 * tau.std() * C0 / 2:.2f} mm"
             for method in ("phase-rpm", "das"):

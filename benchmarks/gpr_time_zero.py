@@ -24,12 +24,10 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import os
-import tempfile
 import warnings
 
 import numpy as np
-from gpr_jitter import LINES, N0, SAMPLES, score, traces, write_dzt
+from gpr_jitter import LINES, N0, SAMPLES, as_loaded, score, traces
 
 from rpm_cl.io.model import C0
 
@@ -67,10 +65,7 @@ def main(argv=None) -> int:
 
     from rpm_cl.cl import create_env
     from rpm_cl.imaging import run_method
-    from rpm_cl.io import dzt
-    from rpm_cl.io.compress import spectrum_data
-    from rpm_cl.io.data import Array, DataWarning
-    from rpm_cl.io.load import cut_to_record
+    from rpm_cl.io.data import DataWarning
     from rpm_cl.rpm import DeviceRPM
     from rpm_cl.rpm.params import default_params
 
@@ -81,13 +76,7 @@ def main(argv=None) -> int:
     )
     for name in args.lines:
         line = ALL[name]
-        tr, _, _ = traces(line, 0.0)
-        with tempfile.TemporaryDirectory() as tmp:
-            path = os.path.join(tmp, "line.dzt")
-            write_dzt(path, tr, line)
-            conv = dzt.convert(path)
-        data = spectrum_data(conv["spectrum"], conv["frequency"], Array(conv["x"]))
-        data = cut_to_record(data, conv["record_range"])  # as loading the file does
+        data = as_loaded(traces(line, 0.0)[0], line)
         transmit = N0 * line["window"] / SAMPLES * C0 / 2
         for label, zero in (("record start", 0.0), ("transmit", transmit), ("auto", None)):
             for method in ("phase-rpm", "das"):
