@@ -229,3 +229,31 @@ def test_the_padded_half_is_dropped_on_loading(tmp_path):
     np.savez(path, **{**out, "record_range": np.nan})
     with pytest.raises(InputError, match="record_range must be finite"):
         load_data(path)
+
+
+def test_no_wrap_warning_within_a_padded_record(tmp_path):
+    """An echo at the end of the axis warns that it may have wrapped from
+    beyond it; a record that ends at half the axis (its padding the other
+    half) holds nothing from beyond, and is not warned of."""
+    import warnings
+
+    from rpm_cl.io.checks import DataWarning
+    from rpm_cl.io.dzt import convert
+    from rpm_cl.io.formats import load_data
+    from rpm_cl.io.model import C0
+
+    out = convert(SCAN)
+    f = out["frequency"]
+    r_u = C0 / (2 * (f[1] - f[0]))
+    far = 0.975 * r_u + 0.002 * np.arange(out["x"].size)  # it walks: no coupling
+    top = np.abs(out["spectrum"]).max()
+    out["spectrum"] = out["spectrum"] + 0.3 * top * np.exp(-4j * np.pi * np.outer(far, f) / C0)
+    path = tmp_path / "s.npz"
+    np.savez(path, **{k: v for k, v in out.items() if k != "record_range"})
+    with pytest.warns(DataWarning, match="wrapped"):
+        load_data(path)
+    np.savez(path, **out)
+    assert out["record_range"] < 0.6 * r_u
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)
+        load_data(path)

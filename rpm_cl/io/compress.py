@@ -134,12 +134,15 @@ def _straddling_lobe(signal, power) -> bool:
     return mostly_common(flat[:, g], WRAP_COMMON_SHARE)
 
 
-def _check_conjugated(signal, rng) -> None:
+def _check_conjugated(signal, rng, record: float | None = None) -> None:
     """Warn when the compressed power sits in the far quarter of the
     unambiguous range ``[0, c / 2 df)``: a spectrum recorded as ``exp(+j 4 pi
     f R / c)`` puts each echo at ``R_u - R`` (its compression is the mirror
     image of the conjugate's, which then holds that power in the first
-    quarter)."""
+    quarter); and when a strong echo lies at the axis's end, where one from
+    beyond it wraps, unless the record (``record``, m: a file's
+    ``record_range``) ends well short of it: a record padded before its
+    transform holds nothing from beyond it."""
     import warnings
 
     power = profile_power(signal, rng.size)
@@ -168,6 +171,8 @@ def _check_conjugated(signal, rng) -> None:
         )
         return
     # an echo near the end of the axis may be one from beyond it, wrapped
+    if record is not None and record < (1.0 - WRAP_EDGE) * r_u:
+        return
     edge = rng >= (1.0 - WRAP_EDGE) * r_u
     inner = power[1:-1]
     peak = np.zeros(rng.size, bool)

@@ -206,8 +206,18 @@ def cut_to_record(data: RadarData, end) -> RadarData:
     return replace(data, signal=data.signal[..., keep], range=data.range[keep])
 
 
-def _record_cut(data: RadarData, src) -> RadarData:
-    return cut_to_record(data, src.read("record_range")) if "record_range" in src else data
+def _record_range(src) -> float | None:
+    """The file's ``record_range``, checked (a finite number > 0), m; None
+    where it gives none."""
+    if "record_range" not in src:
+        return None
+    from .checks import _finite_scalar
+
+    return _finite_scalar("record_range", src.read("record_range"))
+
+
+def _record_cut(data: RadarData, record: float | None) -> RadarData:
+    return data if record is None else cut_to_record(data, record)
 
 
 def _build(
@@ -227,7 +237,8 @@ def _build(
         if conjugate:  # profiles recorded with the carrier phase exp(+j 2 k_c R)
             values = np.conj(values)
         waveform = Waveform(_need(src, "fc"), _need(src, "bandwidth"))
-        data = _record_cut(RadarData(values, array, _need(src, "range"), waveform, truth), src)
+        data = RadarData(values, array, _need(src, "range"), waveform, truth)
+        data = _record_cut(data, _record_range(src))
         check_plausible(data)
         return data
     if "range" in src:
@@ -240,9 +251,10 @@ def _build(
     if conjugate:
         values = np.conj(values)
     data = spectrum_data(values, freq, array, fc, bw, range_window, truth)
+    record = _record_range(src)
     if not conjugate:
-        _check_conjugated(data.signal, data.range)
-    data = _record_cut(data, src)
+        _check_conjugated(data.signal, data.range, record)
+    data = _record_cut(data, record)
     check_plausible(data)
     return data
 
