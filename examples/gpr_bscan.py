@@ -6,13 +6,17 @@ With no file, the scan is the full-wave gprMax fixture of five steel bars
 over 0.75-2.25 GHz *without* its target-free run, as a real B-scan comes:
 the default background removal (``auto``) takes the antennas' coupling out.
 A recorded scan is imaged the same way: convert it (``rpm-cl convert``, e.g.
-a GSSI .dzt) and pass the .npz with its permittivity.
+a GSSI .dzt, with time zero at the window's start) and pass the .npz with
+its permittivity, ``--time-zero auto`` (time zero at the direct wave's
+envelope peak) and, where the traces' timing wanders (the engine warns),
+``--align-traces``.
 
 Three panels: |profile| per trace against depth (range / sqrt(eps_r)), the
 DAS image in the medium (dB), and phase-rpm's points (over the bars' true
 outlines where the scene is known).
 
-Run: python examples/gpr_bscan.py [scan.npz --eps-r 6] [--png gpr.png]
+Run: python examples/gpr_bscan.py [scan.npz --eps-r 6 [--time-zero auto|M] [--align-traces]]
+[--png gpr.png]
 """
 
 import json
@@ -47,10 +51,11 @@ def fixture_scan(folder):
     return path, bars, scene["medium"]["eps_r"]
 
 
-def main(path=None, eps_r=None, png=None):
+def main(path=None, eps_r=None, png=None, time_zero=0.0, align=False):
     """Image a B-scan; returns a dict with the result, the DAS image and,
     for the fixture, the bars and each point's distance to the nearest
-    bar's outline (m)."""
+    bar's outline (m).  ``time_zero``: m, or None for auto; ``align``: the
+    traces aligned on the direct wave (docs/model.md, "Before imaging")."""
     with tempfile.TemporaryDirectory() as tmp:
         bars = None
         if path is None:
@@ -58,7 +63,7 @@ def main(path=None, eps_r=None, png=None):
         data = load_data(path)
     eps_r = float(eps_r or 1.0)
     engine = DeviceRPM(create_env())
-    params = default_params(data, eps_r=eps_r)
+    params = default_params(data, eps_r=eps_r, time_zero=time_zero, align_traces=align)
     rpm = run_method("phase-rpm", data, params, engine)
     das = run_method("das", data, params, engine)
     pts = rpm.image.points
@@ -136,5 +141,12 @@ if __name__ == "__main__":
     args = sys.argv[1:]
     png = args[args.index("--png") + 1] if "--png" in args else None
     eps = float(args[args.index("--eps-r") + 1]) if "--eps-r" in args else None
+    tz = args[args.index("--time-zero") + 1] if "--time-zero" in args else "0"
     files = [a for a in args if a.endswith((".npz", ".h5"))]
-    main(files[0] if files else None, eps, png)
+    main(
+        files[0] if files else None,
+        eps,
+        png,
+        None if tz == "auto" else float(tz),
+        "--align-traces" in args,
+    )
