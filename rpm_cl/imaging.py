@@ -183,14 +183,11 @@ def prepared(data: RadarData, params: ImagingParams) -> tuple[RadarData, Imaging
     from dataclasses import replace
 
     steps = {k: getattr(params, k) for k in PREPROCESS_FIELDS}
-    if params.time_zero == 0 and params.medium.antenna_height is None:
-        from .extract.preprocess import align, warn_late_pulse
-
-        # on the aligned traces where they are to be: jitter blurs the pulse
-        warn_late_pulse(align(data, warn=False) if params.align_traces else data)
+    # a record that starts before the pulse, warned of where time zero is 0
+    late = params.time_zero == 0 and params.medium.antenna_height is None
     cuts = params.time_zero > 0 or params.max_range is not None
     if not cuts or params.kspace.noise_power is not None or params.gain_db_per_m != 0:
-        return preprocess(data, **steps), params
+        return preprocess(data, **steps, late_pulse=late), params
     # the background goes first, on every gate (it is per gate, so cutting
     # before or after it gives the same profiles); then the cut
     whole = preprocess(
@@ -198,6 +195,7 @@ def prepared(data: RadarData, params: ImagingParams) -> tuple[RadarData, Imaging
         background=params.background,
         align_traces=params.align_traces,
         coupling_zero=params.time_zero,
+        late_pulse=late,
     )
     out = preprocess(whole, **{**steps, "background": "none", "align_traces": False})
     if out.range.size < whole.range.size:

@@ -248,11 +248,12 @@ def trace_shifts(data: RadarData, quiet: bool = False) -> np.ndarray:
         f = data.spectrum.frequency
     else:
         f = fc + data.waveform.bandwidth * np.linspace(-0.5, 0.5, BAND_SAMPLES)
-    gates = _lead_gates(data.signal.reshape(n, -1).mean(axis=0), bool(data.range_period))
+    p = data.signal.reshape(n, -1)
+    gates = _lead_gates(p.mean(axis=0), bool(data.range_period))
     back = np.exp(-4j * np.pi * np.outer(data.range[gates], f - fc) / C0)
     span = C0 / (4.0 * fc)
     shifts = np.zeros(n)
-    flank = np.abs(data.signal.reshape(n, -1)[:, gates]).astype(np.float64)
+    flank = np.abs(p[:, gates]).astype(np.float64)
     top = float(flank.max())
     if not (np.isfinite(top) and top > 0):
         return shifts.reshape(data.array.shape)
@@ -303,15 +304,17 @@ def aligned(data: RadarData, shifts: np.ndarray) -> RadarData:
     from ..io.radar import Spectrum
 
     d = np.asarray(shifts, dtype=np.float64).ravel()
-    signal = _moved(data, d).reshape(data.signal.shape).astype(data.signal.dtype, copy=False)
     sp = data.spectrum
     if sp is None:
+        signal = _moved(data, d)
+        signal = signal.reshape(data.signal.shape).astype(data.signal.dtype, copy=False)
         return replace(data, signal=signal)
     f = sp.frequency
     values = sp.values * np.exp(4j * np.pi * d.reshape(data.array.shape + (1,)) * f / C0)
+    signal = profiles(values, f, sp.window, data.waveform.fc, data.range)
     return replace(
         data,
-        signal=signal,
+        signal=signal.astype(data.signal.dtype, copy=False),
         spectrum=Spectrum(values.astype(sp.values.dtype, copy=False), f, sp.window),
     )
 

@@ -412,6 +412,7 @@ def preprocess(
     align_traces: bool = False,
     coupling_zero: float | None = None,
     warn: bool = True,
+    late_pulse: bool = False,
 ) -> RadarData:
     """``data`` after the module's steps; ``data`` itself when all are off.
 
@@ -436,10 +437,15 @@ def preprocess(
         ``time_zero``): :func:`rpm_cl.imaging.prepared` removes the
         background on the whole axis before it cuts it at ``time_zero``.
     warn : bool
-        Warn where a mean or median removal without the alignment leaves
-        the direct wave's timing jitter as strong as the echoes
-        (:func:`rpm_cl.extract.alignment.warn_jitter`); the derivation of
-        the defaults, which preprocesses the data once more, does not.
+        Warn where a background removal without the alignment leaves the
+        direct wave's timing jitter as strong as the echoes
+        (:func:`warn_jitter`), and of an alignment refused; the derivation
+        of the defaults, which preprocesses the data once more, does not.
+    late_pulse : bool
+        With ``warn``: warn, after the alignment, where the record starts
+        before the antennas' pulse (:func:`warn_late_pulse`);
+        :func:`rpm_cl.imaging.prepared` asks it where time zero is 0 and no
+        antenna height is set.
 
     Returns
     -------
@@ -459,6 +465,8 @@ def preprocess(
     check(background, time_zero, gain_db_per_m, max_range)
     if align_traces:
         data = align(data, warn)
+    if warn and late_pulse:
+        warn_late_pulse(data)  # on the aligned traces: jitter blurs the pulse
     zero = time_zero if coupling_zero is None else coupling_zero
     if warn and background != "none" and not align_traces:
         warn_jitter(data, zero)  # before auto decides: jitter can hide a coupling from it
@@ -515,11 +523,12 @@ def shift_truth(truth, time_zero: float):
     return replace(truth, rp_range=truth.rp_range - time_zero)
 
 
-def _common_peak(data: RadarData) -> bool:
-    """Whether the strongest gate of the scan's mean profile is common to
-    its antennas (:func:`_mostly_common`)."""
+def _common_peak(data: RadarData, share: float = COUPLING_SHARE) -> bool:
+    """Whether at least ``share`` of the power at the strongest gate of the
+    scan's mean profile is common to its antennas
+    (:func:`rpm_cl.io.radar.mostly_common`)."""
     p = data.signal.reshape(-1, data.range.size)
-    return _mostly_common(p[:, int(np.abs(p.mean(axis=0)).argmax())])
+    return mostly_common(p[:, int(np.abs(p.mean(axis=0)).argmax())], share)
 
 
 def _walks(data: RadarData, shifts: np.ndarray) -> bool:
@@ -554,7 +563,6 @@ def align(data: RadarData, warn: bool = True) -> RadarData:
             f"its offsets follow the scan (correlation {smoothness(shifts):.2f} between "
             f"neighbours): a target's range walk"
         )
-        out = data
     else:
         out = aligned(data, shifts)
         if not _common_peak(out):
@@ -585,8 +593,7 @@ def warn_jitter(data: RadarData, time_zero: float = 0.0) -> None:
     target's walk (:func:`_walks`), or the echo, once they are taken out,
     is no coupling at ``time_zero`` (:func:`coupling_dominates` of the
     aligned data: jitter large enough makes a coupling fail that test
-    unaligned),
-    nothing is said.  The residue a trace ``delta`` off the mean keeps is
+    unaligned), nothing is said.  The residue a trace ``delta`` off the mean keeps is
     ``2 k_c |delta|`` times the direct wave's peak in the mean profile; its
     rms over the traces is compared with the strongest echo the removal
     leaves beyond two range resolutions of the direct wave, and the warning
@@ -606,8 +613,7 @@ def warn_jitter(data: RadarData, time_zero: float = 0.0) -> None:
     # first, cheaply: the strongest gate of the mean holds a direct wave,
     # jittered or not (JITTER_SHARE of its power common), where a scene's
     # echo walks in phase across the antennas (0.03-0.12 on the paper's)
-    p = data.signal.reshape(n, -1)
-    if not mostly_common(p[:, int(np.abs(p.mean(axis=0)).argmax())], JITTER_SHARE):
+    if not _common_peak(data, JITTER_SHARE):
         return
     shifts = trace_shifts(data, quiet=True)
     if not np.any(shifts) or _walks(data, shifts):

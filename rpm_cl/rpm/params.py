@@ -331,10 +331,12 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     from dataclasses import fields
 
     arr = data.array
+    if overrides.get("align_traces"):
+        # once, as preprocess would first: the pick and the derivations below
+        # see the aligned traces (jitter blurs the pulse)
+        data = align(data, warn=False)
     if "time_zero" in overrides and overrides["time_zero"] is None:  # "auto"
-        # on the aligned traces where they are to be: jitter blurs the pulse
-        seen = align(data, warn=False) if overrides.get("align_traces") else data
-        zero = pick_time_zero(seen, overrides.get("antenna_height"))
+        zero = pick_time_zero(data, overrides.get("antenna_height"))
         overrides = {**overrides, "time_zero": zero}
     ov = {k: v for k, v in overrides.items() if v is not None}
     top = {f.name for f in fields(ImagingParams)} - {"kspace", "rpm", "medium"}
@@ -346,7 +348,8 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
         raise InputError(f"unknown imaging parameter {unknown[0]!r}")
     medium = Medium(**{k: v for k, v in ov.items() if k in medium_names})
     # the pipeline preprocesses again (rpm_cl.imaging.prepared), and warns there
-    data = preprocess(data, **{k: v for k, v in ov.items() if k in PREPROCESS_FIELDS}, warn=False)
+    steps = {k: v for k, v in ov.items() if k in PREPROCESS_FIELDS and k != "align_traces"}
+    data = preprocess(data, **steps, warn=False)  # aligned above
     seen = seen_data(data, medium)  # what the decomposition and RPM see
     r_echo = _strongest_range(seen)
     if arr.planar:
