@@ -179,10 +179,11 @@ def check_settings():
     return dt, f40, chi, xs, dist, checks
 
 
-def input_file(title, targets: bool, threads: int) -> str:
-    """A gprMax input file of the scan (``targets`` False: free space only)."""
+def header_lines(title, threads: int) -> list:
+    """The gprMax commands of the scan without its objects: domain, cells,
+    time window, PML, waveform, and the source and receiver stepped along x."""
     w = WAVEFORM
-    lines = [
+    return [
         f"#title: {title}",
         "#domain_mode: TM",
         f"#domain: {DOMAIN[0]:.3f} {DOMAIN[1]:.3f} inf",
@@ -196,14 +197,29 @@ def input_file(title, targets: bool, threads: int) -> str:
         f"#src_steps: {PITCH} 0 0",
         f"#rx_steps: {PITCH} 0 0",
     ]
-    if targets:
-        for c in CYLINDERS:
-            (x, y), r = c["centre"], c["radius"]
-            lines.append(f"#cylinder: {x:.4f} {y:.4f} 0 {x:.4f} {y:.4f} inf {r:.4f} pec")
-        p = plate_corners(PLATE, (SCAN_X0 + (N_SCAN - 1) * PITCH / 2, SCAN_Y))
-        for tri in (p[[0, 1, 2]], p[[0, 2, 3]]):  # the rectangle as two prisms one cell thick
+
+
+def object_lines(cylinders, plates) -> list:
+    """The gprMax commands of PEC ``cylinders`` (dicts of ``centre`` and
+    ``radius``, m) and thin ``plates`` (corners (4, 2) each, m; a rectangle as
+    two triangular prisms one cell thick)."""
+    lines = []
+    for c in cylinders:
+        (x, y), r = c["centre"], c["radius"]
+        lines.append(f"#cylinder: {x:.4f} {y:.4f} 0 {x:.4f} {y:.4f} inf {r:.4f} pec")
+    for p in plates:
+        for tri in (p[[0, 1, 2]], p[[0, 2, 3]]):
             pts = " ".join(f"{x:.5f} {y:.5f} 0" for x, y in tri)
             lines.append(f"#triangle: {pts} {DX} pec")
+    return lines
+
+
+def input_file(title, targets: bool, threads: int) -> str:
+    """A gprMax input file of the scan (``targets`` False: free space only)."""
+    lines = header_lines(title, threads)
+    if targets:
+        plate = plate_corners(PLATE, (SCAN_X0 + (N_SCAN - 1) * PITCH / 2, SCAN_Y))
+        lines += object_lines(CYLINDERS, [plate])
     return "\n".join(lines) + "\n"
 
 

@@ -116,3 +116,45 @@ def test_exhaustive_ties_tells_a_tie_from_another_point(rng):
     assert same_or_tied(same, rel, "float64") < 1
     same, rel = exhaustive_ties(moved(0.02), exh, params)
     assert not same.any() and np.all(rel > 100 * tie) and same_or_tied(same, rel, "float32") == 0
+
+
+def test_random_gprmax_scenes_keep_their_drawing_rules():
+    """``gprmax_random.draw``: the same seed gives the same scene; every
+    object lies inside the domain's PML margin, at least MIN_RANGE from every
+    antenna and MIN_GAP from every other object (surface to surface); and
+    the gprMax input holds each cylinder and each plate's two prisms."""
+    import gprmax_fixture as F
+    import gprmax_random as R
+    import numpy as np
+
+    xs = F.SCAN_X0 + F.PITCH * np.arange(F.N_SCAN)
+    ant = np.stack([xs, np.full_like(xs, F.SCAN_Y)], axis=1)
+    plates = 0
+    for seed in range(6):
+        scene = R.draw(seed)
+        assert scene == R.draw(seed)
+        assert 3 <= len(scene["cylinders"]) <= 4
+        shapes = []
+        for c in scene["cylinders"]:
+            (x, y), r = c["centre"], c["radius"]
+            assert 0.005 - 1e-9 <= r <= 0.02 + 1e-9
+            t = np.linspace(0, 2 * np.pi, 90, endpoint=False)
+            shapes.append(np.stack([x + r * np.cos(t), y + r * np.sin(t)], axis=1))
+        if scene["plate"] is not None:
+            plates += 1
+            shapes.append(R._plate_points(scene["plate"]))
+        margin = 2 * F.PML_CELLS * F.DX
+        for s in shapes:
+            assert np.all(s[:, 0] > margin) and np.all(s[:, 0] < F.DOMAIN[0] - margin)
+            assert np.all(s[:, 1] < F.DOMAIN[1] - margin)
+            # rounding the centres to 0.1 mm may move a surface by 0.1 mm
+            assert np.min(np.linalg.norm(ant[:, None] - s[None], axis=2)) >= R.MIN_RANGE - 2e-4
+        for i in range(len(shapes)):
+            for j in range(i):
+                gap = np.min(np.linalg.norm(shapes[i][:, None] - shapes[j][None], axis=2))
+                assert gap >= R.MIN_GAP - 2e-4
+        text = R.input_text("t", scene)
+        assert text.count("#cylinder:") == len(scene["cylinders"])
+        assert text.count("#triangle:") == (0 if scene["plate"] is None else 2)
+        assert "#cylinder:" not in R.input_text("t", None)
+    assert 0 < plates < 6  # both kinds of scene among the first six
