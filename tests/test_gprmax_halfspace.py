@@ -168,12 +168,15 @@ def test_default_rpm_puts_the_rods_at_their_true_positions(data, medium, rods, d
         )
     near = d <= 0.020
     assert near.any(axis=1).mean() < 0.05 and np.all(near.sum(axis=0) < 10)
-    d = _to_boundary(
-        run_method(
-            DEFAULT_METHOD, data, default_params(data, eps_r=medium.eps_r), dev32
-        ).image.points,
-        rods,
-    )  # antennas in the material
+    # antennas in the material: the air gap flattens the walks, which fit
+    # (h + n d) / (h + d / n) = 2.7-4.0 for these rods (rpm_cl.extract.hyperbola)
+    with pytest.warns(DataWarning, match=r"fit eps_r = [2-4]\.\d+ .*--antenna-height"):
+        d = _to_boundary(
+            run_method(
+                DEFAULT_METHOD, data, default_params(data, eps_r=medium.eps_r), dev32
+            ).image.points,
+            rods,
+        )
     near = d <= 0.020
     assert near.any(axis=1).mean() < 0.05 and np.all(near.sum(axis=0) < 10)
 
