@@ -174,3 +174,24 @@ def test_a_late_pulse_under_heavy_jitter_is_warned_once_aligned():
     assert common_echo(data) is None
     with pytest.warns(DataWarning, match=r"lies at range 0\.12"):
         prepared(data, default_params(data, align_traces=True))
+
+
+def test_the_api_takes_auto_and_refuses_what_is_no_range():
+    """``default_params(data, time_zero="auto")`` is the pick, as None is;
+    a value that is no number (a word, a bool, a list, a complex) is one
+    InputError naming it, not a TypeError from NumPy, and so for the gain
+    and max_range."""
+    from rpm_cl.io.data import InputError
+
+    data = _scan()
+    want = pick_time_zero(data)
+    assert default_params(data, time_zero="auto").time_zero == pytest.approx(want, rel=1e-9)
+    assert default_params(data, time_zero=None).time_zero == pytest.approx(want, rel=1e-9)
+    for bad in ("later", True, [0.1], 0.1 + 0.1j, float("nan"), -0.1):
+        with pytest.raises(InputError, match="time_zero must be a range"):
+            default_params(data, time_zero=bad)
+    with pytest.raises(InputError, match="gain_db_per_m must be"):
+        default_params(data, gain_db_per_m="x")
+    with pytest.raises(InputError, match="max_range must be"):
+        default_params(data, max_range="far")
+    assert default_params(data, time_zero=0.05).time_zero == 0.05

@@ -391,15 +391,30 @@ def check(background: str, time_zero: float, gain_db_per_m: float, max_range: fl
     """Refuse settings that no data could take (one line each)."""
     if background not in BACKGROUNDS:
         raise InputError(f"background must be one of {', '.join(BACKGROUNDS)}, got {background!r}")
-    if time_zero is None or not (np.isfinite(time_zero) and time_zero >= 0):
+    zero = _real(time_zero)
+    if zero is None or not (np.isfinite(zero) and zero >= 0):
         raise InputError(
             f'time_zero must be a range >= 0 m ("auto" is resolved by '
-            f"rpm_cl.rpm.params.default_params), got {time_zero}"
+            f"rpm_cl.rpm.params.default_params), got {time_zero!r}"
         )
-    if not (np.isfinite(gain_db_per_m) and abs(gain_db_per_m) <= 1000):
-        raise InputError(f"gain_db_per_m must be within +-1000 dB/m, got {gain_db_per_m}")
-    if max_range is not None and not (np.isfinite(max_range) and max_range > 0):
-        raise InputError(f"max_range must be a range > 0 m (after time_zero), got {max_range}")
+    gain = _real(gain_db_per_m)
+    if gain is None or not (np.isfinite(gain) and abs(gain) <= 1000):
+        raise InputError(f"gain_db_per_m must be within +-1000 dB/m, got {gain_db_per_m!r}")
+    if max_range is not None:
+        top = _real(max_range)
+        if top is None or not (np.isfinite(top) and top > 0):
+            raise InputError(
+                f"max_range must be a range > 0 m (after time_zero), got {max_range!r}"
+            )
+
+
+def _real(value) -> float | None:
+    """``value`` as a float where it is a real number (not a bool), else None."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
+        return None
+    if isinstance(value, (complex, np.complexfloating)):
+        return None
+    return float(value)
 
 
 def preprocess(

@@ -320,7 +320,10 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
         :class:`ImagingParams`, by name (each name is routed to the
         dataclass that has it, so a field added there is accepted here).
         None means "the default" (use :func:`dataclasses.replace` on the
-        result to set a field to None).
+        result to set a field to None), but ``time_zero`` None or "auto"
+        picks time zero from the data
+        (:func:`rpm_cl.extract.preprocess.pick_time_zero`, on the aligned
+        traces with ``align_traces``).
 
     Raises
     ------
@@ -335,7 +338,9 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
         # once, as preprocess would first: the pick and the derivations below
         # see the aligned traces (jitter blurs the pulse)
         data = align(data, warn=False)
-    if "time_zero" in overrides and overrides["time_zero"] is None:  # "auto"
+    if "time_zero" in overrides and (
+        overrides["time_zero"] is None or overrides["time_zero"] == "auto"
+    ):
         zero = pick_time_zero(data, overrides.get("antenna_height"))
         overrides = {**overrides, "time_zero": zero}
     ov = {k: v for k, v in overrides.items() if v is not None}
