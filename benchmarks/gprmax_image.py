@@ -91,6 +91,31 @@ def score(points, trees):
     return len(points), float(np.mean(best <= 0.05)), float(np.median(best)), hit
 
 
+def band_data(targets, background, sidecar, band, tmp):
+    """The B-scan ``targets`` less ``background`` over ``band`` (Hz, a pair),
+    written as a spectrum file in the folder ``tmp`` and loaded as
+    ``rpm-cl image`` loads it."""
+    path = os.path.join(tmp, "scan.npz")
+    G.save_spectrum(path, G.convert(targets, background, band, sidecar=sidecar))
+    return load_data(path)
+
+
+def method_rows(data, trees, methods, engine, das, grid):
+    """``(name, score)`` of each method of ``methods`` with its default
+    parameters, then of DAS's peaks on ``grid`` (:func:`score`)."""
+    from rpm_cl.cli.reproduce import das_points
+    from rpm_cl.imaging import run_method
+    from rpm_cl.rpm.params import default_params
+
+    rows = []
+    for name in methods:
+        res = run_method(name, data, default_params(data), engine)
+        rows.append((name, score(res.image.points, trees)))
+    pts, _ = das_points(das, data, grid, "image")
+    rows.append(("das", score(pts, trees)))
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -118,7 +143,6 @@ def main():
 
     from rpm_cl.baselines.das import DeviceDAS, parse_grid
     from rpm_cl.cl import create_env
-    from rpm_cl.cli.reproduce import das_points
     from rpm_cl.imaging import RPM_METHODS, run_method
     from rpm_cl.rpm import DeviceRPM
     from rpm_cl.rpm.params import default_params
@@ -139,25 +163,16 @@ def main():
     say("(objects: c1-c4 the cylinders of scene.json in order, p1 the plate)")
     with tempfile.TemporaryDirectory() as tmp:
         for text in args.bands.split(","):
-            lo, hi = (float(v) * 1e9 for v in text.split(":"))
-            path = os.path.join(tmp, "scan.npz")
-            G.save_spectrum(
-                path,
-                G.convert(
-                    data_dir / "targets_merged.h5",
-                    data_dir / "background_merged.h5",
-                    (lo, hi),
-                    sidecar=data_dir / "scene.json",
-                ),
+            band = tuple(float(v) * 1e9 for v in text.split(":"))
+            data = band_data(
+                data_dir / "targets_merged.h5",
+                data_dir / "background_merged.h5",
+                data_dir / "scene.json",
+                band,
+                tmp,
             )
-            data = load_data(path)
             trees = object_trees(side, data.array.x, side.scan_y)
-            rows = []
-            for name in RPM_METHODS:
-                res = run_method(name, data, default_params(data), engine)
-                rows.append((name, score(res.image.points, trees)))
-            pts, _ = das_points(das, data, grid, "image")
-            rows.append(("das", score(pts, trees)))
+            rows = method_rows(data, trees, RPM_METHODS, engine, das, grid)
             if args.twin:
                 twin = go_twin(side, data)
                 for name in RPM_METHODS:

@@ -269,16 +269,12 @@ def _objects_seen(side, xs) -> list:
 
 
 def image(args) -> int:
-    from gprmax_image import GRID, object_trees, score
+    from gprmax_image import GRID, band_data, method_rows, object_trees
 
     import rpm_cl.io.gprmax as G
     from rpm_cl.baselines.das import DeviceDAS, parse_grid
     from rpm_cl.cl import create_env
-    from rpm_cl.cli.reproduce import das_points
-    from rpm_cl.imaging import run_method
-    from rpm_cl.io.load import load_data
     from rpm_cl.rpm import DeviceRPM
-    from rpm_cl.rpm.params import default_params
 
     env = create_env(args.device)
     engine, das = DeviceRPM(env), DeviceDAS(env)
@@ -300,30 +296,21 @@ def image(args) -> int:
         for folder in folders:
             side = G.read_sidecar(folder / "scene.json")
             for text in args.bands.split(","):
-                lo, hi = (float(v) * 1e9 for v in text.split(":"))
-                path = os.path.join(tmp, "scan.npz")
-                G.save_spectrum(
-                    path,
-                    G.convert(
-                        folder / "targets_merged.h5",
-                        root / "background_merged.h5",
-                        (lo, hi),
-                        sidecar=folder / "scene.json",
-                    ),
+                band = tuple(float(v) * 1e9 for v in text.split(":"))
+                data = band_data(
+                    folder / "targets_merged.h5",
+                    root / "background_merged.h5",
+                    folder / "scene.json",
+                    band,
+                    tmp,
                 )
-                data = load_data(path)
                 trees = object_trees(side, data.array.x, side.scan_y)
                 if args.centres_at_objects:
                     from rpm_cl.extract import kspace
 
                     kspace.wants_coherent_centres = lambda data, params: True
                     kspace.coherent_centres = centres_at(_objects_seen(side, data.array.x))
-                rows = []
-                for name in METHODS:
-                    res = run_method(name, data, default_params(data), engine)
-                    rows.append((name, score(res.image.points, trees)))
-                pts, _ = das_points(das, data, grid, "image")
-                rows.append(("das", score(pts, trees)))
+                rows = method_rows(data, trees, METHODS, engine, das, grid)
                 for name, (n, share, med, hit) in rows:
                     acc = pooled.setdefault((text, name), [0, 0, [], 0, 0, 0])
                     acc[0] += n
