@@ -23,9 +23,13 @@ Usage::
     GPRMAX_PYTHON benchmarks/gprmax_random.py simulate --scenes 20 --first 0 \\
         --out DATA --jobs 2
     python benchmarks/gprmax_random.py image --data DATA \\
-        [--bands 3.875:4.125,3:4,2:4,1.5:5] [--centres-at-objects] [--out docs/gprmax_random.md]
+        [--bands 3.875:4.125,3:4,2:4,1.5:5] [--anatomy] [--centres-at-objects]
+        [--out docs/gprmax_random.md]
 
-``--centres-at-objects`` is a diagnostic: the k-space decomposition of every
+``--anatomy`` lists phase-rpm's clusters with under half their points on an
+object, each with the path through the scene's true objects that its range
+walk follows best (:func:`anatomy`).  ``--centres-at-objects`` is a
+diagnostic: the k-space decomposition of every
 method also gets a centre at each object that no centre of its own search
 lies near (:func:`centres_at`), so what it still misses is not the search's.
 
@@ -268,13 +272,67 @@ def _objects_seen(side, xs) -> list:
     return out
 
 
+def _surfaces(side) -> dict:
+    """Points on each object's boundary in the scan's frame (y from the scan
+    line), m: ``c1..`` the cylinders, ``p1..`` the plates."""
+    out = {}
+    t = np.linspace(0, 2 * np.pi, 180, endpoint=False)
+    for i, (cx, cy, r) in enumerate(side.cylinders):
+        out[f"c{i + 1}"] = np.stack([cx + r * np.cos(t), cy - side.scan_y + r * np.sin(t)], 1)
+    for j, poly in enumerate(side.polygons):
+        edge = [np.linspace(a, b, 40) for a, b in zip(poly, np.roll(poly, -1, axis=0))]
+        out[f"p{j + 1}"] = np.concatenate(edge) - [0.0, side.scan_y]
+    return out
+
+
+def anatomy(result, side, trees) -> list:
+    """For each cluster of ``result`` with under half its points within
+    50 mm of an object (``--anatomy``): the path through the scene's true
+    objects whose range walk its RPs follow best, a single echo or a double
+    bounce ``(|X - a| + |a - b| + |b - X|) / 2``, with the RMS of the RPs'
+    ranges about it and their mean offset (m), and the cluster's median RP
+    amplitude relative to the strongest cluster's.  Lines of text."""
+    from itertools import combinations
+
+    pts, rps = result.image.points, result.rps
+    if not len(pts):
+        return []
+    near = np.stack([t.query(pts)[0] for _, t in trees], axis=1).min(axis=1) <= 0.05
+    objects = _surfaces(side)
+    top = max(float(np.median(rps.amp[rps.cluster == c])) for c in np.unique(rps.cluster))
+    lines = []
+    for c in np.unique(result.image.cluster):
+        if np.mean(near[result.image.cluster == c]) >= 0.5:
+            continue
+        m = rps.cluster == c
+        ant = np.stack([rps.x[m], np.zeros(int(m.sum()))], axis=1)
+        r = np.asarray(rps.range[m], np.float64)
+        leg = {k: np.linalg.norm(ant[:, None] - v[None], axis=2) for k, v in objects.items()}
+        walks = {k: d.min(axis=1) for k, d in leg.items()}
+        for a, b in combinations(objects, 2):
+            ab = np.linalg.norm(objects[a][:, None] - objects[b][None], axis=2)
+            walks[f"{a}-{b}"] = 0.5 * np.min(
+                leg[a][:, :, None] + ab[None] + leg[b][:, None, :], axis=(1, 2)
+            )
+        name, walk = min(walks.items(), key=lambda kv: np.std(r - kv[1]))
+        e = r - walk
+        lines.append(
+            f"  cluster {int(c)}: {int(np.sum(result.image.cluster == c))} points, "
+            f"amplitude {float(np.median(rps.amp[m])) / top:.2f} of the strongest; follows "
+            f"{name} to {1e3 * np.std(e):.1f} mm RMS, {1e3 * np.mean(e):+.1f} mm off"
+        )
+    return lines
+
+
 def image(args) -> int:
     from gprmax_image import GRID, band_data, method_rows, object_trees
 
     import rpm_cl.io.gprmax as G
     from rpm_cl.baselines.das import DeviceDAS, parse_grid
     from rpm_cl.cl import create_env
+    from rpm_cl.imaging import run_method
     from rpm_cl.rpm import DeviceRPM
+    from rpm_cl.rpm.params import default_params
 
     env = create_env(args.device)
     engine, das = DeviceRPM(env), DeviceDAS(env)
@@ -311,6 +369,10 @@ def image(args) -> int:
                     kspace.wants_coherent_centres = lambda data, params: True
                     kspace.coherent_centres = centres_at(_objects_seen(side, data.array.x))
                 rows = method_rows(data, trees, METHODS, engine, das, grid)
+                if args.anatomy:
+                    res = run_method("phase-rpm", data, default_params(data), engine)
+                    for line in anatomy(res, side, trees):
+                        say(f"{folder.name:6s} {text:>12s}{line}")
                 for name, (n, share, med, hit) in rows:
                     acc = pooled.setdefault((text, name), [0, 0, [], 0, 0, 0])
                     acc[0] += n
@@ -369,6 +431,12 @@ def main(argv=None) -> int:
     i.add_argument("--bands", default=BANDS, help=f"comma-separated GHz bands (default {BANDS})")
     i.add_argument("--device", help="OpenCL device (as rpm-cl --device)")
     i.add_argument("--out", help="also write the table as Markdown here")
+    i.add_argument(
+        "--anatomy",
+        action="store_true",
+        help="also list phase-rpm's clusters with under half their points on an object, "
+        "each with the single or double-bounce path it follows best (anatomy)",
+    )
     i.add_argument(
         "--centres-at-objects",
         action="store_true",

@@ -158,3 +158,44 @@ def test_random_gprmax_scenes_keep_their_drawing_rules():
         assert text.count("#triangle:") == (0 if scene["plate"] is None else 2)
         assert "#cylinder:" not in R.input_text("t", None)
     assert 0 < plates < 6  # both kinds of scene among the first six
+
+
+def test_anatomy_names_the_double_bounce_a_cluster_follows():
+    """``gprmax_random.anatomy``: a cluster whose RPs lie on the double
+    bounce between two cylinders (ranges ``min (|X - a| + |a - b| + |b -
+    X|) / 2`` over their boundaries), with its points far from both, is
+    listed with that pair at 0.0 mm RMS and 0.0 mm off; a cluster whose
+    points lie on an object is not listed."""
+    from types import SimpleNamespace
+
+    import gprmax_random as R
+    import numpy as np
+    from scipy.spatial import cKDTree
+
+    side = SimpleNamespace(
+        cylinders=((0.40, 0.50, 0.015), (0.55, 0.60, 0.010)), polygons=(), scan_y=0.09
+    )
+    obj = R._surfaces(side)
+    x = np.linspace(0.29, 0.61, 21)
+    ant = np.stack([x, np.zeros_like(x)], axis=1)
+    da = np.linalg.norm(ant[:, None] - obj["c1"][None], axis=2)
+    db = np.linalg.norm(ant[:, None] - obj["c2"][None], axis=2)
+    ab = np.linalg.norm(obj["c1"][:, None] - obj["c2"][None], axis=2)
+    ghost = 0.5 * np.min(da[:, :, None] + ab[None] + db[:, None, :], axis=(1, 2))
+    single = da.min(axis=1)
+    rps = SimpleNamespace(
+        x=np.concatenate([x, x]),
+        range=np.concatenate([single, ghost]),
+        amp=np.concatenate([np.ones(21), np.full(21, 0.3)]),
+        cluster=np.repeat([0, 1], 21),
+    )
+    on_c1 = np.array([[0.40, 0.41 - 0.015]] * 5)  # on c1's near side (scan frame)
+    behind = np.array([[0.47, 0.80]] * 5)  # 0.2 m behind both
+    image = SimpleNamespace(points=np.concatenate([on_c1, behind]), cluster=np.repeat([0, 1], 5))
+    trees = [(k, cKDTree(v)) for k, v in obj.items()]
+    lines = R.anatomy(SimpleNamespace(image=image, rps=rps), side, trees)
+    assert len(lines) == 1
+    assert (
+        "cluster 1: 5 points" in lines[0] and "follows c1-c2 to 0.0 mm RMS, +0.0 mm off" in lines[0]
+    )
+    assert "amplitude 0.30 of the strongest" in lines[0]
