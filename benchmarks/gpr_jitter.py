@@ -158,6 +158,20 @@ def score(points: np.ndarray, line: dict) -> tuple:
     return found, float(np.mean(d <= 0.03)), float(np.median(d))
 
 
+def image_points(method: str, data, engine, **settings) -> tuple:
+    """``method``'s points of ``data`` with ``default_params(data,
+    **settings)``, the data warnings the lines draw by design silenced;
+    returns (points (K, 2) m, the parameters)."""
+    from rpm_cl.imaging import run_method
+    from rpm_cl.io.data import DataWarning
+    from rpm_cl.rpm.params import default_params
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        params = default_params(data, **settings)
+        return run_method(method, data, params, engine).image.points, params
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jitter-ps", type=float, nargs="+", default=[0.0, 20.0])
@@ -167,10 +181,7 @@ def main(argv=None) -> int:
 
     from rpm_cl.cl import create_env
     from rpm_cl.extract.alignment import trace_shifts
-    from rpm_cl.imaging import run_method
-    from rpm_cl.io.data import DataWarning
     from rpm_cl.rpm import DeviceRPM
-    from rpm_cl.rpm.params import default_params
 
     engine = DeviceRPM(create_env())
     print(
@@ -187,12 +198,9 @@ def main(argv=None) -> int:
             rms = f"{1e3 * est.std():.2f}/{1e3 * tau.std() * C0 / 2:.2f} mm"
             for method in ("phase-rpm", "das"):
                 for align in (False, True):
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("ignore", DataWarning)
-                        params = default_params(
-                            data, eps_r=line["eps"], time_zero=zero, align_traces=align
-                        )
-                        pts = run_method(method, data, params, engine).image.points
+                    pts, _ = image_points(
+                        method, data, engine, eps_r=line["eps"], time_zero=zero, align_traces=align
+                    )
                     found, near, med = score(pts, line)
                     print(
                         f"{name:4s} {ps:5.0f}ps {method:9s} {'yes' if align else 'no':5s} "

@@ -24,10 +24,9 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import warnings
 
 import numpy as np
-from gpr_jitter import LINES, N0, SAMPLES, as_loaded, score, traces
+from gpr_jitter import LINES, N0, SAMPLES, as_loaded, image_points, score, traces
 
 from rpm_cl.io.model import C0
 
@@ -64,10 +63,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     from rpm_cl.cl import create_env
-    from rpm_cl.imaging import run_method
-    from rpm_cl.io.data import DataWarning
     from rpm_cl.rpm import DeviceRPM
-    from rpm_cl.rpm.params import default_params
 
     engine = DeviceRPM(create_env())
     print(
@@ -80,10 +76,7 @@ def main(argv=None) -> int:
         transmit = N0 * line["window"] / SAMPLES * C0 / 2
         for label, zero in (("record start", 0.0), ("transmit", transmit), ("auto", None)):
             for method in ("phase-rpm", "das"):
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore", DataWarning)
-                    params = default_params(data, eps_r=line["eps"], time_zero=zero)
-                    pts = run_method(method, data, params, engine).image.points
+                pts, params = image_points(method, data, engine, eps_r=line["eps"], time_zero=zero)
                 found, near, _ = score(pts, line)
                 err = depth_error(pts, line)
                 print(
