@@ -100,9 +100,11 @@ def band_data(targets, background, sidecar, band, tmp):
     return load_data(path)
 
 
-def method_rows(data, trees, methods, engine, das, grid):
+def method_rows(data, trees, methods, engine, das, grid, results=None):
     """``(name, score)`` of each method of ``methods`` with its default
-    parameters, then of DAS's peaks on ``grid`` (:func:`score`)."""
+    parameters, then of DAS's peaks on ``grid`` (:func:`score`); each
+    method's ImageResult also goes into the dict ``results`` by name where
+    one is given."""
     from rpm_cl.cli.reproduce import das_points
     from rpm_cl.imaging import run_method
     from rpm_cl.rpm.params import default_params
@@ -111,6 +113,8 @@ def method_rows(data, trees, methods, engine, das, grid):
     for name in methods:
         res = run_method(name, data, default_params(data), engine)
         rows.append((name, score(res.image.points, trees)))
+        if results is not None:
+            results[name] = res
     pts, _ = das_points(das, data, grid, "image")
     rows.append(("das", score(pts, trees)))
     return rows

@@ -330,9 +330,7 @@ def image(args) -> int:
     import rpm_cl.io.gprmax as G
     from rpm_cl.baselines.das import DeviceDAS, parse_grid
     from rpm_cl.cl import create_env
-    from rpm_cl.imaging import run_method
     from rpm_cl.rpm import DeviceRPM
-    from rpm_cl.rpm.params import default_params
 
     env = create_env(args.device)
     engine, das = DeviceRPM(env), DeviceDAS(env)
@@ -368,10 +366,10 @@ def image(args) -> int:
 
                     kspace.wants_coherent_centres = lambda data, params: True
                     kspace.coherent_centres = centres_at(_objects_seen(side, data.array.x))
-                rows = method_rows(data, trees, METHODS, engine, das, grid)
+                results = {}
+                rows = method_rows(data, trees, METHODS, engine, das, grid, results)
                 if args.anatomy:
-                    res = run_method("phase-rpm", data, default_params(data), engine)
-                    for line in anatomy(res, side, trees):
+                    for line in anatomy(results["phase-rpm"], side, trees):
                         say(f"{folder.name:6s} {text:>12s}{line}")
                 for name, (n, share, med, hit) in rows:
                     acc = pooled.setdefault((text, name), [0, 0, [], 0, 0, 0])
