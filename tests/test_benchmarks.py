@@ -199,3 +199,18 @@ def test_anatomy_names_the_double_bounce_a_cluster_follows():
         "cluster 1: 5 points" in lines[0] and "follows c1-c2 to 0.0 mm RMS, +0.0 mm off" in lines[0]
     )
     assert "amplitude 0.30 of the strongest" in lines[0]
+
+
+def test_medium_check_of_a_dense_gssi_row():
+    """``medium_apex.py``'s dense row, written as a GSSI file from Ricker
+    pulses and converted as ``rpm-cl convert`` does: no track fits, the
+    apexes read its eps_r 5 to within the bias their neighbours give (at
+    most a quarter up, docs/decisions.md), the line imaged as air draws the
+    warning and in its own medium none."""
+    from medium_apex import line_rows
+
+    row = line_rows(["d"], None)[2].strip("| ").split(" | ")
+    assert row[0] == "d" and row[2] == "nan (0)"
+    reading = float(row[3].split()[0])
+    assert 5.0 <= reading <= 1.25 * 5.0
+    assert row[4] == row[3].split()[0] and row[5] == "-"

@@ -46,6 +46,9 @@ above the surface of a material taken as homogeneous fit ``(h + n d) / (h
 down in eps_r 6 under 80 mm of air): a fit *below* the setting may be
 either, so :func:`check_medium` names both and never warns that air data
 fit less than air.
+
+Where no track qualifies (rows of bars whose envelopes merge), the check
+reads the focus at the echoes' apexes instead (:mod:`rpm_cl.extract.apex`).
 """
 
 from __future__ import annotations
@@ -312,7 +315,10 @@ def check_medium(data, medium: Medium) -> float | None:
     Returns
     -------
     float or None
-        The fitted value when a track qualified, else None.
+        The fitted value when a track qualified; where none did (and the
+        medium is no half-space), the apexes' reading
+        (:func:`rpm_cl.extract.apex.apex_eps_r`) when enough focused; else
+        None.
 
     Warns
     -----
@@ -323,12 +329,19 @@ def check_medium(data, medium: Medium) -> float | None:
     if data.array.planar:
         return None
     eps, n, err = _fit(data.array.positions(), tracks(data), medium)
+    what = f"{n} hyperbolas"
+    if n == 0 and not medium.half_space:
+        # no track is long enough (dense, shallow bars): the apexes' focus
+        from .apex import apex_eps_r
+
+        eps, n, err = apex_eps_r(data)
+        what = f"focused at {n} apexes"
     if n == 0:
         return None
     # the mismatch must stand beyond the tracks' own disagreement
     if (eps - SURE * err) / medium.eps_r > MISMATCH:
         warnings.warn(
-            f"the echoes' range walks fit eps_r = {eps:.2f} ({n} hyperbolas), but the "
+            f"the echoes' range walks fit eps_r = {eps:.2f} ({what}), but the "
             f"medium is set to eps_r = {medium.eps_r:g}: image with --eps-r {eps:.2f} "
             f"(or check the antenna height)",
             DataWarning,
@@ -336,7 +349,7 @@ def check_medium(data, medium: Medium) -> float | None:
         )
     elif (eps + SURE * err) / medium.eps_r < 1.0 / MISMATCH and not medium.air:
         warnings.warn(
-            f"the echoes' range walks fit eps_r = {eps:.2f} ({n} hyperbolas), but the "
+            f"the echoes' range walks fit eps_r = {eps:.2f} ({what}), but the "
             f"medium is set to eps_r = {medium.eps_r:g}: try --eps-r {max(eps, 1.0):.2f}, or "
             f"--antenna-height where the antennas are above the surface (an air gap, like "
             f"extended targets, makes the walks fit low)",

@@ -1,0 +1,206 @@
+"""The medium a linear scan's hyperbola apexes imply: the coherent focus at
+each apex, against ``eps_r``.
+
+A point at true depth ``d`` below the antennas' line, in a homogeneous
+medium of index ``n``, has the air-equivalent range
+
+    R(x) = sqrt(R0^2 + eps_r (x - x0)^2),   R0 = n d,
+
+and its echo, range-compressed, carries the phase ``-2 k_c R(x)``
+(:func:`rpm_cl.baselines.das.das_numpy`'s convention), so the sum
+
+    D(eps) = | sum_a s_a(R_a) exp(+j 2 k_c R_a) | / sum_a |s_a(R_a)|
+
+over the antennas within 45 degrees of the apex is near 1 at the true
+``eps_r`` and falls where the trial curve leaves the echo's phase.  Each
+apex candidate (a local maximum of the echo envelope over half a range
+resolution either way) is focused over a small grid of apex positions
+(half a range resolution either way, steps of an eighth and a sixteenth of
+a wavelength) for every ``eps_r`` of a geometric grid; the ``eps_r`` of the
+best focus is that apex's reading.
+
+This reads the curvature from the echoes' phase, where the envelope peaks
+that :func:`rpm_cl.extract.hyperbola.tracks` links cannot: bars 0.15 m
+apart under a GPR line, each visible over +-0.08 m of the scan, walk less
+than a range resolution and their envelopes merge, so no track is long
+enough to fit.  Two conditions keep it to data that pin the curvature
+(measured with ``python benchmarks/medium_apex.py --gprmax DATA``):
+
+- the antennas reach ``x0 +- R0`` (45 degrees either side in air): over a
+  narrower aperture the focus trades ``eps_r`` against the apex position
+  (20 random gprMax air scenes at four bands: 12 of 80 runs read above 1.5
+  without this condition, none reads at all with it);
+- a band of at least :data:`MIN_FRACTIONAL_BAND` of the centre frequency
+  (a 1.6 GHz GSSI antenna's Hann band is 0.49 of it), so that the
+  envelope's peak places the apex within about a wavelength and the grid
+  of apex positions stays small.
+
+A lone echo reads its ``eps_r`` to 2 %; the tails of neighbouring echoes
+inside the aperture pull the reading, mostly up (docs/decisions.md).
+:func:`rpm_cl.extract.hyperbola.check_medium` uses it where no track
+qualifies.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..filters import maximum_filter
+from ..io.medium import EPS_R_MAX
+
+__all__ = ["MIN_APEXES", "MIN_COHERENCE", "MIN_FRACTIONAL_BAND", "apex_eps_r", "focus_curve"]
+
+#: Trial eps_r: a geometric grid from 0.5 (extended targets read below 1) to
+#: EPS_R_MAX, steps of about 10 %
+#: (refined by a parabola through the best value and its neighbours).
+EPS_GRID = np.geomspace(0.5, EPS_R_MAX, 56)
+#: Least band over centre frequency of a scan that is read (module notes;
+#: the paper's narrow-band scenes, 0.0125, are not).
+MIN_FRACTIONAL_BAND = 0.4
+#: Least coherence D of an apex's best focus that counts: on lines of white
+#: noise (tests/test_apex.py's geometry, 50 seeds) the strongest maxima focus
+#: at up to 0.65 but never three in one line; the bars of
+#: ``benchmarks/medium_apex.py``'s lines focus at 0.71-0.99.
+MIN_COHERENCE = 0.6
+#: Fewest apexes whose readings make an estimate.
+MIN_APEXES = 3
+#: Most apex candidates focused (the strongest): enough for a median, and
+#: 80-150 ms a check on the 200-300 antennas of the lines of
+#: ``benchmarks/medium_apex.py``.
+MAX_APEXES = 16
+#: Envelope maxima below this level (dB from the strongest) are no candidates.
+APEX_THRESHOLD_DB = -20.0
+#: Most antennas summed per focus (an evenly strided subset beyond it).
+MAX_ANTENNAS = 96
+
+
+def focus_curve(x, s, rng, kc, x0, r0, half, eps=EPS_GRID, lam=None):
+    """Best coherence D(eps) of one apex over a grid of apex positions.
+
+    Parameters
+    ----------
+    x : ndarray, shape (A,)
+        Antenna positions along the line, m.
+    s : complex ndarray, shape (A, G)
+        Range profiles on the gates ``rng`` (uniform, m, air-equivalent).
+    rng : ndarray, shape (G,)
+    kc : float
+        Centre wavenumber, rad/m.
+    x0, r0 : float
+        The apex candidate: antenna position and air-equivalent range, m.
+    half : float
+        Half-width of the grid of apex positions in x and in range, m.
+    eps : ndarray, shape (E,)
+        Trial relative permittivities.
+    lam : float, optional
+        Wavelength setting the grid's steps (lam / 8 in x, lam / 16 in
+        range); default ``2 pi / kc``.
+
+    Returns
+    -------
+    ndarray, shape (E,)
+        The largest D over the grid for each trial eps_r, in [0, 1].
+    """
+    lam = 2 * np.pi / kc if lam is None else lam
+    gx = x0 + np.arange(-half, half + 1e-12, lam / 8)
+    gr = r0 + np.arange(-half, half + 1e-12, lam / 16)
+    gr = gr[gr > 0]
+    dr = float(rng[1] - rng[0])
+    ai = np.arange(x.size)
+    out = np.empty(len(eps))
+    for i, e in enumerate(eps):
+        ra = np.sqrt(gr[None, :, None] ** 2 + e * (x[None, None, :] - gx[:, None, None]) ** 2)
+        g = (ra - rng[0]) / dr
+        inside = (g >= 0) & (g < rng.size - 1)
+        g = np.clip(g, 0, rng.size - 1 - 1e-9)
+        k = g.astype(np.int64)
+        f = g - k
+        v = (1 - f) * s[ai, k] + f * s[ai, k + 1]
+        v = np.where(inside, v, 0)
+        num = np.abs(np.sum(v * np.exp(2j * kc * ra), axis=-1))
+        den = np.sum(np.abs(v), axis=-1)
+        out[i] = float(np.max(num / np.maximum(den, 1e-300)))
+    return out
+
+
+def _refined(curve, eps):
+    """The eps_r of the curve's maximum, a parabola through it and its
+    neighbours in log eps_r; None at the grid's ends."""
+    i = int(np.argmax(curve))
+    if i == 0 or i == len(curve) - 1:
+        return None
+    y0, y1, y2 = curve[i - 1], curve[i], curve[i + 1]
+    den = y0 - 2 * y1 + y2
+    t = 0.5 * (y0 - y2) / den if den < 0 else 0.0
+    le = np.log(eps)
+    return float(np.exp(le[i] + t * (le[i + 1] - le[i])))
+
+
+def apex_eps_r(data, whole_aperture: bool = True) -> tuple[float, int, float]:
+    """``eps_r`` from the focus at a linear scan's hyperbola apexes.
+
+    Parameters
+    ----------
+    data : RadarData
+        Range-compressed data of a linear array (air-equivalent ranges), as
+        imaged (after the steps before imaging).
+    whole_aperture : bool
+        Read only apexes whose antennas reach 45 degrees (air-equivalent)
+        either side (module notes); False reads every apex (a measurement
+        of what the condition keeps out, ``benchmarks/medium_apex.py``).
+
+    Returns
+    -------
+    (float, int, float)
+        The median reading of the apexes that focus (coherence at least
+        :data:`MIN_COHERENCE`, a maximum inside the eps_r grid), how many
+        did, and the median's standard error (1.2533 * 1.4826 * MAD /
+        sqrt(n), at least 5 % of it for the grid's and the model's
+        resolution); ``(nan, 0, inf)`` where the data do not qualify
+        (module notes) or fewer than :data:`MIN_APEXES` apexes focus.
+    """
+    none = (float("nan"), 0, float("inf"))
+    if data.array.planar or data.range.size < 3:
+        return none
+    w = data.waveform
+    if not w.bandwidth >= MIN_FRACTIONAL_BAND * w.fc:
+        return none
+    x = np.asarray(data.array.x, np.float64)
+    s = data.signal.reshape(x.size, -1)
+    rng = np.asarray(data.range, np.float64)
+    env = np.abs(s)
+    top = float(env.max()) if env.size else 0.0
+    if not top > 0 or x.size < 3:
+        return none
+    res, dr = w.range_resolution, float(data.dr)
+    dx = float(np.median(np.diff(np.sort(x))))
+    if not dx > 0:
+        return none
+    na = max(1, round(0.5 * res / dx))
+    ng = max(1, round(0.5 * res / dr))
+    peak = (env == maximum_filter(env, (2 * na + 1, 2 * ng + 1), mode="nearest")) & (
+        env >= top * 10 ** (APEX_THRESHOLD_DB / 20)
+    )
+    ia, ig = np.nonzero(peak)
+    r0 = rng[ig]
+    x0 = x[ia]
+    ok = (ig > ng) & (ig < rng.size - 1 - ng) & (r0 > 0.5 * res)
+    if whole_aperture:  # 45 degrees either side
+        ok &= (x0 - r0 >= x.min()) & (x0 + r0 <= x.max())
+    ia, ig = ia[ok], ig[ok]
+    order = np.argsort(env[ia, ig], kind="stable")[::-1][:MAX_APEXES]
+    readings = []
+    for a, g in zip(ia[order], ig[order]):
+        near = np.flatnonzero(np.abs(x - x[a]) <= rng[g])
+        near = near[:: max(1, int(np.ceil(near.size / MAX_ANTENNAS)))]
+        curve = focus_curve(x[near], s[near], rng, w.kc, x[a], rng[g], 0.5 * res)
+        e = _refined(curve, EPS_GRID)
+        if e is not None and curve.max() >= MIN_COHERENCE:
+            readings.append(e)
+    if len(readings) < MIN_APEXES:
+        return none
+    e = np.asarray(readings)
+    value = float(np.median(e))
+    mad = float(np.median(np.abs(e - value)))
+    err = max(1.2533 * 1.4826 * mad / np.sqrt(e.size), 0.05 * value)
+    return value, int(e.size), err
