@@ -127,3 +127,62 @@ def test_noise_reads_nothing():
         noise = rng.standard_normal(line.signal.shape) + 1j * rng.standard_normal(line.signal.shape)
         data = RadarData(noise, Array(X), line.range, line.waveform)
         assert apex_eps_r(data)[1] == 0
+
+
+def test_eps_r_auto_reads_the_medium():
+    """``default_params(data, eps_r="auto")`` images in the medium the
+    hyperbolas read (the apexes' here); a scan where nothing pins it is
+    imaged as air, with one warning saying so."""
+    from rpm_cl.rpm.params import default_params
+    from rpm_cl.simulate import simulate_preset
+
+    data = _line(5.0)
+    reading = apex_eps_r(data)[0]
+    assert default_params(data, eps_r="auto").medium.eps_r == pytest.approx(reading)
+    assert default_params(data, eps_r="AUTO").medium.eps_r == pytest.approx(reading)
+    air = simulate_preset("paper-2d", None, seed=0)[0]  # narrow band: no apex is read
+    with pytest.warns(DataWarning, match="--eps-r auto: no echo track or apex") as rec:
+        assert default_params(air, eps_r="auto").medium.eps_r == 1.0
+    assert len(rec) == 1
+    with pytest.warns(DataWarning, match="planar arrays are not read"):
+        assert default_params(simulate_preset("human-body")[0], eps_r="auto").medium.eps_r == 1.0
+
+
+def test_cli_eps_r_auto(tmp_path, capsys):
+    """``--eps-r auto`` on the command line and ``eps_r = "auto"`` in a
+    config: image, das and rma read the row's medium, print it with -v and
+    draw no medium warning; another word is one error line, exit 2."""
+    from rpm_cl.cli import main
+    from rpm_cl.io.formats import save_data
+
+    path = tmp_path / "row.npz"
+    save_data(path, _line(5.0))
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[medium]\neps_r = "auto"\n')
+    out = str(tmp_path / "o.npz")
+    for argv in (
+        ["image", str(path), "-o", out, "--eps-r", "auto", "-v"],
+        ["image", str(path), "-o", out, "--config", str(cfg), "-v"],
+        [
+            "das",
+            str(path),
+            "-o",
+            out,
+            "--grid",
+            "0:1.4:0.01,0.05:0.4:0.01",
+            "--eps-r",
+            "auto",
+            "-v",
+        ],
+        ["rma", str(path), "-o", out, "--eps-r", "auto", "-v"],
+    ):
+        assert main(argv) == 0, argv
+        err = capsys.readouterr().err
+        assert "eps_r auto: 5." in err or "eps_r auto: 6." in err, err
+        assert "range walks" not in err
+    from rpm_cl.cli.batch_config import BatchConfig
+
+    BatchConfig(overrides=((("medium", "eps_r"), "auto"),))  # read per frame
+    assert main(["image", str(path), "-o", out, "--eps-r", "auto5"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "must be a number or 'auto'" in err[0]

@@ -91,7 +91,10 @@ class BatchConfig:
         try:
             KSpaceParams(**by_section.get("kspace", {}))
             RPMParams(**by_section.get("rpm", {}))
-            Medium(**by_section.get("medium", {}))
+            medium = dict(by_section.get("medium", {}))
+            if medium.get("eps_r") == "auto":  # read per frame
+                medium["eps_r"] = 1.0
+            Medium(**medium)
             imaging = dict(by_section.get("imaging", {}))
             if imaging.get("time_zero", 0.0) is None:  # "auto": picked per frame
                 imaging["time_zero"] = 0.0

@@ -28,7 +28,7 @@ def cmd_das(args) -> int:
             f"--grid has {grid.dim} axes; this {'planar' if data.array.planar else 'linear'}"
             f" array needs {data.array.dim} (x, y{', z' if data.array.planar else ''})"
         )
-    medium = _medium(args)
+    medium = _medium(args, data)
     check_medium(data, medium)
     n_bp = grid.size * data.array.n
     timing = {}
@@ -119,7 +119,7 @@ def cmd_rma(args) -> int:
     data = _preprocessed(args, _load_input(args, with_truth=False))
     if args.y_min is not None and args.y_max is not None and args.y_min >= args.y_max:
         raise CLIError(f"--y-min ({args.y_min}) must be below --y-max ({args.y_max})")
-    medium = _medium(args)
+    medium = _medium(args, data)
     check_medium(data, medium)
     t0 = time.perf_counter()
     img, x, y = rma_image(

@@ -64,9 +64,9 @@ def _imaging_config_unused(args, what: str) -> None:
         )
 
 
-def _medium(args):
+def _medium(args, data):
     """The :class:`rpm_cl.io.medium.Medium` of ``--config`` [medium] and the
-    flags."""
+    flags (``eps_r`` "auto" read from ``data``, as imaged)."""
     from .config import flag_values, merge, resolve_medium, settings
 
     flags = flag_values(args)
@@ -74,7 +74,7 @@ def _medium(args):
     sources.update(
         {(s.section, s.name): s.flag for s in settings() if (s.section, s.name) in flags}
     )
-    return resolve_medium(merge(args.cfg_file, flags), sources)
+    return resolve_medium(merge(args.cfg_file, flags), sources, data)
 
 
 def _accuracy_line(s: dict) -> str:

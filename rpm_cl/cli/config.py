@@ -201,7 +201,7 @@ def add_flags(parser, sections=("kspace", "rpm", "imaging"), only=None) -> None:
             type=s.parse,
             default=argparse.SUPPRESS,
             choices=s.choices,
-            metavar=None if s.choices else kind + ("|auto" if s.optional else ""),
+            metavar=None if s.choices else kind + ("|auto" if s.takes_auto else ""),
             help=f"{doc} (default {default}; `rpm-cl params IN` shows the value for IN)",
         )
 
@@ -276,13 +276,18 @@ def resolve(data, values: dict, base: dict | None = None, sources: dict | None =
     return params
 
 
-def resolve_medium(values: dict, sources: dict | None = None):
+def resolve_medium(values: dict, sources: dict | None = None, data=None):
     """:class:`rpm_cl.io.medium.Medium` from the ``medium`` entries of ``values``
     (for the commands that take no other imaging parameter: ``das``,
-    ``rma``)."""
+    ``rma``); ``eps_r`` "auto" is read from ``data`` (after the steps before
+    imaging; :func:`rpm_cl.extract.hyperbola.read_eps_r`)."""
     from ..io.medium import Medium
 
     kw = {name: v for (section, name), v in values.items() if section == "medium"}
+    if kw.get("eps_r") == "auto" and data is not None:
+        from ..extract.hyperbola import read_eps_r
+
+        kw["eps_r"] = read_eps_r(data, kw.get("antenna_height"))
     try:
         return Medium(**kw)
     except InputError as exc:

@@ -40,6 +40,9 @@ __all__ = ["EngineParams", "Setting", "settings"]
 _AUTO = ("auto", "none")
 #: Settings whose None is a value picked from the data, written only "auto".
 _PICKED = ("time_zero",)
+#: Number settings that also take the word "auto": read from the data by
+#: :func:`rpm_cl.rpm.params.default_params` (``eps_r``: the echoes' hyperbolas).
+_READ = ("eps_r",)
 
 
 @dataclass(frozen=True)
@@ -137,6 +140,11 @@ class Setting:
         return ("auto",) if self.name in _PICKED else _AUTO
 
     @property
+    def takes_auto(self) -> bool:
+        """Whether the word ``auto`` is a value (None, or read from the data)."""
+        return self.optional or self.name in _READ
+
+    @property
     def dest(self) -> str:
         return f"cfg__{self.section}__{self.name}"
 
@@ -151,12 +159,14 @@ class Setting:
             what = {float: "a number", int: "an integer", bool: "true or false", str: "a string"}[
                 self.kind
             ]
-        return what + (" or 'auto'" if self.optional else "")
+        return what + (" or 'auto'" if self.takes_auto else "")
 
     def coerce(self, value):
         """A TOML value checked against the field's type; ValueError if wrong."""
         if self.optional and isinstance(value, str) and value.lower() in self.auto_words:
             return None
+        if self.name in _READ and isinstance(value, str) and value.strip().lower() == "auto":
+            return "auto"
         if self.choices is not None:
             if value in self.choices:
                 return value
@@ -181,6 +191,8 @@ class Setting:
         try:
             if self.optional and t.lower() in self.auto_words:
                 return None
+            if self.name in _READ and t.lower() == "auto":
+                return "auto"
             if self.choices is None and self.kind is bool:
                 low = t.lower()
                 if low in ("true", "yes", "on", "1"):

@@ -69,6 +69,7 @@ __all__ = [
     "TRACK_THRESHOLD_DB",
     "check_medium",
     "fit_eps_r",
+    "read_eps_r",
     "track_eps_r",
     "tracks",
 ]
@@ -299,6 +300,63 @@ def _fit(positions, rps, medium: Medium | None = None) -> tuple[float, int, floa
     return value, len(est), float(np.sqrt(max(chi2, 1.0) / cw[-1]))
 
 
+def _estimate(data, medium: Medium) -> tuple[float, int, float, str]:
+    """The tracks' fit (:func:`_fit`), or where no track qualifies (and the
+    medium is no half-space) the apexes' (:func:`rpm_cl.extract.apex.apex_eps_r`):
+    (eps_r, how many took part, its error, what they were, in words)."""
+    eps, n, err = _fit(data.array.positions(), tracks(data), medium)
+    if n or medium.half_space:
+        return eps, n, err, f"{n} hyperbolas"
+    # no track is long enough (dense, shallow bars): the apexes' focus
+    from .apex import apex_eps_r
+
+    eps, n, err = apex_eps_r(data)
+    return eps, n, err, f"focused at {n} apexes"
+
+
+def read_eps_r(data, antenna_height: float | None = None) -> float:
+    """``eps_r`` read from the data (``--eps-r auto``): the value
+    :func:`check_medium` would compare the setting with, clipped to
+    [1, ``EPS_R_MAX``]; 1 (air), with a warning, where nothing pins it.
+
+    Parameters
+    ----------
+    data : RadarData
+        As the method images it (after the steps before imaging).
+    antenna_height : float or None
+        m: above a half-space the tracks are Fermat's paths (no apex reading
+        there).
+
+    Returns
+    -------
+    float
+
+    Warns
+    -----
+    DataWarning
+        Planar arrays, and scans whose tracks and apexes pin no value: one
+        line saying that air is imaged and that ``--eps-r`` sets the medium.
+    """
+    import logging
+
+    if data.array.planar:
+        eps, n, what = float("nan"), 0, ""
+    else:
+        eps, n, _, what = _estimate(data, Medium(1.0, antenna_height))
+    if n == 0:
+        warnings.warn(
+            "--eps-r auto: no echo track or apex of this scan pins the medium"
+            + (" (planar arrays are not read)" if data.array.planar else "")
+            + "; imaging as air: set --eps-r",
+            DataWarning,
+            stacklevel=3,
+        )
+        return 1.0
+    value = float(np.clip(eps, 1.0, EPS_R_MAX))
+    logging.getLogger("rpm_cl").info("eps_r auto: %.3g (%s)", value, what)
+    return value
+
+
 def check_medium(data, medium: Medium) -> float | None:
     """Warn when the fitted ``eps_r`` of the data's tracks
     (:func:`tracks`, :func:`fit_eps_r`) and the medium's differ by more than
@@ -328,14 +386,7 @@ def check_medium(data, medium: Medium) -> float | None:
     """
     if data.array.planar:
         return None
-    eps, n, err = _fit(data.array.positions(), tracks(data), medium)
-    what = f"{n} hyperbolas"
-    if n == 0 and not medium.half_space:
-        # no track is long enough (dense, shallow bars): the apexes' focus
-        from .apex import apex_eps_r
-
-        eps, n, err = apex_eps_r(data)
-        what = f"focused at {n} apexes"
+    eps, n, err, what = _estimate(data, medium)
     if n == 0:
         return None
     # the mismatch must stand beyond the tracks' own disagreement

@@ -89,7 +89,11 @@ class Medium:
         Relative permittivity of the material (1 .. 100, lossless; the
         propagation velocity is c / sqrt(eps_r)); 1 is air, and imaging is then
         exactly the free-space imaging.  Echo ranges in the data are
-        air-equivalent (c tau / 2); images are in true metres.
+        air-equivalent (c tau / 2); images are in true metres.  "auto" (a
+        flag, a config, ``default_params``): read from the echoes'
+        hyperbolas after the steps before imaging
+        (rpm_cl.extract.hyperbola.read_eps_r; air, with a warning, where
+        none pins it).
     antenna_height : float or None
         m (>= 0).  None: the antennas are in the material too (a homogeneous
         medium: ranges are divided by sqrt(eps_r), the carrier wavenumber inside

@@ -323,7 +323,10 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
         result to set a field to None), but ``time_zero`` None or "auto"
         picks time zero from the data
         (:func:`rpm_cl.extract.preprocess.pick_time_zero`, on the aligned
-        traces with ``align_traces``).
+        traces with ``align_traces``), and ``eps_r`` "auto" reads the
+        medium from the echoes' hyperbolas after the steps before imaging
+        (:func:`rpm_cl.extract.hyperbola.read_eps_r`; air, with a warning,
+        where none pins it).
 
     Raises
     ------
@@ -351,10 +354,14 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     unknown = sorted(set(ov) - top - rpm_names - ks_names - medium_names)
     if unknown:
         raise InputError(f"unknown imaging parameter {unknown[0]!r}")
-    medium = Medium(**{k: v for k, v in ov.items() if k in medium_names})
     # the pipeline preprocesses again (rpm_cl.imaging.prepared), and warns there
     steps = {k: v for k, v in ov.items() if k in PREPROCESS_FIELDS and k != "align_traces"}
     data = preprocess(data, **steps, warn=False)  # aligned above
+    if isinstance(ov.get("eps_r"), str) and ov["eps_r"].strip().lower() == "auto":
+        from ..extract.hyperbola import read_eps_r
+
+        ov["eps_r"] = read_eps_r(data, ov.get("antenna_height"))
+    medium = Medium(**{k: v for k, v in ov.items() if k in medium_names})
     seen = seen_data(data, medium)  # what the decomposition and RPM see
     r_echo = _strongest_range(seen)
     if arr.planar:
