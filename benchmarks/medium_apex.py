@@ -20,7 +20,7 @@ its medium, and at twice its eps_r.
 ``--gprmax DATA`` adds the 20 random air scenes of
 ``benchmarks/gprmax_random.py`` (``simulate`` writes DATA) at its four
 bands: the runs that draw a medium warning, and those whose apexes read
-above 1.5 with and without the whole-aperture condition.
+above 1.5 with and without the angle condition (``SEEN_DEG``).
 
 Usage::
 
@@ -132,13 +132,13 @@ def gprmax_rows(root: Path) -> list[str]:
                 warned += _checked(data, 1.0) is not None
                 v, n, _ = apex_eps_r(data[0])
                 high += n > 0 and v > 1.5
-                v, n, _ = apex_eps_r(data[0], whole_aperture=False)
+                v, n, _ = apex_eps_r(data[0], angle_check=False)
                 high_any += n > 0 and v > 1.5
     return [
         "",
         (
             f"Random gprMax air scenes: {runs} runs; a medium warning in "
-            f"{warned}; apexes read above 1.5 in {high} (whole aperture) and "
+            f"{warned}; apexes read above 1.5 in {high} (angle condition) and "
             f"{high_any} (every apex)."
         ),
     ]

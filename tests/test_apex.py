@@ -97,13 +97,13 @@ def test_air_reads_air():
 @pytest.mark.parametrize(
     "change",
     [
-        {"x": np.arange(61) * 0.005 + 0.4},  # 0.3 m of scan: under 45 degrees either side
+        {"x": np.arange(61) * 0.005 + 0.4},  # 0.3 m of scan: under 40 degrees either side
         {"band": (1.8e9, 2.2e9)},  # a band of 0.2 of the centre frequency
     ],
     ids=["short scan", "narrow band"],
 )
 def test_no_reading_where_the_data_do_not_pin_the_curvature(change):
-    """A scan that does not reach 45 degrees either side of any apex, or a
+    """A scan that does not see any apex 40 degrees either side, or a
     band under 0.4 of its centre frequency: no reading at all."""
     assert apex_eps_r(_line(5.0, **change))[1] == 0
 

@@ -157,3 +157,25 @@ def test_without_a_background_run_the_coupling_is_removed_by_default(tmp_path, m
             DEFAULT_METHOD, raw, default_params(raw, eps_r=medium.eps_r, background="none"), dev32
         ).image.points
     assert len(none) == 0 or not (_to_boundary(none, bars) <= 0.020).any()
+
+
+@pytest.mark.parametrize("background", [True, False], ids=["background run", "none"])
+def test_the_medium_is_read_from_the_bars_apexes(tmp_path, medium, background):
+    """The bars' echoes overlap within a resolution, so no track is long
+    enough to fit; the apexes' focus (rpm_cl.extract.apex) reads the
+    dielectric: imaged as air the run warns, naming a value within the
+    FDTD grid's and the neighbours' error of 6 (at most 10 % low, 25 %
+    high: the bias of rows, docs/decisions.md), and ``eps_r="auto"``
+    images with that value."""
+    from rpm_cl.extract.hyperbola import check_medium
+    from rpm_cl.imaging import prepared
+    from rpm_cl.io.medium import Medium
+    from rpm_cl.rpm.params import default_params
+
+    raw = gprmax_scenes.converted("gprmax_rebar", BAND, tmp_path, background=background)
+    prep, _ = prepared(raw, default_params(raw))
+    with pytest.warns(DataWarning, match=r"focused at \d+ apexes") as rec:
+        read = check_medium(prep, Medium())
+    assert 0.9 * medium.eps_r <= read <= 1.25 * medium.eps_r
+    assert f"--eps-r {read:.2f}" in str(rec[0].message)
+    assert default_params(raw, eps_r="auto").medium.eps_r == pytest.approx(read)

@@ -11,7 +11,7 @@ and its echo, range-compressed, carries the phase ``-2 k_c R(x)``
 
     D(eps) = | sum_a s_a(R_a) exp(+j 2 k_c R_a) | / sum_a |s_a(R_a)|
 
-over the antennas within 45 degrees of the apex is near 1 at the true
+over the antennas within ``R0`` of the apex in x is near 1 at the true
 ``eps_r`` and falls where the trial curve leaves the echo's phase.  Each
 apex candidate (a local maximum of the echo envelope over half a range
 resolution either way) is focused over a small grid of apex positions
@@ -26,16 +26,18 @@ than a range resolution and their envelopes merge, so no track is long
 enough to fit.  Two conditions keep it to data that pin the curvature
 (measured with ``python benchmarks/medium_apex.py --gprmax DATA``):
 
-- the antennas reach ``x0 +- R0`` (45 degrees either side in air): over a
-  narrower aperture the focus trades ``eps_r`` against the apex position
-  (20 random gprMax air scenes at four bands: 12 of 80 runs read above 1.5
-  without this condition, none reads at all with it);
+- the antennas see the apex :data:`SEEN_DEG` either side in the medium
+  its reading names (``tan(SEEN_DEG) R0 / sqrt(eps_r)`` of scan either
+  side): over a narrower angle the focus trades ``eps_r`` against the apex
+  position (20 random gprMax air scenes at four bands: 9 of 80 runs read
+  above 1.5 from every apex, none is read with this condition);
 - a band of at least :data:`MIN_FRACTIONAL_BAND` of the centre frequency
   (a 1.6 GHz GSSI antenna's Hann band is 0.49 of it), so that the
   envelope's peak places the apex within about a wavelength and the grid
   of apex positions stays small.
 
-A lone echo reads its ``eps_r`` to 2 %; the tails of neighbouring echoes
+A trial curve that leaves the record over the aperture is not read
+(:data:`MIN_INSIDE`).  A lone echo reads its ``eps_r`` to 2 %; the tails of neighbouring echoes
 inside the aperture pull the reading, mostly up (docs/decisions.md).
 :func:`rpm_cl.extract.hyperbola.check_medium` uses it where no track
 qualifies.
@@ -65,13 +67,25 @@ MIN_COHERENCE = 0.6
 #: Fewest apexes whose readings make an estimate.
 MIN_APEXES = 3
 #: Most apex candidates focused (the strongest): enough for a median, and
-#: 80-150 ms a check on the 200-300 antennas of the lines of
+#: 90-220 ms a reading on the 200-300 antennas of the lines of
 #: ``benchmarks/medium_apex.py``.
 MAX_APEXES = 16
 #: Envelope maxima below this level (dB from the strongest) are no candidates.
 APEX_THRESHOLD_DB = -20.0
+#: Least share of the aperture's antennas whose trial range lies inside the
+#: record for a focus to count (deep maxima of a recorder's gained noise, at
+#: steep trial curves that leave the record, focused at 0.65-0.91 on their
+#: few samples left inside and read eps_r 42-100).
+MIN_INSIDE = 0.9
 #: Most antennas summed per focus (an evenly strided subset beyond it).
 MAX_ANTENNAS = 96
+#: Least angle, deg, either side of an apex over which the antennas see it,
+#: in the medium its reading names (``tan(SEEN_DEG) R0 / sqrt(eps_r)`` of
+#: scan either side; module notes).  On the 80 random gprMax air runs of
+#: ``benchmarks/medium_apex.py`` no apex is read from 30 degrees up, and at
+#: 20 three runs read 2.4-6.0; the rebar fixture's bars (eps_r 6, 61
+#: antennas) are read from 40 down.
+SEEN_DEG = 40.0
 
 
 def focus_curve(x, s, rng, kc, x0, r0, half, eps=EPS_GRID, lam=None):
@@ -119,6 +133,9 @@ def focus_curve(x, s, rng, kc, x0, r0, half, eps=EPS_GRID, lam=None):
         v = np.where(inside, v, 0)
         num = np.abs(np.sum(v * np.exp(2j * kc * ra), axis=-1))
         den = np.sum(np.abs(v), axis=-1)
+        # a curve that leaves the record over the aperture is not read: the
+        # few samples left inside would focus by chance
+        num = np.where(np.mean(inside, axis=-1) >= MIN_INSIDE, num, 0.0)
         out[i] = float(np.max(num / np.maximum(den, 1e-300)))
     return out
 
@@ -136,7 +153,7 @@ def _refined(curve, eps):
     return float(np.exp(le[i] + t * (le[i + 1] - le[i])))
 
 
-def apex_eps_r(data, whole_aperture: bool = True) -> tuple[float, int, float]:
+def apex_eps_r(data, angle_check: bool = True) -> tuple[float, int, float]:
     """``eps_r`` from the focus at a linear scan's hyperbola apexes.
 
     Parameters
@@ -144,10 +161,11 @@ def apex_eps_r(data, whole_aperture: bool = True) -> tuple[float, int, float]:
     data : RadarData
         Range-compressed data of a linear array (air-equivalent ranges), as
         imaged (after the steps before imaging).
-    whole_aperture : bool
-        Read only apexes whose antennas reach 45 degrees (air-equivalent)
-        either side (module notes); False reads every apex (a measurement
-        of what the condition keeps out, ``benchmarks/medium_apex.py``).
+    angle_check : bool
+        Read only apexes the antennas see :data:`SEEN_DEG` either side in
+        the medium of the reading (module notes); False reads every apex
+        (a measurement of what the condition keeps out,
+        ``benchmarks/medium_apex.py``).
 
     Returns
     -------
@@ -185,17 +203,21 @@ def apex_eps_r(data, whole_aperture: bool = True) -> tuple[float, int, float]:
     r0 = rng[ig]
     x0 = x[ia]
     ok = (ig > ng) & (ig < rng.size - 1 - ng) & (r0 > 0.5 * res)
-    if whole_aperture:  # 45 degrees either side
-        ok &= (x0 - r0 >= x.min()) & (x0 + r0 <= x.max())
-    ia, ig = ia[ok], ig[ok]
+    # the antennas must see each apex SEEN_DEG either side in the medium its
+    # reading names: tan(SEEN_DEG) R0 / sqrt(eps_r) of scan either side,
+    # at least the share EPS_R_MAX allows
+    seen = np.minimum(x0 - x.min(), x.max() - x0) / np.maximum(r0, 1e-300)
+    need = np.tan(np.deg2rad(SEEN_DEG)) if angle_check else 0.0
+    ok &= seen >= need / np.sqrt(EPS_R_MAX)
+    ia, ig, seen = ia[ok], ig[ok], seen[ok]
     order = np.argsort(env[ia, ig], kind="stable")[::-1][:MAX_APEXES]
     readings = []
-    for a, g in zip(ia[order], ig[order]):
+    for a, g, sn in zip(ia[order], ig[order], seen[order]):
         near = np.flatnonzero(np.abs(x - x[a]) <= rng[g])
         near = near[:: max(1, int(np.ceil(near.size / MAX_ANTENNAS)))]
         curve = focus_curve(x[near], s[near], rng, w.kc, x[a], rng[g], 0.5 * res)
         e = _refined(curve, EPS_GRID)
-        if e is not None and curve.max() >= MIN_COHERENCE:
+        if e is not None and curve.max() >= MIN_COHERENCE and sn >= need / np.sqrt(e):
             readings.append(e)
     if len(readings) < MIN_APEXES:
         return none
