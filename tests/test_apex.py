@@ -50,6 +50,18 @@ def test_one_apex_focuses_at_its_eps_r(eps):
     assert best == pytest.approx(eps, rel=0.02)
 
 
+@pytest.mark.parametrize("eps, depth", [(5.0, 0.1), (9.0, 0.2)])
+def test_noise_free_lines_read_their_eps_r(eps, depth):
+    """Noise-free bars 0.3 m apart under 2 m of scan at 1 cm: a steep
+    trial curve leaves each echo at once and keeps its apex sample alone;
+    the focus's floor (FLOOR) keeps such a curve from focusing, and the
+    line reads its eps_r within 5 % (without the floor: 5.56 and 62.9)."""
+    value, n, _ = apex_eps_r(
+        _line(eps, bars=np.arange(0.4, 1.7, 0.3), depth=depth, x=np.arange(201) * 0.01)
+    )
+    assert n >= 3 and value == pytest.approx(eps, rel=0.05)
+
+
 @pytest.mark.parametrize("eps", [3.0, 6.0, 12.0])
 def test_separate_bars_read_their_eps_r(eps):
     """Bars 0.35 m apart: each apex reads the medium.  The focus of an
@@ -141,7 +153,7 @@ def test_eps_r_auto_reads_the_medium():
     assert default_params(data, eps_r="auto").medium.eps_r == pytest.approx(reading)
     assert default_params(data, eps_r="AUTO").medium.eps_r == pytest.approx(reading)
     air = simulate_preset("paper-2d", None, seed=0)[0]  # narrow band: no apex is read
-    with pytest.warns(DataWarning, match="--eps-r auto: no echo track or apex") as rec:
+    with pytest.warns(DataWarning, match="eps_r auto: no echo track or apex") as rec:
         assert default_params(air, eps_r="auto").medium.eps_r == 1.0
     assert len(rec) == 1
     with pytest.warns(DataWarning, match="planar arrays are not read"):
@@ -182,7 +194,7 @@ def test_cli_eps_r_auto(tmp_path, capsys):
         assert "range walks" not in err
     from rpm_cl.cli.batch_config import BatchConfig
 
-    BatchConfig(overrides=((("medium", "eps_r"), "auto"),))  # read per frame
+    BatchConfig(overrides=((("medium", "eps_r"), " Auto "),))  # read per frame
     assert main(["image", str(path), "-o", out, "--eps-r", "auto5"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "must be a number or 'auto'" in err[0]

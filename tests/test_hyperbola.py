@@ -160,6 +160,18 @@ def test_halfspace_fit_uses_the_refracted_paths():
         check_medium(data, Medium())
 
 
+def test_eps_r_auto_above_a_halfspace_fits_the_refracted_paths():
+    """``eps_r="auto"`` with an antenna height reads the same walks with
+    Fermat's paths (6 within 10 %), not as a homogeneous medium (below 4)."""
+    from rpm_cl.rpm.params import default_params
+
+    tg = np.array([[0.0, H + 0.10], [0.2, H + 0.25]])
+    data = _spectrum_data(_ranges(tg))
+    auto = default_params(data, eps_r="auto", antenna_height=H).medium
+    assert auto.antenna_height == H and auto.eps_r == pytest.approx(6.0, rel=0.1)
+    assert default_params(data, eps_r=" Auto ").medium.eps_r < 4.0
+
+
 @pytest.mark.parametrize("preset", ["paper-2d", "paper-2d-sparse"])
 def test_air_scenes_are_silent(preset):
     """The paper's air scenes, noise-free and at 20 dB in-band, raise no

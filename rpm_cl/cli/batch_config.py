@@ -73,7 +73,7 @@ class BatchConfig:
         from ..extract.kspace import KSpaceParams
         from ..imaging import DEFAULT_METHOD, METHODS
         from ..io.medium import Medium
-        from ..rpm.params import ImagingParams, RPMParams
+        from ..rpm.params import ImagingParams, RPMParams, is_auto
 
         if self.method is None:
             object.__setattr__(self, "method", DEFAULT_METHOD)
@@ -92,7 +92,7 @@ class BatchConfig:
             KSpaceParams(**by_section.get("kspace", {}))
             RPMParams(**by_section.get("rpm", {}))
             medium = dict(by_section.get("medium", {}))
-            if medium.get("eps_r") == "auto":  # read per frame
+            if is_auto(medium.get("eps_r")):  # read per frame
                 medium["eps_r"] = 1.0
             Medium(**medium)
             imaging = dict(by_section.get("imaging", {}))

@@ -282,9 +282,10 @@ def resolve_medium(values: dict, sources: dict | None = None, data=None):
     ``rma``); ``eps_r`` "auto" is read from ``data`` (after the steps before
     imaging; :func:`rpm_cl.extract.hyperbola.read_eps_r`)."""
     from ..io.medium import Medium
+    from ..rpm.params import is_auto
 
     kw = {name: v for (section, name), v in values.items() if section == "medium"}
-    if kw.get("eps_r") == "auto" and data is not None:
+    if is_auto(kw.get("eps_r")) and data is not None:
         from ..extract.hyperbola import read_eps_r
 
         kw["eps_r"] = read_eps_r(data, kw.get("antenna_height"))

@@ -257,11 +257,12 @@ def fit_eps_r(positions, rps, medium: Medium | None = None) -> tuple[float, int]
         ``eps_r`` (module notes), and how many tracks qualified; ``(nan, 0)``
         when none did or their pooled error exceeds :data:`MAX_REL_ERROR`.
     """
-    value, n, _ = _fit(positions, rps, medium)
+    height = medium.antenna_height if medium is not None and medium.half_space else None
+    value, n, _ = _fit(positions, rps, height)
     return value, n
 
 
-def _fit(positions, rps, medium: Medium | None = None) -> tuple[float, int, float]:
+def _fit(positions, rps, height: float | None = None) -> tuple[float, int, float]:
     """:func:`fit_eps_r`, and the estimate's error widened by the tracks'
     scatter (module notes; ``inf`` for ``(nan, 0)``)."""
     cl = np.asarray(rps.cluster)
@@ -273,7 +274,7 @@ def _fit(positions, rps, medium: Medium | None = None) -> tuple[float, int, floa
     pos_all = np.asarray(positions, np.float64)[np.asarray(rps.antenna)]
     if pos_all.shape[1] == 2:  # a linear array's (x, y): z = 0
         pos_all = np.column_stack([pos_all, np.zeros(len(pos_all))])
-    half = medium is not None and medium.half_space
+    half = bool(height)  # antennas this far above a half-space
     est, err = [], []
     for i in order:
         sl = slice(start[i], start[i] + count[i])
@@ -281,7 +282,7 @@ def _fit(positions, rps, medium: Medium | None = None) -> tuple[float, int, floa
         z = None if rps.z is None else np.asarray(rps.z[sl])
         e, se = track_eps_r(rps.x[sl], z, r)
         if half and np.isfinite(e) and se <= 2 * TRACK_REL_ERROR * e:
-            e, se = _halfspace_track(pos_all[sl], r, medium.antenna_height, e)
+            e, se = _halfspace_track(pos_all[sl], r, height, e)
         # a fit beyond the media the engine takes (EPS_R_MAX) is not the
         # hyperbola of a point: a track that hops between the peaks of
         # overlapping echoes bends sharply and fits hundreds
@@ -300,13 +301,14 @@ def _fit(positions, rps, medium: Medium | None = None) -> tuple[float, int, floa
     return value, len(est), float(np.sqrt(max(chi2, 1.0) / cw[-1]))
 
 
-def _estimate(data, medium: Medium) -> tuple[float, int, float, str]:
-    """The tracks' fit (:func:`_fit`), or where no track qualifies (and the
-    medium is no half-space) the apexes' (:func:`rpm_cl.extract.apex.apex_eps_r`):
+def _estimate(data, height: float | None) -> tuple[float, int, float, str]:
+    """The tracks' fit (:func:`_fit`; Fermat's paths with antennas
+    ``height`` above a half-space), or where no track qualifies (and there
+    is no half-space) the apexes' (:func:`rpm_cl.extract.apex.apex_eps_r`):
     (eps_r, how many took part, its error, what they were, in words)."""
-    eps, n, err = _fit(data.array.positions(), tracks(data), medium)
-    if n or medium.half_space:
-        return eps, n, err, f"{n} hyperbolas"
+    eps, n, err = _fit(data.array.positions(), tracks(data), height)
+    if n or height:
+        return eps, n, err, f"{n} hyperbola{'s' if n != 1 else ''}"
     # no track is long enough (dense, shallow bars): the apexes' focus
     from .apex import apex_eps_r
 
@@ -317,7 +319,8 @@ def _estimate(data, medium: Medium) -> tuple[float, int, float, str]:
 def read_eps_r(data, antenna_height: float | None = None) -> float:
     """``eps_r`` read from the data (``--eps-r auto``): the value
     :func:`check_medium` would compare the setting with, clipped to
-    [1, ``EPS_R_MAX``]; 1 (air), with a warning, where nothing pins it.
+    [1, ``EPS_R_MAX``]; 1 (air), with a warning, where nothing pins it or
+    the reading lies below 1.
 
     Parameters
     ----------
@@ -335,23 +338,31 @@ def read_eps_r(data, antenna_height: float | None = None) -> float:
     -----
     DataWarning
         Planar arrays, and scans whose tracks and apexes pin no value: one
-        line saying that air is imaged and that ``--eps-r`` sets the medium.
+        line saying that air is imaged and that ``--eps-r`` sets the medium;
+        a reading below 1: one line naming it and its causes.
     """
     import logging
 
     if data.array.planar:
         eps, n, what = float("nan"), 0, ""
     else:
-        eps, n, _, what = _estimate(data, Medium(1.0, antenna_height))
+        eps, n, _, what = _estimate(data, antenna_height or None)
     if n == 0:
         warnings.warn(
-            "--eps-r auto: no echo track or apex of this scan pins the medium"
+            "eps_r auto: no echo track or apex of this scan pins the medium"
             + (" (planar arrays are not read)" if data.array.planar else "")
             + "; imaging as air: set --eps-r",
             DataWarning,
             stacklevel=3,
         )
         return 1.0
+    if eps < 1.0:
+        warnings.warn(
+            f"eps_r auto: the echoes' range walks read eps_r = {eps:.2f} ({what}), below "
+            f"air (extended targets, or an air gap: --antenna-height); imaging as air",
+            DataWarning,
+            stacklevel=3,
+        )
     value = float(np.clip(eps, 1.0, EPS_R_MAX))
     logging.getLogger("rpm_cl").info("eps_r auto: %.3g (%s)", value, what)
     return value
@@ -386,7 +397,7 @@ def check_medium(data, medium: Medium) -> float | None:
     """
     if data.array.planar:
         return None
-    eps, n, err, what = _estimate(data, medium)
+    eps, n, err, what = _estimate(data, medium.antenna_height if medium.half_space else None)
     if n == 0:
         return None
     # the mismatch must stand beyond the tracks' own disagreement

@@ -74,6 +74,7 @@ __all__ = [
     "ImagingParams",
     "RPMParams",
     "default_params",
+    "is_auto",
 ]
 
 
@@ -277,6 +278,12 @@ class ImagingParams:
             raise InputError(f"multipath must be 'drop' or 'flag', got {self.multipath!r}")
 
 
+def is_auto(value) -> bool:
+    """Whether ``value`` is the word "auto" (any case, spaces around): a
+    setting read from the data (``eps_r``)."""
+    return isinstance(value, str) and value.strip().lower() == "auto"
+
+
 def default_params(data: RadarData, **overrides) -> ImagingParams:
     """Parameters derived from the array when not given.
 
@@ -357,7 +364,7 @@ def default_params(data: RadarData, **overrides) -> ImagingParams:
     # the pipeline preprocesses again (rpm_cl.imaging.prepared), and warns there
     steps = {k: v for k, v in ov.items() if k in PREPROCESS_FIELDS and k != "align_traces"}
     data = preprocess(data, **steps, warn=False)  # aligned above
-    if isinstance(ov.get("eps_r"), str) and ov["eps_r"].strip().lower() == "auto":
+    if is_auto(ov.get("eps_r")):
         from ..extract.hyperbola import read_eps_r
 
         ov["eps_r"] = read_eps_r(data, ov.get("antenna_height"))
