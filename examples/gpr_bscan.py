@@ -7,7 +7,8 @@ over 0.75-2.25 GHz *without* its target-free run, as a real B-scan comes:
 the default background removal (``auto``) takes the antennas' coupling out.
 A recorded scan is imaged the same way: convert it (``rpm-cl convert``, e.g.
 a GSSI .dzt, with time zero at the window's start) and pass the .npz with
-its permittivity, ``--time-zero auto`` (time zero at the direct wave's
+its permittivity (or ``--eps-r auto``: read from the bars' hyperbolas,
+docs/model.md, "Media"), ``--time-zero auto`` (time zero at the direct wave's
 envelope peak) and, where the traces' timing wanders (the engine warns),
 ``--align-traces``.
 
@@ -15,7 +16,7 @@ Three panels: |profile| per trace against depth (range / sqrt(eps_r)), the
 DAS image in the medium (dB), and phase-rpm's points (over the bars' true
 outlines where the scene is known).
 
-Run: python examples/gpr_bscan.py [scan.npz --eps-r 6 [--time-zero auto|M] [--align-traces]]
+Run: python examples/gpr_bscan.py [scan.npz --eps-r 6|auto [--time-zero auto|M] [--align-traces]]
 [--png gpr.png]
 """
 
@@ -30,7 +31,7 @@ from rpm_cl import load_data
 from rpm_cl.cl import create_env
 from rpm_cl.imaging import run_method
 from rpm_cl.rpm import DeviceRPM
-from rpm_cl.rpm.params import default_params
+from rpm_cl.rpm.params import default_params, is_auto
 
 FIXTURE = Path(__file__).resolve().parent.parent / "tests" / "data" / "gprmax_rebar"
 
@@ -54,16 +55,18 @@ def fixture_scan(folder):
 def main(path=None, eps_r=None, png=None, time_zero=0.0, align=False):
     """Image a B-scan; returns a dict with the result, the DAS image and,
     for the fixture, the bars and each point's distance to the nearest
-    bar's outline (m).  ``time_zero``: m, or None for auto; ``align``: the
-    traces aligned on the direct wave (docs/model.md, "Before imaging")."""
+    bar's outline (m).  ``eps_r``: a number, or "auto" (read from the data);
+    ``time_zero``: m, or None for auto; ``align``: the traces aligned on
+    the direct wave (docs/model.md, "Before imaging")."""
     with tempfile.TemporaryDirectory() as tmp:
         bars = None
         if path is None:
             path, bars, eps_r = fixture_scan(tmp)
         data = load_data(path)
-    eps_r = float(eps_r or 1.0)
+    eps_r = eps_r if is_auto(eps_r) else float(eps_r or 1.0)
     engine = DeviceRPM(create_env())
     params = default_params(data, eps_r=eps_r, time_zero=time_zero, align_traces=align)
+    eps_r = params.medium.eps_r
     rpm = run_method("phase-rpm", data, params, engine)
     das = run_method("das", data, params, engine)
     pts = rpm.image.points
@@ -140,7 +143,7 @@ def _picture(data, params, engine, rpm, bars, eps_r, png):
 if __name__ == "__main__":
     args = sys.argv[1:]
     png = args[args.index("--png") + 1] if "--png" in args else None
-    eps = float(args[args.index("--eps-r") + 1]) if "--eps-r" in args else None
+    eps = args[args.index("--eps-r") + 1] if "--eps-r" in args else None
     tz = args[args.index("--time-zero") + 1] if "--time-zero" in args else "0"
     files = [a for a in args if a.endswith((".npz", ".h5"))]
     main(

@@ -118,8 +118,9 @@ def test_gpr_bscan_takes_a_jittered_gssi_line(tmp_path):
     before the pulse (benchmarks/gpr_jitter.py's line a, written sample by
     sample), converted at the window's start: with --time-zero auto and
     --align-traces every one of the twelve bars has a point within 30 mm
-    of its top and 40 % of the points lie within 30 mm of a bar; with
-    neither, time zero and the jitter put all but a fifth of them off."""
+    of its top and 40 % of the points lie within 30 mm of a bar, with its
+    eps_r given or read from the line (``--eps-r auto``); with neither
+    step, time zero and the jitter put all but a fifth of them off."""
     import os
     import sys
     import warnings
@@ -139,7 +140,9 @@ def test_gpr_bscan_takes_a_jittered_gssi_line(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DataWarning)
         good = main(str(path), line["eps"], None, None, True)["rpm"].image.points
+        read = main(str(path), "auto", None, None, True)["rpm"].image.points
         plain = main(str(path), line["eps"])["rpm"].image.points
-    found, share, _ = score(good, line)
-    assert found == 12 and share >= 0.4, (found, share)
+    for pts in (good, read):
+        found, share, _ = score(pts, line)
+        assert found == 12 and share >= 0.4, (found, share)
     assert score(plain, line)[1] < 0.2, score(plain, line)
