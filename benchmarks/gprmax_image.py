@@ -91,6 +91,11 @@ def score(points, trees):
     return len(points), float(np.mean(best <= 0.05)), float(np.median(best)), hit
 
 
+def ghz_band(text: str) -> tuple[float, float]:
+    """A band written "lo:hi" in GHz, as (lo, hi) in Hz."""
+    return tuple(float(v) * 1e9 for v in text.split(":"))
+
+
 def band_data(targets, background, sidecar, band, tmp):
     """The B-scan ``targets`` less ``background`` over ``band`` (Hz, a pair),
     written as a spectrum file in the folder ``tmp`` and loaded as
@@ -167,7 +172,7 @@ def main():
     say("(objects: c1-c4 the cylinders of scene.json in order, p1 the plate)")
     with tempfile.TemporaryDirectory() as tmp:
         for text in args.bands.split(","):
-            band = tuple(float(v) * 1e9 for v in text.split(":"))
+            band = ghz_band(text)
             data = band_data(
                 data_dir / "targets_merged.h5",
                 data_dir / "background_merged.h5",

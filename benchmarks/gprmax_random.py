@@ -325,7 +325,7 @@ def anatomy(result, side, trees) -> list:
 
 
 def image(args) -> int:
-    from gprmax_image import GRID, band_data, method_rows, object_trees
+    from gprmax_image import GRID, band_data, ghz_band, method_rows, object_trees
 
     import rpm_cl.io.gprmax as G
     from rpm_cl.baselines.das import DeviceDAS, parse_grid
@@ -352,7 +352,7 @@ def image(args) -> int:
         for folder in folders:
             side = G.read_sidecar(folder / "scene.json")
             for text in args.bands.split(","):
-                band = tuple(float(v) * 1e9 for v in text.split(":"))
+                band = ghz_band(text)
                 data = band_data(
                     folder / "targets_merged.h5",
                     root / "background_merged.h5",

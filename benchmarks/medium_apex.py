@@ -54,17 +54,14 @@ ALL = {**LINES, "c": RINGING, "d": DENSE}
 
 
 def _checked(data, eps_r: float):
-    """The medium warning's text (or None) for ``data`` prepared and
-    checked as ``rpm-cl image`` does, with eps_r set."""
-    from dataclasses import replace
-
+    """The medium warning's text (or None) for ``data``, prepared as
+    ``rpm-cl image`` prepares it, checked with eps_r set."""
     from rpm_cl.extract.hyperbola import check_medium
     from rpm_cl.io.medium import Medium
 
-    params = replace(data[1], medium=Medium(eps_r))
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
-        check_medium(data[0], params.medium)
+        check_medium(data, Medium(eps_r))
     lines = [str(r.message) for r in rec if "range walks" in str(r.message)]
     return lines[0] if lines else None
 
@@ -96,9 +93,9 @@ def line_rows(names, time_zero) -> list[str]:
             zero = N0 * line["window"] / SAMPLES * C0 / 2
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            data = prepared(raw, default_params(raw, time_zero=zero))
-        t, nt = fit_eps_r(data[0].array.positions(), tracks(data[0]))
-        a, na, err = apex_eps_r(data[0])
+            data = prepared(raw, default_params(raw, time_zero=zero))[0]
+        t, nt = fit_eps_r(data.array.positions(), tracks(data))
+        a, na, err = apex_eps_r(data)
         eps = line["eps"]
         named = [_named(_checked(data, e)) for e in (1.0, eps, 2 * eps)]
         rows.append(
@@ -110,29 +107,29 @@ def line_rows(names, time_zero) -> list[str]:
 
 
 def gprmax_rows(root: Path) -> list[str]:
-    from gprmax_image import band_data
+    from gprmax_image import band_data, ghz_band
+    from gprmax_random import BANDS
 
     from rpm_cl.extract.apex import apex_eps_r
     from rpm_cl.imaging import prepared
     from rpm_cl.rpm.params import default_params
 
-    bands = ((3.875e9, 4.125e9), (3e9, 4e9), (2e9, 4e9), (1.5e9, 5e9))
     background = root / "background_merged.h5"
     runs = warned = high = high_any = 0
     with tempfile.TemporaryDirectory() as tmp:
         for scene in sorted(root.glob("s[0-9][0-9][0-9]")):
-            for band in bands:
+            for band in map(ghz_band, BANDS.split(",")):
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     raw = band_data(
                         scene / "targets_merged.h5", background, scene / "scene.json", band, tmp
                     )
-                    data = prepared(raw, default_params(raw))
+                    data = prepared(raw, default_params(raw))[0]
                 runs += 1
                 warned += _checked(data, 1.0) is not None
-                v, n, _ = apex_eps_r(data[0])
+                v, n, _ = apex_eps_r(data)
                 high += n > 0 and v > 1.5
-                v, n, _ = apex_eps_r(data[0], angle_check=False)
+                v, n, _ = apex_eps_r(data, angle_check=False)
                 high_any += n > 0 and v > 1.5
     return [
         "",
