@@ -45,6 +45,14 @@ _PICKED = ("time_zero",)
 _READ = ("eps_r",)
 
 
+def _read_from_data(value) -> bool:
+    """Whether ``value`` is the word that reads a :data:`_READ` setting from
+    the data (:func:`rpm_cl.rpm.params.is_auto`, which resolves it)."""
+    from ..rpm.params import is_auto  # loaded with the settings (_section_classes)
+
+    return is_auto(value)
+
+
 @dataclass(frozen=True)
 class EngineParams:
     """Where and how the kernels run.
@@ -165,7 +173,7 @@ class Setting:
         """A TOML value checked against the field's type; ValueError if wrong."""
         if self.optional and isinstance(value, str) and value.lower() in self.auto_words:
             return None
-        if self.name in _READ and isinstance(value, str) and value.strip().lower() == "auto":
+        if self.name in _READ and _read_from_data(value):
             return "auto"
         if self.choices is not None:
             if value in self.choices:
@@ -191,7 +199,7 @@ class Setting:
         try:
             if self.optional and t.lower() in self.auto_words:
                 return None
-            if self.name in _READ and t.lower() == "auto":
+            if self.name in _READ and _read_from_data(t):
                 return "auto"
             if self.choices is None and self.kind is bool:
                 low = t.lower()

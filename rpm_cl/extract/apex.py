@@ -117,6 +117,9 @@ def focus_curve(x, s, rng, kc, x0, r0, half, eps=EPS_GRID, lam=None, floor=0.0):
     lam : float, optional
         Wavelength setting the grid's steps (lam / 8 in x, lam / 16 in
         range); default ``2 pi / kc``.
+    floor : float
+        Added to the divisor per antenna (the magnitude :data:`FLOOR` of
+        the apex's amplitude, in ``s``'s unit); 0: the plain coherence.
 
     Returns
     -------
@@ -199,10 +202,7 @@ def apex_eps_r(data, angle_check: bool = True) -> tuple[float, int, float]:
     if not top > 0 or x.size < 3:
         return none
     res, dr = w.range_resolution, float(data.dr)
-    dx = float(np.median(np.diff(np.sort(x))))
-    if not dx > 0:
-        return none
-    na = max(1, round(0.5 * res / dx))
+    na = max(1, round(0.5 * res / data.array.dx))  # the axis is uniform and increasing
     ng = max(1, round(0.5 * res / dr))
     peak = (env == maximum_filter(env, (2 * na + 1, 2 * ng + 1), mode="nearest")) & (
         env >= top * 10 ** (APEX_THRESHOLD_DB / 20)
