@@ -198,3 +198,39 @@ def test_cli_eps_r_auto(tmp_path, capsys):
     assert main(["image", str(path), "-o", out, "--eps-r", "auto5"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "must be a number or 'auto'" in err[0]
+
+
+def test_a_reading_is_kept_by_its_datas_content(monkeypatch):
+    """``--eps-r auto`` reads the medium in the parameters and the run's
+    check meets the same data again: the second is served from the kept
+    reading, and any change to what a reading reads (a sample, a position,
+    the band, the antenna height) reads anew."""
+    from dataclasses import replace
+
+    from rpm_cl.extract import hyperbola
+
+    calls = []
+    read = hyperbola._read
+    monkeypatch.setattr(hyperbola, "_read", lambda *a: calls.append(1) or read(*a))
+    monkeypatch.setattr(hyperbola, "_readings", {})
+    data = _line(5.0)
+    first = hyperbola._estimate(data, None)
+    assert hyperbola._estimate(replace(data, signal=data.signal.copy()), None) == first
+    assert len(calls) == 1
+    changed = data.signal.copy()
+    changed[140, 40] += 1e-3 * np.abs(changed).max()
+    other_x = Array(X + 1e-3)
+    for again in (
+        replace(data, signal=changed),
+        RadarData(data.signal, other_x, data.range, data.waveform),
+        replace(data, waveform=Waveform(data.waveform.fc, 0.9 * data.waveform.bandwidth)),
+    ):
+        hyperbola._estimate(again, None)
+    hyperbola._estimate(data, 0.05)
+    assert len(calls) == 5
+    assert len(hyperbola._readings) == hyperbola.READINGS_KEPT
+    # the oldest went first: read once more, then kept, and warned each time
+    for _ in range(2):
+        with pytest.warns(DataWarning, match="range walks"):
+            check_medium(data, Medium())
+    assert len(calls) == 6
