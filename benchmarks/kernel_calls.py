@@ -9,6 +9,8 @@ left there (objdump, from binutils) and prints the symbols each one calls, so
 that a built-in creeping back into a hot loop shows.  The calls outside the
 loops (vload of the lane coordinates, the final horizontal sum, the
 intersection kernels' scalar sqrt/exp per work-item) are expected.
+``das_points`` (the coherence test's sums) is built in float64, the
+precision the test runs it in, where the device takes doubles.
 
 Usage::
 
@@ -29,6 +31,7 @@ def main():
 import numpy as np
 from rpm_cl.cl import create_env
 from rpm_cl.baselines.das import DeviceDAS, Grid
+from rpm_cl.extract.backprojection_cl import PointSums
 from rpm_cl.imaging import run_method
 from rpm_cl.rpm.params import default_params
 from rpm_cl.rpm import DeviceRPM
@@ -42,6 +45,10 @@ for name in ("paper-2d", "human-body"):
     g = Grid(np.linspace(-0.1, 0.1, 16), np.array([1.0]), np.linspace(0.9, 1.1, 16)) \
         if data.array.planar else Grid(np.linspace(-0.1, 0.1, 16), np.linspace(0.4, 0.5, 16))
     DeviceDAS(env).backproject(data, g)
+    pts = np.column_stack([np.linspace(-0.1, 0.1, 16), np.linspace(0.4, 0.5, 16)]
+                          + ([np.zeros(16)] if data.array.planar else []))
+    if env.has_double:
+        PointSums(env).at_points(data, pts)
 """
     subprocess.run([sys.executable, "-c", code], env=env, check=True)
     rows = []

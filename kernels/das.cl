@@ -148,3 +148,81 @@ __kernel void das_backproject(
             out[(long)rl * nlast + k] = (REAL2)(((REAL *)&acc_re)[l], ((REAL *)&acc_im)[l]);
     }
 }
+
+/* The delay-and-sum value I(p) at scattered points (the coherence test of
+ * rpm_cl.rpm.coherence): one work-item per point, the antennas a_lo[p] ..
+ * a_hi[p] - 1 summed VW at a time (one lane per antenna, the lanes added at
+ * the end), on das_backproject's rows (uv) and with its maths.  Antennas at
+ * (ant_x, 0, ant_z), points (px, py, pz), both less the same origin.  The
+ * host pads uv with VW antennas of zero rows and ant_x, ant_z with VW
+ * copies of the last antenna, so that the lanes past a_hi[p] read inside
+ * them, and it sets a_lo and a_hi so that the antennas outside them add
+ * nothing (on a line, those farther in x than the range axis reaches): the
+ * lanes outside read a padding antenna's zero rows or a row beyond the
+ * axis, also zero, so they need no mask.
+ *
+ * NumPy reference: rpm_cl.extract.backprojection.at_points (float64). */
+__kernel void das_points(
+    __global const REAL4 *uv, const int nr,
+    __global const REAL *ant_x, __global const REAL *ant_z,
+    const REAL r0, const REAL inv_dr, const REAL kdr,
+    __global const REAL *px, __global const REAL *py, __global const REAL *pz,
+    __global const int *a_lo, __global const int *a_hi,
+    const int n_points, __global REAL2 *out)
+{
+    const int p = get_global_id(0);
+    if (p >= n_points) return;
+    const REAL x = px[p], y2 = py[p] * py[p], z = pz[p];
+    const int hi = a_hi[p];
+    const long st = nr + 1;                   /* rows per antenna */
+    REALV acc_re = (REALV)((REAL)0), acc_im = (REALV)((REAL)0);
+    /* from a whole vector's start: the lanes before a_lo[p] add nothing
+     * either, and the antennas load as plain aligned vectors (VROW) */
+    for (int a = (a_lo[p] / VW) * VW; a < hi; a += VW) {
+        const REALV dx = (REALV)x - VROW(ant_x, a / VW);
+        const REALV dz = (REALV)z - VROW(ant_z, a / VW);
+        const REALV d = VSQRT(dx * dx + (REALV)y2 + dz * dz);
+        /* rows 0 and nr are the zero rows (das_backproject) */
+        REALV t = (d - r0) * inv_dr + (REAL)1;
+        t = (t > (REAL)0) ? t : (REALV)((REAL)0);     /* NaN -> 0 */
+        t = (t < (REAL)nr) ? t : (REALV)((REAL)nr);
+        const INTV iv = CAT(CAT(convert_, IDX), VW)(t);
+        const REALV fr = t - CAT(convert_, REALV)(iv);
+        __global const REAL4 *row_a = uv + (long)a * st;
+        REALV ur, ui, vr, vi;
+#if VW == 8
+        {   /* as das_backproject: lanes l and l+4 side by side, a 4 x 8 transpose */
+            const REAL8 a0 = (REAL8)(row_a[iv.s0], row_a[4 * st + iv.s4]);
+            const REAL8 a1 = (REAL8)(row_a[st + iv.s1], row_a[5 * st + iv.s5]);
+            const REAL8 a2 = (REAL8)(row_a[2 * st + iv.s2], row_a[6 * st + iv.s6]);
+            const REAL8 a3 = (REAL8)(row_a[3 * st + iv.s3], row_a[7 * st + iv.s7]);
+            const REAL16 p0 = (REAL16)(a0, a1), q0 = (REAL16)(a2, a3);
+            const REAL16 xy = (REAL16)(p0.s08194C5D, q0.s08194C5D);
+            const REAL16 zw = (REAL16)(p0.s2A3B6E7F, q0.s2A3B6E7F);
+            ur = xy.s018945CD; ui = xy.s23AB67EF;
+            vr = zw.s018945CD; vi = zw.s23AB67EF;
+        }
+#else
+        {   /* 4 x 4 transpose */
+            const REAL8 p0 = (REAL8)(row_a[iv.s0], row_a[st + iv.s1]);
+            const REAL8 q0 = (REAL8)(row_a[2 * st + iv.s2], row_a[3 * st + iv.s3]);
+            ur = (REAL4)(p0.s04, q0.s04); ui = (REAL4)(p0.s15, q0.s15);
+            vr = (REAL4)(p0.s26, q0.s26); vi = (REAL4)(p0.s37, q0.s37);
+        }
+#endif
+        const REALV pr = ur + vr * fr;
+        const REALV pi = ui + vi * fr;
+        const REALV xx = kdr * fr - (REAL)0.5 * kdr;
+        REALV c;
+#ifdef POLY
+        const REALV sn = poly_sincos(xx, &c);
+#else
+        const REALV sn = sincos(xx, &c);
+#endif
+        acc_re += pr * c;
+        acc_re -= pi * sn;
+        acc_im += pr * sn;
+        acc_im += pi * c;
+    }
+    out[p] = (REAL2)(hsum(acc_re), hsum(acc_im));
+}

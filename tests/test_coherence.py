@@ -228,3 +228,82 @@ def test_sum_at_points_on_a_long_line_leaves_out_only_silent_antennas():
     got = at_points(data, pts, memory_budget=2e4)  # several chunks
     want = np.array([_loop_sum(data, p) for p in pts])
     np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-10 * np.abs(want).max())
+
+
+# ------------------------------------------------------ on the device
+@pytest.mark.parametrize("planar", [False, True])
+def test_device_sum_at_points_matches_numpy(cl_env, rng, planar):
+    """The ``das_points`` kernel (float64) against its NumPy reference,
+    ``at_points``, on fresh random profiles and points: 23 antennas (not a
+    whole number of vector lanes), points beside and beyond the line, some
+    off the range axis at both ends; on the line the range axis ends short
+    of the far antennas, so each point sums only those within reach."""
+    from rpm_cl.extract.backprojection_cl import device_for
+
+    dev = device_for(cl_env)
+    if dev is None:
+        pytest.skip("device has no float64")
+    x = (np.arange(23) - 11) * 0.02 + rng.uniform(-0.01, 0.01)
+    z = (np.arange(5) - 2) * 0.02 if planar else None
+    arr = Array(x, z)
+    r = 0.1 + 2e-3 * np.arange(120)  # to 0.34 m: the line is 0.44 m long
+    sig = rng.normal(size=arr.shape + (r.size,)) + 1j * rng.normal(size=arr.shape + (r.size,))
+    data = RadarData(sig, arr, r, Waveform(rng.uniform(5e9, 20e9), 2e9))
+    n = 3000
+    pts = np.column_stack(
+        [rng.uniform(-0.5, 0.5, n), rng.uniform(0.01, 0.4, n)]
+        + ([rng.uniform(-0.1, 0.1, n)] if planar else [])
+    )
+    want = at_points(data, pts)
+    got = dev.at_points(data, pts)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-10 * np.abs(want).max())
+    assert np.abs(want).min() == 0  # some points lie off the axis: nothing is read there
+    np.testing.assert_array_equal(got[want == 0], 0)
+    with pytest.raises(InputError, match="shape"):
+        dev.at_points(data, np.zeros((4, 4)))
+
+
+def test_the_device_sums_keep_the_same_points(bars_data, dev32):
+    """phase-rpm's coherence test with the sums on the device (float64) and
+    on the host drops the same points of the bars' image."""
+    from rpm_cl.imaging import run_method
+    from rpm_cl.rpm.methods import device_sums
+
+    if not dev32.env.has_double:
+        pytest.skip("device has no float64")
+    params = default_params(bars_data, coherence=False, multipath="flag")
+    res = run_method("phase-rpm", bars_data, params, dev32)
+    pts = res.image.points
+    host = coherent_keep(bars_data, pts, -6.0, 70.0)
+    dev = coherent_keep(bars_data, pts, -6.0, 70.0, sums=device_sums(dev32))
+    np.testing.assert_array_equal(dev, host)
+    assert 0 < host.sum() < host.size
+
+
+def test_the_sorted_crossrange_search_matches_every_antenna_tried(rng):
+    """On an increasing line with points in front, the span of sin t comes
+    from bisection (O(M log A)); it equals, bit for bit, the span over every
+    antenna, on random lines, reaches (beyond 90 degrees too) and seen
+    ranges, with points whose reach lands on an antenna and seen ranges of
+    a single antenna."""
+    from rpm_cl.rpm.coherence import _sine_span, _sine_span_sorted
+
+    for trial in range(60):
+        n = int(rng.integers(2, 300))
+        x = np.sort(rng.choice(np.arange(4000) * 0.01, n, replace=False)) - 20
+        m = 150
+        pts = np.column_stack([rng.uniform(-30, 30, m), rng.uniform(0.01, 10, m)])
+        reach = float(rng.choice([30.0, 60.0, 70.0, 89.9, 90.0, 120.0]))
+        on = rng.integers(0, n, 40)  # the reach's right end, then its left, on an antenna
+        edge = np.tan(np.radians(min(reach, 89.0))) * pts[:40, 1]
+        pts[:40, 0] = x[on] + np.where(np.arange(40) < 20, -edge, edge)
+        seen = None
+        if trial % 2:
+            lo = rng.uniform(-25, 25, m)
+            seen = np.column_stack([lo, lo + rng.uniform(0, 10, m)])
+            seen[:10] = np.column_stack([x[on[:10]], x[on[:10]]])
+        c = np.sin(np.radians(min(reach, 90.0)))
+        want = _sine_span(x, pts, c, seen)
+        got = _sine_span_sorted(x, pts, c, reach, seen)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])

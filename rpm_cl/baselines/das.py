@@ -36,7 +36,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..extract.backprojection import BYTES_PER_TERM, BYTES_PER_TERM_REFRACTED, antennas, summed
+from ..extract.backprojection import (
+    BYTES_PER_TERM,
+    BYTES_PER_TERM_REFRACTED,
+    POLY_KC_DR_MAX,
+    antennas,
+    phased_pairs,
+    summed,
+)
 from ..extract.backprojection import weights as _weights
 from ..io.data import C0, InputError, RadarData
 from ..io.images import GRID_COORD_MAX, Grid, check_disk, parse_grid, write_image
@@ -55,11 +62,6 @@ __all__ = [
     "write_image",
 ]
 
-#: The DAS kernel evaluates the phasor between two range gates by a Taylor
-#: polynomial (-DPOLY) where k_c times the gate spacing is at most this, rad
-#: (its truncation error there is below 1e-7, under float32 rounding), else
-#: by sincos (kernels/das.cl).
-POLY_KC_DR_MAX = 1.1
 #: Default bound on the memory a DAS run may hold (temporaries, tables), bytes.
 MEMORY_BUDGET_DEFAULT = 2_000_000_000
 
@@ -298,20 +300,8 @@ class DeviceDAS:
         d = dict(self._defines, **({"POLY": 1} if poly else {}))
         return self._get(self.env, "das.cl", ["das_backproject"], d)["das_backproject"]
 
-    @staticmethod
-    def phased_pairs(data: RadarData) -> np.ndarray:
-        """The kernel's input: per antenna a zero row, then for each sample
-        i < nr - 1 the pair (u'_i, w'_i) = (s[i], s[i+1] - s[i]) exp(j 2 k_c (R_i + dr/2))
-        (float64 phases; see kernels/das.cl), then a zero row; shape
-        (n_ant, nr + 1, 2)."""
-        nr = data.range.size
-        s = data.signal.reshape(-1, nr).astype(np.complex128)
-        k2 = 4 * np.pi * data.waveform.fc / C0
-        ph = np.exp(1j * k2 * (data.range[:-1] + 0.5 * data.dr))[None, :]
-        out = np.zeros((s.shape[0], nr + 1, 2), np.complex128)
-        out[:, 1:-1, 0] = s[:, :-1] * ph
-        out[:, 1:-1, 1] = (s[:, 1:] - s[:, :-1]) * ph
-        return out
+    #: The kernel's input (:func:`rpm_cl.extract.backprojection.phased_pairs`).
+    phased_pairs = staticmethod(phased_pairs)
 
     def _buf(self, a, dtype):
         import pyopencl as cl

@@ -18,8 +18,10 @@ from ..io.data import C0, InputError, RadarData
 __all__ = [
     "BYTES_PER_TERM",
     "BYTES_PER_TERM_REFRACTED",
+    "POLY_KC_DR_MAX",
     "antennas",
     "at_points",
+    "phased_pairs",
     "summed",
     "weights",
 ]
@@ -30,6 +32,11 @@ __all__ = [
 #: more).
 BYTES_PER_TERM = 160
 BYTES_PER_TERM_REFRACTED = 400
+#: The OpenCL sums (kernels/das.cl) evaluate the phasor between two range
+#: gates by a Taylor polynomial (-DPOLY) where k_c times the gate spacing is
+#: at most this, rad (its truncation error there is below 1e-7, under
+#: float32 rounding; 5e-11 in float64), else by sincos.
+POLY_KC_DR_MAX = 1.1
 
 
 def weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float, medium=None):
@@ -88,6 +95,21 @@ def antennas(array) -> np.ndarray:
     if array.planar:
         ant[:, 2] = pos[:, 2]
     return ant
+
+
+def phased_pairs(data: RadarData) -> np.ndarray:
+    """The OpenCL sums' input (kernels/das.cl): per antenna a zero row, then
+    for each sample i < nr - 1 the pair (u'_i, w'_i) = (s[i], s[i+1] - s[i])
+    exp(j 2 k_c (R_i + dr/2)) (float64 phases), then a zero row; shape
+    (n_ant, nr + 1, 2), complex128."""
+    nr = data.range.size
+    s = data.signal.reshape(-1, nr).astype(np.complex128)
+    k2 = 4 * np.pi * data.waveform.fc / C0
+    ph = np.exp(1j * k2 * (data.range[:-1] + 0.5 * data.dr))[None, :]
+    out = np.zeros((s.shape[0], nr + 1, 2), np.complex128)
+    out[:, 1:-1, 0] = s[:, :-1] * ph
+    out[:, 1:-1, 1] = (s[:, 1:] - s[:, :-1]) * ph
+    return out
 
 
 def summed(p3, ant, sig, r0: float, dr: float, k2: float, medium=None) -> np.ndarray:

@@ -111,17 +111,77 @@ def crossrange_resolution(
         ``lambda_c / (2 span)``, span the spread of ``sin t`` over the
         antennas that count (over all antennas where none does).
     """
+    x = np.asarray(x, np.float64)
+    points = np.asarray(points, np.float64)
+    c = np.sin(np.radians(min(reach_deg, 90.0)))
+    if not (points.shape[0] and x.size > 1 and np.all(np.diff(x) > 0) and np.all(points[:, 1] > 0)):
+        hi, lo = _sine_span(x, points, c, seen)
+    else:
+        hi, lo = _sine_span_sorted(x, points, c, reach_deg, seen)
+    span = np.maximum(hi - lo, 1e-6)
+    return C0 / fc / (2.0 * span)
+
+
+def _sines(x, points):
+    """sin t of every antenna seen from every point (from boresight), (M, A)."""
     lat = x[None, :] - points[:, 0:1]
-    s = lat / np.hypot(lat, points[:, 1:2])
-    inside = np.abs(s) <= np.sin(np.radians(min(reach_deg, 90.0)))
+    return lat / np.hypot(lat, points[:, 1:2])
+
+
+def _sine_span(x, points, c, seen):
+    """(largest, smallest) sin t over the antennas that count
+    (:func:`crossrange_resolution`), over all where none does: every
+    antenna tried, (M, A) work."""
+    s = _sines(x, points)
+    inside = np.abs(s) <= c
     if seen is not None:
         inside &= (x[None, :] >= seen[:, 0:1]) & (x[None, :] <= seen[:, 1:2])
     hi = np.where(inside, s, -np.inf).max(axis=1)
     lo = np.where(inside, s, np.inf).min(axis=1)
     none = ~inside.any(axis=1)
     hi[none], lo[none] = s[none].max(axis=1), s[none].min(axis=1)
-    span = np.maximum(hi - lo, 1e-6)
-    return C0 / fc / (2.0 * span)
+    return hi, lo
+
+
+def _sine_span_sorted(x, points, c, reach_deg, seen):
+    """:func:`_sine_span` for increasing ``x`` and points in front (y > 0),
+    in O(M log A).  There sin t grows with the antenna's x, so the antennas
+    that count are the run between two indices: each end is found by
+    bisection on x and settled by the same test as :func:`_sine_span` on
+    its neighbours (the bisection's ``y tan(reach)`` and the test's sine
+    may round apart at an antenna exactly at the reach), and the extremes
+    are the sines of the run's ends, computed as there."""
+    px, py = points[:, 0], points[:, 1]
+    n = x.size
+    reach = np.tan(np.radians(reach_deg)) * py if reach_deg < 90 else np.full(py.size, np.inf)
+    a, b = px - reach, px + reach
+    if seen is not None:
+        a, b = np.maximum(a, seen[:, 0]), np.minimum(b, seen[:, 1])
+
+    def sine(i):
+        lat = x[i] - px
+        return lat / np.hypot(lat, py)
+
+    def counts(i):
+        ok = (i >= 0) & (i < n)
+        j = np.clip(i, 0, n - 1)
+        ok &= np.abs(sine(j)) <= c
+        if seen is not None:
+            ok &= (x[j] >= seen[:, 0]) & (x[j] <= seen[:, 1])
+        return ok
+
+    i0 = np.searchsorted(x, a, "left")
+    i1 = np.searchsorted(x, b, "right") - 1
+    first = np.full(px.size, -1)
+    for i in (i0 + 1, i0, i0 - 1):  # the smallest that counts, last written
+        first = np.where(counts(i), i, first)
+    last = np.full(px.size, -1)
+    for i in (i1 - 1, i1, i1 + 1):
+        last = np.where(counts(i), i, last)
+    none = (first < 0) | (last < 0)
+    first = np.where(none, 0, first)
+    last = np.where(none, n - 1, last)
+    return sine(last), sine(first)
 
 
 def coherent_keep(
@@ -131,6 +191,7 @@ def coherent_keep(
     reach_deg: float,
     medium=None,
     seen=None,
+    sums=None,
 ) -> np.ndarray:
     """Which points sit on a peak of the coherent image (module notes).
 
@@ -154,6 +215,12 @@ def coherent_keep(
     seen : ndarray, shape (M, 2), optional
         Per point the first and last x of the antennas whose echoes made it
         (:func:`crossrange_resolution`); None: every antenna in reach.
+    sums : callable, optional
+        ``sums(data, points)``: I(p) at points (M, 2), complex, shape (M,),
+        in straight lines (the device's
+        :meth:`rpm_cl.extract.backprojection_cl.PointSums.at_points`); None:
+        :func:`rpm_cl.extract.backprojection.at_points`.  Not for a
+        half-space, whose sums follow refracted paths.
 
     Returns
     -------
@@ -201,12 +268,14 @@ def coherent_keep(
     flat, where = np.unique(nodes, return_inverse=True)
     xy = np.stack([lo[0] + step * (flat // n[1]), lo[1] + step * (flat % n[1])], axis=1)
     refr = medium if half else None
-    value = np.abs(at_points(data, xy, medium=refr))[where]
+    if sums is None or half:
+        sums = lambda d, p: at_points(d, p, medium=refr)
+    value = np.abs(sums(data, xy))[where]
     # each point's largest neighbour: the last of its nodes by value
     order = np.lexsort((value, owner))
     last = order[np.r_[np.flatnonzero(np.diff(owner[order])), order.size - 1]]
     peak, at = value[last], xy[where[last]]
-    own = np.abs(at_points(data, points, medium=refr))
+    own = np.abs(sums(data, points))
     on = own >= 10.0 ** (threshold_db / 20.0) * peak
     if on.all() or not on.any():
         return on

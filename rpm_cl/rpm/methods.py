@@ -100,7 +100,7 @@ def phase_rpm(data: RadarData, params: ImagingParams, engine) -> ImageResult:
     n_reach = len(image.points)
     image = without_coupling(data, rps, image)
     n_coupling = len(image.points)
-    image = coherent(data, rps, image, params)
+    image = coherent(data, rps, image, params, engine)
     n_coherent = len(image.points)
     image = _multipath(data, rps, image, params.multipath, params.medium, part_of)
     t4 = time.perf_counter()
@@ -138,12 +138,16 @@ def _phase_k(data: RadarData, clusters) -> np.ndarray:
     )
 
 
-def coherent(data: RadarData, rps: RangePoints, image: Image, params: ImagingParams) -> Image:
+def coherent(
+    data: RadarData, rps: RangePoints, image: Image, params: ImagingParams, engine=None
+) -> Image:
     """The image without the points beside a scatterer rather than on it
     (:mod:`rpm_cl.rpm.coherence`): linear arrays whose band is wide enough,
     with ``params.coherence`` on; ``data`` as the method saw them
     (:func:`rpm_cl.io.medium.seen_data`).  ``ImageResult.dropped``
-    counts them."""
+    counts them.  The coherent sums run on ``engine``'s OpenCL device in
+    float64 where it has one that takes doubles (:func:`device_sums`),
+    else in NumPy."""
     from .coherence import MIN_FRACTIONAL_BANDWIDTH, coherent_keep
 
     if (
@@ -164,8 +168,28 @@ def coherent(data: RadarData, rps: RangePoints, image: Image, params: ImagingPar
     x = np.asarray(rps.x, np.float64)
     at = np.searchsorted(ids, np.asarray(image.cluster))
     seen = np.column_stack([np.minimum.reduceat(x, first)[at], np.maximum.reduceat(x, first)[at]])
-    keep = coherent_keep(data, image.points, params.coherence_db, params.reach_deg, medium, seen)
+    keep = coherent_keep(
+        data,
+        image.points,
+        params.coherence_db,
+        params.reach_deg,
+        medium,
+        seen,
+        device_sums(engine),
+    )
     return image if keep.all() else image.keep(keep)
+
+
+def device_sums(engine):
+    """The coherent sums at points on ``engine``'s device, in float64
+    (:meth:`rpm_cl.extract.backprojection_cl.PointSums.at_points`: its sums
+    agree with the host's :func:`rpm_cl.extract.backprojection.at_points`
+    to about 1e-13 of the largest, so the test keeps the same points), or
+    None where the engine has no OpenCL device or it takes no doubles."""
+    from ..extract.backprojection_cl import device_for
+
+    dev = device_for(getattr(engine, "env", None))
+    return None if dev is None else dev.at_points
 
 
 def _rpm(rps: RangePoints, params: ImagingParams, engine) -> Image:
