@@ -15,7 +15,7 @@ ROOT = Path(rpm_cl.__file__).parent
 #: top-level module); "" is the package itself (__init__: version, names);
 #: "kernels" the OpenCL sources (a package of data once installed).
 FLOORS = [
-    {"", "lazy", "progress", "ending", "cl", "filters", "heap", "kernels"},
+    {"", "lazy", "progress", "ending", "cl", "filters", "heap", "transforms", "kernels"},
     {"io"},
     {"extract", "simulate", "metrics"},
     {"result"},

@@ -307,3 +307,34 @@ def test_the_sorted_crossrange_search_matches_every_antenna_tried(rng):
         got = _sine_span_sorted(x, pts, c, reach, seen)
         np.testing.assert_array_equal(got[0], want[0])
         np.testing.assert_array_equal(got[1], want[1])
+
+
+def test_marked_decides_as_the_k_d_tree(monkeypatch, rng):
+    """``marked`` (bisection on x, pairs tested in passes) says what a k-d
+    tree's nearest distance says, on random places, marks and radii, with
+    marks at exactly a place's radius, in one pass or many, and through its
+    own k-d tree where the pairs are too many."""
+    from scipy.spatial import cKDTree
+
+    from rpm_cl.rpm import coherence
+
+    for trial in range(40):
+        q = int(rng.integers(1, 400))
+        marks = rng.uniform(-2, 2, (q, 2)) * [1.0, 0.2]
+        if trial % 4 == 0:
+            marks[:, 0] = np.round(marks[:, 0], 1)  # many equal x
+        places = rng.uniform(-2.5, 2.5, (300, 2)) * [1.0, 0.2]
+        radius = rng.uniform(0, 0.5, 300) ** 2
+        # some places with a mark at exactly their radius
+        pick = rng.integers(0, q, 30)
+        places[20:30, 1] = marks[pick[20:30], 1]  # ten of them straight beside it in x
+        d = marks[pick] - places[:30]
+        radius[:30] = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
+        want = ~(cKDTree(marks).query(places)[0] > radius)
+        assert want[:30].all()
+        np.testing.assert_array_equal(coherence.marked(places, marks, radius), want)
+        monkeypatch.setattr(coherence, "MARK_PAIRS", int(rng.integers(1, 50)))
+        np.testing.assert_array_equal(coherence.marked(places, marks, radius), want)
+        monkeypatch.setattr(coherence, "MARK_PAIRS_TREE", 0)
+        np.testing.assert_array_equal(coherence.marked(places, marks, radius), want)
+        monkeypatch.undo()

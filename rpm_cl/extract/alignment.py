@@ -201,11 +201,12 @@ def _moved(data: RadarData, shifts: np.ndarray, gates=None) -> np.ndarray:
         f = sp.frequency
         values = sp.values.reshape(n, f.size) * np.exp(4j * np.pi * np.outer(shifts, f) / C0)
         return profiles(values, f, sp.window, fc, rng)
-    from scipy.fft import fft, fftfreq, ifft, next_fast_len
+    from ..io.compress import next_fast_len
+    from ..transforms import fft, ifft
 
     p = data.signal.reshape(n, -1)
     size = p.shape[1] if data.range_period else next_fast_len(2 * p.shape[1])
-    nu = fftfreq(size, data.dr)  # cycles per m of range
+    nu = np.fft.fftfreq(size, data.dr)  # cycles per m of range
     keep = slice(None) if gates is None else gates
     out = np.empty((n, rng.size), np.complex128)
     for i in range(0, n, CHUNK):

@@ -154,7 +154,7 @@ import numpy as np
 
 from ..filters import binary_dilation
 from ..io.data import InputError, RadarData
-from ..lazy import lazy
+from ..transforms import fft
 from .blas import one_blas_thread
 from .kspace_clusters import _apply_axes, _clusters, _dft
 from .kspace_detect import (
@@ -183,8 +183,6 @@ from .kspace_detect import _centres  # noqa: F401
 from .kspace_focus import _autofocus, _focus_range  # noqa: F401
 from .kspace_geometry import _array_axes, _centred_grids, _curvature  # noqa: F401
 
-sfft = lazy("scipy.fft")
-
 __all__ = [
     "Cluster",
     "Decomposition",
@@ -210,7 +208,7 @@ def _padded_fft(sig: np.ndarray, shape: tuple) -> np.ndarray:
     same sums in another order."""
     out = sig
     for a in reversed(range(len(shape))):
-        out = sfft.fft(out, n=shape[a], axis=a)
+        out = fft(out, n=shape[a], axis=a)
     return out
 
 
@@ -425,7 +423,9 @@ def decompose(
     params : KSpaceParams
     env : CLEnv, optional
         OpenCL environment for the near-field search's pair scans
-        (:func:`rpm_cl.extract.nearfield.decompose_near_field`); None: NumPy.
+        (:func:`rpm_cl.extract.nearfield.decompose_near_field`) and the
+        coherent centres' image (:func:`rpm_cl.extract.kspace_detect.coherent_centres`),
+        in float64 where its device takes doubles; None: NumPy.
 
     Returns
     -------
@@ -481,7 +481,11 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
         idx = above_leakage(idx, mag, span.start, data)
     if wants_coherent_centres(data, params):
         rel = 10.0 ** (params.peak_threshold_db / 20.0)
-        extra = coherent_centres(data, idx, runs, k_axes[0], rel, periods[0], gate)
+        from .backprojection_cl import device_for
+
+        dev = device_for(env)
+        sums = None if dev is None else dev.at_points
+        extra = coherent_centres(data, idx, runs, k_axes[0], rel, periods[0], gate, sums)
         idx = np.concatenate([idx, extra]) if extra.size else idx
     if not idx.size:
         return Decomposition(k_axes, mag, (), gate0=span.start)

@@ -56,7 +56,8 @@ def shift_rows(coeffs: np.ndarray, shift: np.ndarray, lo: int, hi: int) -> np.nd
     ----------
     coeffs : ndarray, complex, shape (n_rows, nr)
         Cubic B-spline coefficients along the last axis
-        (``ndimage.spline_filter1d(..., order 3, mode="nearest")``).
+        (:func:`rpm_cl.filters.spline_filter_nearest`, SciPy's
+        ``ndimage.spline_filter1d(..., order 3, mode="nearest")``).
     shift : ndarray, float, shape (n_rows,)
         Shift of each row, in samples (range gates).
     lo, hi : int

@@ -15,15 +15,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..filters import spline_filter_nearest
 from ..io.data import RadarData
-from ..lazy import lazy
+from ..transforms import fft, ifft
 from .kspace_align import _align
 from .kspace_geometry import _align_on, _array_axes, _focused_gates
 from .kspace_params import KSpaceParams
 from .types import Cluster
-
-sfft = lazy("scipy.fft")
-ndimage = lazy("scipy.ndimage")
 
 
 def _window(k: np.ndarray, k0: float, period: float, k_period: float) -> np.ndarray:
@@ -82,8 +80,8 @@ def _window_fft(sig, wins, shape, padded: bool) -> np.ndarray:
     for a, win in enumerate(wins):
         bcast = [1] * out.ndim
         bcast[a] = -1
-        part = out if padded else sfft.fft(out, n=win.size, axis=a)
-        part = sfft.ifft(part * win.reshape(bcast), axis=a)
+        part = out if padded else fft(out, n=win.size, axis=a)
+        part = ifft(part * win.reshape(bcast), axis=a)
         out = part[(slice(None),) * a + (slice(0, shape[a]),)]
     return out
 
@@ -110,9 +108,7 @@ def _clusters(
     focused = _focused_gates(data, params)
     if align:
         flat = data.signal.reshape(-1, data.range.size)
-        coeffs = ndimage.spline_filter1d(
-            flat.real, 3, axis=-1, mode="nearest"
-        ) + 1j * ndimage.spline_filter1d(flat.imag, 3, axis=-1, mode="nearest")
+        coeffs = spline_filter_nearest(flat.real) + 1j * spline_filter_nearest(flat.imag)
     # the zero-padded DFT of each array axis, shared by every cluster (none:
     # FFTs for a large array)
     dfts = [_dft(k_axes[a].size, arr.shape[a]) for a in range(n_k)] if matrix_dft else []

@@ -278,6 +278,7 @@ def coherent_centres(
     rel: float,
     window: float,
     gate: float,
+    sums=None,
 ) -> np.ndarray:
     """Centres at the peaks of the coherent image that no centre holds
     (module notes, step 2).
@@ -314,6 +315,11 @@ def coherent_centres(
         The window period along k, rad/m.
     gate : float
         Half-width of a cluster's range interval, m.
+    sums : callable, optional
+        ``sums(data, points)``: the image at points (M, 2), complex, shape
+        (M,) (an OpenCL device's
+        :meth:`rpm_cl.extract.backprojection_cl.PointSums.at_points`);
+        None: :func:`rpm_cl.extract.backprojection.at_points`.
 
     Returns
     -------
@@ -358,7 +364,7 @@ def coherent_centres(
     tapered = replace(
         data, signal=data.signal * _taper(data.array.shape), spectrum=None, truth=None
     )
-    img = np.abs(at_points(tapered, pts)).reshape(uu.shape)
+    img = np.abs((sums or at_points)(tapered, pts)).reshape(uu.shape)
     top = float(img[inner].max())
     if not top > 0:
         return none

@@ -69,6 +69,7 @@ __all__ = [
     "STEP_CELLS",
     "coherent_keep",
     "crossrange_resolution",
+    "marked",
 ]
 
 #: Least bandwidth / carrier at which the test runs (module notes): the
@@ -83,6 +84,10 @@ STEP_CELLS = 0.25
 #: on every stride-th node, so that each point reads at most about
 #: pi MAX_CELLS^2 nodes.
 MAX_CELLS = 6
+#: Pairs (place, mark within its radius in x) :func:`marked` tests at once.
+MARK_PAIRS = 1 << 20
+#: Beyond this many such pairs in all, :func:`marked` asks a k-d tree.
+MARK_PAIRS_TREE = 1 << 24
 
 
 def crossrange_resolution(
@@ -280,9 +285,60 @@ def coherent_keep(
     if on.all() or not on.any():
         return on
     # a point off its peak goes only where points on a peak mark that peak
-    from scipy.spatial import cKDTree
-
-    gap = cKDTree(points[on]).query(at[~on])[0]
     keep = on.copy()
-    keep[~on] = gap > radius[~on]
+    keep[~on] = ~marked(at[~on], points[on], radius[~on])
     return keep
+
+
+def marked(places: np.ndarray, marks: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """Whether a mark lies within ``radius`` of each place: the distance
+    ``sqrt(dx^2 + dy^2)`` to the nearest mark at most the place's radius,
+    as a k-d tree's nearest distance (``scipy.spatial.cKDTree``) decides it.
+
+    Parameters
+    ----------
+    places : ndarray, shape (P, 2)
+    marks : ndarray, shape (Q, 2), Q >= 1
+    radius : ndarray, shape (P,)
+
+    Returns
+    -------
+    ndarray of bool, shape (P,)
+
+    Notes
+    -----
+    The marks within ``radius`` of each place in x (a bisection on the
+    marks sorted by x, the window widened by a part in 1e9 so that rounding
+    keeps none out) are tested pair by pair, at most :data:`MARK_PAIRS`
+    pairs at a time; where the windows hold more pairs in all than
+    :data:`MARK_PAIRS_TREE`, a k-d tree answers (its import, about 0.17 s,
+    is paid only then).
+    """
+    order = np.argsort(marks[:, 0], kind="stable")
+    mx, my = marks[order, 0], marks[order, 1]
+    wide = radius * (1 + 1e-9) + 1e-300
+    lo = np.searchsorted(mx, places[:, 0] - wide, "left")
+    hi = np.searchsorted(mx, places[:, 0] + wide, "right")
+    counts = hi - lo
+    if int(counts.sum()) > MARK_PAIRS_TREE:
+        from scipy.spatial import cKDTree
+
+        return ~(cKDTree(marks).query(places)[0] > radius)
+    out = np.zeros(places.shape[0], bool)
+    ends = np.cumsum(counts)
+    start = 0
+    while start < places.shape[0]:
+        # the places whose pairs fit in this pass (at least one)
+        stop = max(
+            start + 1, int(np.searchsorted(ends, ends[start] - counts[start] + MARK_PAIRS, "right"))
+        )
+        rows = np.arange(start, min(stop, places.shape[0]))
+        k = counts[rows]
+        who = np.repeat(rows, k)
+        j = lo[who] + np.arange(int(k.sum())) - np.repeat(np.cumsum(k) - k, k)
+        dx = mx[j] - places[who, 0]
+        dy = my[j] - places[who, 1]
+        hit = np.sqrt(dx * dx + dy * dy) <= radius[who]
+        out[rows] = np.bincount(who - start, hit, minlength=rows.size) > 0
+        start = rows[-1] + 1
+    return out
