@@ -133,7 +133,6 @@ def _with(path, offset, fmt, value, data=None):
 @pytest.mark.parametrize(
     "offset, fmt, value, message",
     [
-        (0, "<H", 0x1234, "not a DZT file"),
         (6, "<H", 12, "rh_bits 12"),
         (4, "<H", 2, "at least 3 samples"),
         (52, "<H", 0, "rh_nchan 0"),
@@ -150,6 +149,24 @@ def test_header_errors_are_one_line(tmp_path, offset, fmt, value, message):
     with pytest.raises(InputError, match=message) as info:
         convert(p, time_zero=T0)
     assert "\n" not in str(info.value) and str(p) in str(info.value)
+
+
+def test_the_tag_is_not_judged_but_a_strangers_file_is_refused(tmp_path):
+    """GSSI documents rh_tag 0x00FF, but real files carry others (a
+    SIR-3000 400 MHz survey, GPRPy's example FILE____032.DZT: 0x0700): the
+    same file under another tag converts to the same arrays, and what is no
+    DZT file is refused by its other fields, in one line."""
+    want = convert(SCAN, time_zero=T0)[1]
+    for tag in (0x0700, 0x1234):
+        got = convert(_with(tmp_path / f"t{tag}.dzt", 0, "<H", tag), time_zero=T0)[1]
+        assert set(got) == set(want)
+        for k in want:
+            np.testing.assert_array_equal(np.asarray(got[k]), np.asarray(want[k]), err_msg=k)
+    text = tmp_path / "notes.dzt"
+    text.write_bytes(b"This is not a radar file at all. " * 200)
+    with pytest.raises(InputError, match="rh_nchan") as info:
+        convert(text)
+    assert "\n" not in str(info.value)
 
 
 def test_refusals_of_the_conversion(tmp_path, monkeypatch):

@@ -48,6 +48,26 @@ def test_the_pulse_is_picked_at_its_envelope_peak():
     assert common_echo(alone) is None and pick_time_zero(alone) == 0.0
 
 
+@pytest.mark.parametrize("share", [0.3, 0.45, 0.6])
+def test_a_gained_deep_reflector_stronger_at_some_traces(share):
+    """A recorder's range gain can make a deep reflector (here a flat one
+    at 0.8 m, twice the direct wave's amplitude) the strongest echo at a
+    share of the traces (GPRPy's real 400 MHz GSSI line: 27 %): the direct
+    wave is still the common echo while it is the strongest at more than
+    half of them; where it is not, nothing is picked."""
+    data = _scan()
+    k = 4 * np.pi * FREQ / C0
+    gained = np.zeros(X.size)
+    gained[: int(round(share * X.size))] = 2.0
+    values = data.spectrum.values + gained[:, None] * np.exp(-1j * np.outer(LEAD + 0.8 + X, k))
+    mixed = spectrum_data(values, FREQ, Array(X))
+    if share < 0.5:
+        assert common_echo(mixed) == pytest.approx(LEAD, abs=mixed.dr)
+        assert pick_time_zero(mixed) == pytest.approx(LEAD, abs=0.05 * mixed.dr)
+    else:
+        assert common_echo(mixed) is None and pick_time_zero(mixed) == 0.0
+
+
 def test_a_pulse_straddling_the_axis_start_is_at_zero_already():
     """Round a compressed spectrum's periodic axis a pulse 5 mm before the
     record's start peaks at its end: time zero stays 0, not the period."""

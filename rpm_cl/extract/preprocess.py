@@ -83,6 +83,13 @@ COUPLING_SAME = 0.9
 #: the half-space the surface with it); with the background subtracted, and
 #: on the paper's 2-D scenes, 0.03-0.12 at the strongest echo.
 COUPLING_SHARE = 0.9
+#: ... or, where fewer than COUPLING_SAME have their strongest gate there,
+#: the share whose strongest gate lies within a range resolution of the peak
+#: of the antennas' coherent mean profile: a GSSI recorder's range gain
+#: lifts deep reflectors above the direct wave at 27 % of the traces of
+#: GPRPy's 400 MHz example line (FILE____032.DZT), whose direct wave is 97.5 %
+#: common.
+COUPLING_MOST = 0.5
 #: A linear scan's common strongest echo this many range resolutions or
 #: more past range 0, with time zero left at 0, is warned of as a pulse the
 #: record starts before (a GSSI record's direct wave some 40 samples in
@@ -144,8 +151,10 @@ def common_echo(data: RadarData, time_zero: float = 0.0) -> float | None:
     That echo is the median over the antennas of each one's strongest gate
     (round a periodic axis: ranges past half its period from time zero
     count as before it), where the strongest gates of :data:`COUPLING_SAME`
-    of the antennas lie within a range resolution of it and at least
-    :data:`COUPLING_SHARE` of the gate's power is the antennas' mean.  A
+    of the antennas lie within a range resolution of it, else the peak of
+    the antennas' coherent mean profile where those of :data:`COUPLING_MOST`
+    do; and at least :data:`COUPLING_SHARE` of the gate's power must be the
+    antennas' mean.  A
     linear array of 4 antennas or more; planar arrays: None (a flat
     surface parallel to the scan, a near-field sample's, is as common to
     every antenna as a coupling).
@@ -161,7 +170,12 @@ def common_echo(data: RadarData, time_zero: float = 0.0) -> float | None:
     g = int(strongest[np.argsort(rng[strongest], kind="stable")[strongest.size // 2]])
     res = data.waveform.range_resolution
     if np.mean(np.abs(rng[strongest] - rng[g]) <= res) < COUPLING_SAME:
-        return None
+        # a recorder's range gain may lift deep echoes above the direct wave
+        # at some antennas: then the peak of the coherent mean profile, where
+        # it is still the strongest echo at most of them
+        g = int(np.argmax(np.abs(s.mean(axis=0))))
+        if np.mean(np.abs(rng[strongest] - rng[g]) <= res) < COUPLING_MOST:
+            return None
     if not _mostly_common(s[:, g]):
         return None
     return float(rng[g])

@@ -10,7 +10,8 @@ Layout
 The file starts with one 1024-byte header per channel (little-endian; byte
 offsets)::
 
-    0   u16  rh_tag       low byte 0xFF (0x00FF, 0x01FF ...)
+    0   u16  rh_tag       0x00FF documented (0xFnFF older); real files carry
+                          others (0x0700), so it is not checked
     2   u16  rh_data      offset to the data: 1024 * rh_data bytes when
                           rh_data < 1024, else 1024 * rh_nchan
     4   u16  rh_nsamp     samples per scan (per channel)
@@ -163,10 +164,10 @@ class DztHeader:
     antennas: tuple
 
     def __post_init__(self):
-        if self.tag & 0xFF != 0xFF:
-            raise InputError(
-                f"not a DZT file (rh_tag 0x{self.tag:04x}; a DZT header's ends in 0xff)"
-            )
+        # rh_tag is not checked: GSSI documents 0x00FF (0xFnFF in older
+        # files), but a SIR-3000 400 MHz survey (GPRPy's example
+        # FILE____032.DZT) carries 0x0700 and reads correctly; the fields
+        # below and the file's size judge a stranger's file instead
         if not 1 <= self.channels <= MAX_CHANNELS:
             raise InputError(
                 f"rh_nchan {self.channels}: a DZT file holds 1 .. {MAX_CHANNELS} channels"
@@ -205,8 +206,8 @@ def read_header(path) -> DztHeader:
     Raises
     ------
     InputError
-        Shorter than its headers, a tag that is not a DZT's, a sample size
-        other than 8/16/32 bits, fewer than 3 samples, a data offset inside
+        Shorter than its headers, a sample size other than 8/16/32 bits,
+        fewer than 3 samples, a data offset inside
         the headers or beyond the file, a non-positive time window.
     """
     path = os.fspath(path)
