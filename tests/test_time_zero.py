@@ -58,7 +58,7 @@ def test_a_gained_deep_reflector_stronger_at_some_traces(share):
     data = _scan()
     k = 4 * np.pi * FREQ / C0
     gained = np.zeros(X.size)
-    gained[: int(round(share * X.size))] = 2.0
+    gained[: round(share * X.size)] = 2.0
     values = data.spectrum.values + gained[:, None] * np.exp(-1j * np.outer(LEAD + 0.8 + X, k))
     mixed = spectrum_data(values, FREQ, Array(X))
     if share < 0.5:

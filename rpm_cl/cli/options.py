@@ -113,7 +113,8 @@ def convert_opts(sp) -> None:
         metavar="IN",
         help="the file(s) to convert: gprMax "
         ".out/.h5 (a merged B-scan or the per-trace files), .mat/.npz/.npy/.h5 "
-        "with --map, GSSI .dzt, DCA1000 .bin (several: concatenated in order)",
+        "with --map, GSSI .dzt, Sensors & Software .DT1 (its .HD beside it), DCA1000 .bin "
+        "(several: concatenated in order)",
     )
     sp.add_argument("-o", "--output", required=True, help="OUT.npz or OUT.h5")
     sp.add_argument(
@@ -124,7 +125,7 @@ def convert_opts(sp) -> None:
     )
     _gprmax_opts(sp.add_argument_group("gprMax output (--format gprmax)"))
     _arrays_opts(sp.add_argument_group("named arrays (--format arrays: .mat, .npz, .npy, .h5)"))
-    _dzt_opts(sp.add_argument_group("GSSI DZT (--format dzt)"))
+    _dzt_opts(sp.add_argument_group("GSSI DZT and pulseEKKO DT1 (--format dzt, dt1)"))
     _dca1000_opts(sp.add_argument_group("TI mmWave + DCA1000 (--format dca1000)"))
 
 
@@ -142,7 +143,7 @@ def _gprmax_opts(g) -> None:
         type=_band,
         metavar="F0:F1",
         help="frequency band kept, Hz "
-        "(e.g. 2e9:4e9); required for gprMax; dzt: default the antenna's nominal "
+        "(e.g. 2e9:4e9); required for gprMax; dzt, dt1: default the antenna's nominal "
         "band",
     )
     g.add_argument(
@@ -205,12 +206,14 @@ def _arrays_opts(g) -> None:
 
 
 def _dzt_opts(g) -> None:
-    """``convert``'s options of GSSI .dzt files, on the argument group ``g``."""
+    """``convert``'s options of GSSI .dzt and pulseEKKO .DT1 files (``--channel``:
+    .dzt only), on the argument group ``g``."""
     g.add_argument(
         "--dx",
         type=_bounded_float(1e-9, 1e4, "dx must be a length in m, 1e-9 .. 1e4"),
         help="dzt: scan spacing, m (default 1 / the header's scans per "
-        "metre); dca1000: the radar's step between frames, m",
+        "metre); dt1: trace spacing, m (default the .HD's step); dca1000: the radar's "
+        "step between frames, m",
     )
     g.add_argument(
         "--time-zero",
@@ -220,7 +223,9 @@ def _dzt_opts(g) -> None:
         "instant; may be fractional; default 0, the window's start)",
     )
     g.add_argument(
-        "--channel", type=_int_at_least(0, "channel "), help="channel, from 0 (default 0)"
+        "--channel",
+        type=_int_at_least(0, "channel "),
+        help="dzt: channel, from 0 (default 0)",
     )
     g.add_argument(
         "--subtract-mean",

@@ -88,6 +88,7 @@ __all__ = [
     "nominal_band",
     "read_header",
     "read_traces",
+    "traces_to_spectrum",
 ]
 
 #: Bytes of one channel's header.
@@ -384,7 +385,7 @@ def convert(
     """
     path = os.fspath(path)
     hdr, tr = read_traces(path, channel)
-    n_scans, n = tr.shape
+    n_scans = tr.shape[0]
     antenna = hdr.antennas[channel]
     if band is None:
         band = nominal_band(antenna)
@@ -414,6 +415,35 @@ def convert(
             )
         dx = 1.0 / hdr.scans_per_metre
     dx = _finite_scalar("dx", dx)
+    out = traces_to_spectrum(path, tr, hdr.dt, time_zero, (f0, f1), subtract_mean)
+    return {
+        "spectrum": out["spectrum"],
+        "frequency": out["frequency"],
+        "x": np.arange(n_scans) * dx,
+        "record_range": out["record_range"],
+    }
+
+
+def traces_to_spectrum(path, tr, dt: float, time_zero, band, subtract_mean: bool) -> dict:
+    """Real traces -> ``spectrum``, ``frequency``, ``record_range`` (the
+    module docstring's conversion; shared with :mod:`rpm_cl.io.dt1`).
+
+    Parameters
+    ----------
+    path : str
+        The file, for the messages.
+    tr : ndarray, float64, shape (traces, N)
+    dt : float
+        Sample interval, s.
+    time_zero : float
+        The sample of time zero, 0 .. N - 2, may be fractional.
+    band : (float, float)
+        Hz, checked against the Nyquist frequency by the caller.
+    subtract_mean : bool
+        Subtract the mean trace.
+    """
+    n = tr.shape[1]
+    f0, f1 = band
     n0 = _finite_scalar("time zero", time_zero, positive=False)
     if not 0 <= n0 <= n - 2:
         raise InputError(f"{path}: time zero at sample {n0:g}, outside the trace's 0 .. {n - 2}")
@@ -421,7 +451,7 @@ def convert(
     if subtract_mean:
         tr -= tr.mean(axis=0, keepdims=True)
     tr[:, : math.ceil(n0)] = 0.0
-    df = 1.0 / (2 * n * hdr.dt)
+    df = 1.0 / (2 * n * dt)
     k = np.arange(math.ceil(f0 / df - 1e-9), math.floor(f1 / df + 1e-9) + 1)
     if k.size < 2:
         raise InputError(
@@ -429,12 +459,11 @@ def convert(
             f"samples at {df:g} Hz; widen it"
         )
     freq = k * df
-    spec = np.fft.rfft(tr, n=2 * n, axis=1)[:, k] * hdr.dt
-    spec *= np.exp(2j * np.pi * freq * n0 * hdr.dt)  # t_n = (n - n0) dt
+    spec = np.fft.rfft(tr, n=2 * n, axis=1)[:, k] * dt
+    spec *= np.exp(2j * np.pi * freq * n0 * dt)  # t_n = (n - n0) dt
     return {
         "spectrum": spec,
         "frequency": freq,
-        "x": np.arange(n_scans) * dx,
         # the record after time zero: the padded half's gates hold nothing
-        "record_range": (n - n0) * hdr.dt * C0 / 2.0,
+        "record_range": (n - n0) * dt * C0 / 2.0,
     }

@@ -5,14 +5,15 @@ Each reader turns its files into the frequency-domain input schema
 (``spectrum``, ``frequency``, ``x``; docs/input-format.md, "Input schema"), or for the
 ``arrays`` reader into whichever form the mapping names:
 
-=========  ==========================  ===================================
-name       inputs                      module
-=========  ==========================  ===================================
-gprmax     ``.out``, ``.h5``           :mod:`rpm_cl.io.gprmax`
-arrays     ``.mat .npz .npy .h5``      :mod:`rpm_cl.io.mapped` (``map`` given)
-dzt        ``.dzt``                    :mod:`rpm_cl.io.dzt`
-dca1000    ``.bin``                    :mod:`rpm_cl.io.dca1000`
-=========  ==========================  ===================================
+=========  ==============================  ===================================
+name       inputs                          module
+=========  ==============================  ===================================
+gprmax     ``.out``, ``.h5``               :mod:`rpm_cl.io.gprmax`
+arrays     ``.mat .npz .npy .h5``          :mod:`rpm_cl.io.mapped` (``map`` given)
+dzt        ``.dzt``                        :mod:`rpm_cl.io.dzt`
+dt1        ``.dt1`` (its ``.hd`` beside)   :mod:`rpm_cl.io.dt1`
+dca1000    ``.bin``                        :mod:`rpm_cl.io.dca1000`
+=========  ==============================  ===================================
 
 :func:`convert` picks the reader from the inputs' extension (an HDF5 file
 with a ``map`` is read as arrays, without one as gprMax output) unless
@@ -59,6 +60,12 @@ FORMATS = {
         ("band", "dx", "time_zero", "channel", "subtract_mean"),
         (),
         "GSSI DZT (impulse GPR)",
+    ),
+    "dt1": Format(
+        (".dt1",),
+        ("band", "dx", "time_zero", "subtract_mean"),
+        (),
+        "Sensors & Software pulseEKKO DT1 + HD (impulse GPR)",
     ),
     "dca1000": Format(
         (".bin",),
@@ -124,7 +131,7 @@ def convert(inputs, fmt: str | None = None, **options) -> tuple:
         :class:`rpm_cl.io.gprmax.SourceWaveform`) ``, sidecar, df, rx``;
         arrays ``map`` (``"spectrum=F,..."``) ``, transpose, axes`` (``"f,x"``)
         ``, scale_x, scale_f, conjugate``; dzt ``band, dx, time_zero, channel,
-        subtract_mean``; dca1000 ``slope, adc_rate, samples, start_freq,
+        subtract_mean``; dt1 ``band, dx, time_zero, subtract_mean``; dca1000 ``slope, adc_rate, samples, start_freq,
         adc_start_time, chirps, rx`` (receivers) ``, layout, dx, rx_spacing,
         receiver``.
 
@@ -213,6 +220,16 @@ def _dzt(inputs, o):
     )
 
 
+def _dt1(inputs, o):
+    from .dt1 import convert
+
+    if len(inputs) != 1:
+        raise InputError(f"{len(inputs)} DT1 files; convert one at a time")
+    return convert(
+        inputs[0], o.get("band"), o.get("dx"), o.get("time_zero", 0.0), bool(o.get("subtract_mean"))
+    )
+
+
 def _dca1000(inputs, o):
     from .dca1000 import Chirp, convert
 
@@ -229,7 +246,7 @@ def _dca1000(inputs, o):
     return convert(inputs, chirp, o.get("dx"), o.get("rx_spacing"), o.get("receiver", 0))
 
 
-_READ = {"gprmax": _gprmax, "arrays": _arrays, "dzt": _dzt, "dca1000": _dca1000}
+_READ = {"gprmax": _gprmax, "arrays": _arrays, "dzt": _dzt, "dt1": _dt1, "dca1000": _dca1000}
 
 
 def save(path, arrays: dict, inputs=()) -> None:

@@ -1,0 +1,270 @@
+"""Sensors & Software pulseEKKO ``.DT1`` + ``.HD`` (impulse GPR B-scans) ->
+the engine's frequency-domain input.
+
+Layout
+------
+The ``.HD`` header is text beside the ``.DT1`` (the same name, extension
+``.HD`` or ``.hd``): lines ``KEY = value``, of which these are read::
+
+    NUMBER OF TRACES     traces (checked against the .DT1's size)
+    NUMBER OF PTS/TRC    samples per trace
+    TOTAL TIME WINDOW    the trace's window, ns
+    TIMEZERO AT POINT    the recorder's time zero, sample (reported only)
+    STEP SIZE USED       the trace spacing, in POSITION UNITS
+    POSITION UNITS       m, cm, mm, ft or in
+    NOMINAL FREQUENCY    the antenna's centre frequency, MHz
+
+The ``.DT1`` holds the traces one after another, each a 128-byte header of
+32 little-endian float32 words (word 0 the trace number, 1 its position in
+POSITION UNITS, 2 its samples, 5 the bytes per sample) and then its samples,
+little-endian signed integers of 2 bytes (or 4 where word 5 says so).  The
+trace count is the file's size over one trace's bytes; every trace's own
+word 2 must give the HD's samples (a file of another layout is refused, not
+misread).  The HD's window is used, not the trace headers' word 6: on a
+pulseEKKO PRO line (GPRPy's example ``XLINE00``) that word says 800 ns where
+the HD's 1200 ns matches the recorded depths.
+
+Conversion
+----------
+As for GSSI files (:func:`rpm_cl.io.dzt.traces_to_spectrum`: each trace
+less its mean, samples before time zero set to 0, the record zero-padded to
+twice its length and transformed with NumPy's sign, the band kept).  Time
+zero is the sample ``time_zero`` (default 0, the window's first sample;
+``rpm-cl image --time-zero auto`` then puts it on the direct wave, as for a
+DZT).  Positions: trace ``i`` at ``i`` times the HD's step (or ``dx``), in
+metres.  Band: given, else 0.5-1.5 times the nominal frequency.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .data import DataWarning, InputError, _finite_scalar
+from .dzt import MAX_SAMPLES, traces_to_spectrum
+
+__all__ = ["TRACE_HEADER", "UNITS", "Dt1Header", "convert", "read_hd", "read_traces"]
+
+#: Bytes of each trace's header in a DT1.
+TRACE_HEADER = 128
+#: Metres per POSITION UNITS.
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048, "in": 0.0254}
+#: Largest HD file read, bytes (a header is under 2 kB).
+HD_MAX_BYTES = 1 << 16
+
+
+@dataclass(frozen=True)
+class Dt1Header:
+    """What :func:`read_hd` reads of an ``.HD`` (the module docstring).
+
+    Attributes
+    ----------
+    traces : int or None
+        NUMBER OF TRACES.
+    samples : int
+        Samples per trace.
+    window : float
+        s.
+    time_zero : float or None
+        The recorder's time zero, sample.
+    step : float or None
+        Trace spacing, m.
+    frequency : float or None
+        The antenna's nominal frequency, Hz.
+    """
+
+    traces: int | None
+    samples: int
+    window: float
+    time_zero: float | None
+    step: float | None
+    frequency: float | None
+
+    @property
+    def dt(self) -> float:
+        """Sample interval, s."""
+        return self.window / self.samples
+
+
+def _hd_path(path: str) -> str:
+    stem = os.path.splitext(path)[0]
+    for ext in (".HD", ".hd", ".Hd", ".hD"):
+        if os.path.isfile(stem + ext):
+            return stem + ext
+    raise InputError(f"{path}: no header {os.path.basename(stem)}.HD beside it")
+
+
+def read_hd(path) -> Dt1Header:
+    """The ``.HD`` beside the ``.DT1`` at ``path`` (the module docstring).
+
+    Raises
+    ------
+    InputError
+        No HD beside the file, a key missing or not a number, samples below
+        3, a window that is not positive, unknown position units.
+    """
+    path = os.fspath(path)
+    hd = _hd_path(path)
+    if os.path.getsize(hd) > HD_MAX_BYTES:
+        raise InputError(f"{hd}: {os.path.getsize(hd)} bytes, no pulseEKKO header")
+    with open(hd, "rb") as fh:
+        text = fh.read().decode("latin-1")
+    keys = {}
+    for line in text.splitlines():
+        m = re.match(r"\s*([A-Za-z][A-Za-z0-9 /()#_.-]*?)\s*=\s*(.*?)\s*$", line)
+        if m:
+            keys.setdefault(m.group(1).upper(), m.group(2))
+
+    def number(key, required=True):
+        v = keys.get(key)
+        if v is None:
+            if required:
+                raise InputError(f"{hd}: no '{key}' line")
+            return None
+        m = re.match(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?", v)
+        if not m or not math.isfinite(float(m.group(0))):
+            raise InputError(f"{hd}: {key} = {v!r} is no (finite) number")
+        return float(m.group(0))
+
+    samples = number("NUMBER OF PTS/TRC")
+    if samples != int(samples) or samples < 3:
+        raise InputError(f"{hd}: NUMBER OF PTS/TRC = {samples:g}; a trace needs 3 samples or more")
+    window = number("TOTAL TIME WINDOW")
+    if not (math.isfinite(window) and window > 0):
+        raise InputError(f"{hd}: TOTAL TIME WINDOW = {window:g} ns: it must be > 0")
+    unit = keys.get("POSITION UNITS", "m").strip().lower()
+    if unit not in UNITS:
+        raise InputError(f"{hd}: POSITION UNITS {unit!r}; known: {', '.join(UNITS)}")
+    step = number("STEP SIZE USED", required=False)
+    traces = number("NUMBER OF TRACES", required=False)
+    mhz = number("NOMINAL FREQUENCY", required=False)
+    return Dt1Header(
+        None if traces is None else int(traces),
+        int(samples),
+        window * 1e-9,
+        number("TIMEZERO AT POINT", required=False),
+        None if step is None else step * UNITS[unit],
+        None if mhz is None or not mhz > 0 else mhz * 1e6,
+    )
+
+
+def read_traces(path) -> tuple:
+    """The HD and the traces of a ``.DT1``, ``(header, traces (n, samples)
+    float64)``; sizes checked from the headers before the samples are read.
+
+    Warns
+    -----
+    DataWarning
+        The file ends inside a trace (that trace is dropped), or holds
+        another number of traces than the HD says.
+    """
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: no such file")
+    hdr = read_hd(path)
+    size = os.path.getsize(path)
+    with open(path, "rb") as fh:
+        first = fh.read(TRACE_HEADER)
+    if len(first) < TRACE_HEADER:
+        raise InputError(f"{path}: {size} bytes, shorter than a trace header ({TRACE_HEADER})")
+    words = np.frombuffer(first, "<f4")
+    per = 4 if words[5] == 4 else 2
+    if words[2] != hdr.samples:
+        raise InputError(
+            f"{path}: its first trace says {words[2]:g} samples, the HD {hdr.samples}: "
+            f"not a DT1 of this header"
+        )
+    trace_bytes = TRACE_HEADER + per * hdr.samples
+    n, rest = divmod(size, trace_bytes)
+    if n * hdr.samples > MAX_SAMPLES:
+        raise InputError(f"{path}: {n} traces of {hdr.samples} samples, more than {MAX_SAMPLES}")
+    if n < 2:
+        raise InputError(f"{path}: {n} traces of {trace_bytes} bytes; a B-scan needs at least 2")
+    if rest:
+        warnings.warn(
+            f"{path}: the data end {rest} bytes into trace {n + 1} (of {trace_bytes} bytes); "
+            f"that part trace is dropped",
+            DataWarning,
+            stacklevel=2,
+        )
+    if hdr.traces is not None and hdr.traces != n:
+        warnings.warn(
+            f"{path}: {n} traces, where the HD says {hdr.traces}; the file's are read",
+            DataWarning,
+            stacklevel=2,
+        )
+    with open(path, "rb") as fh:
+        buf = fh.read(n * trace_bytes)
+    if len(buf) != n * trace_bytes:
+        raise InputError(f"{path}: the file changed while read")
+    raw = np.frombuffer(buf, np.uint8).reshape(n, trace_bytes)
+    heads = raw[:, :TRACE_HEADER].copy().view("<f4")
+    if not np.all(heads[:, 2] == hdr.samples):
+        bad = int(np.flatnonzero(heads[:, 2] != hdr.samples)[0])
+        raise InputError(
+            f"{path}: trace {bad + 1} says {heads[bad, 2]:g} samples, the HD {hdr.samples}"
+        )
+    tr = raw[:, TRACE_HEADER:].copy().view("<i2" if per == 2 else "<i4").astype(np.float64)
+    return hdr, tr
+
+
+def convert(
+    path, band=None, dx: float | None = None, time_zero: float = 0.0, subtract_mean: bool = False
+) -> dict:
+    """A pulseEKKO B-scan -> ``spectrum``, ``frequency``, ``x``,
+    ``record_range`` (the module docstring; the same arrays as
+    :func:`rpm_cl.io.dzt.convert`).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``.DT1`` file, its ``.HD`` beside it.
+    band : (float, float), optional
+        Hz; default 0.5-1.5 times the HD's nominal frequency.
+    dx : float, optional
+        Trace spacing, m; default the HD's step.
+    time_zero : float
+        The sample of time zero, may be fractional.
+    subtract_mean : bool
+        Subtract the mean trace.
+
+    Raises
+    ------
+    InputError
+        The headers' (:func:`read_hd`, :func:`read_traces`), no band given nor
+        a nominal frequency, a band beyond the Nyquist frequency, no spacing.
+    """
+    path = os.fspath(path)
+    hdr, tr = read_traces(path)
+    if band is None:
+        if hdr.frequency is None:
+            raise InputError(
+                f"{path}: no band given and no NOMINAL FREQUENCY: give --band F0:F1 (Hz)"
+            )
+        band = (0.5 * hdr.frequency, 1.5 * hdr.frequency)
+    f0, f1 = (float(v) for v in band)
+    nyq = 0.5 / hdr.dt
+    if not (math.isfinite(f0) and math.isfinite(f1) and 0 < f0 < f1 <= nyq):
+        raise InputError(
+            f"{path}: band must satisfy 0 < f0 < f1 <= {nyq:g} Hz (the Nyquist frequency of "
+            f"{hdr.dt * 1e12:g} ps samples), got {f0:g} .. {f1:g} Hz"
+        )
+    if dx is None:
+        if hdr.step is None or not hdr.step > 0:
+            raise InputError(
+                f"{path}: the HD gives no STEP SIZE USED: give the trace spacing (--dx M)"
+            )
+        dx = hdr.step
+    dx = _finite_scalar("dx", dx)
+    out = traces_to_spectrum(path, tr, hdr.dt, time_zero, (f0, f1), subtract_mean)
+    return {
+        "spectrum": out["spectrum"],
+        "frequency": out["frequency"],
+        "x": np.arange(tr.shape[0]) * dx,
+        "record_range": out["record_range"],
+    }
