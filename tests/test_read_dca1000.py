@@ -241,7 +241,7 @@ def test_cli_convert_dca1000_errors_are_one_line(tmp_path, capsys):
     )
     assert copy.read_bytes() == CAPTURE.read_bytes()
     assert "dca1000 input needs --slope" in _one_error(capsys, ["convert", str(copy), "-o", o])
-    assert "--time-zero does not apply to dca1000 input (it is for dzt, dt1)" in _one_error(
+    assert "--time-zero does not apply to dca1000 input (it is for dzt, dt1, mala)" in _one_error(
         capsys, ["convert", str(copy), *ARGS, "--dx", "1e-3", "--time-zero", "3", "-o", o]
     )
     assert "--slope does not apply to dzt input" in _one_error(

@@ -113,7 +113,8 @@ def convert_opts(sp) -> None:
         metavar="IN",
         help="the file(s) to convert: gprMax "
         ".out/.h5 (a merged B-scan or the per-trace files), .mat/.npz/.npy/.h5 "
-        "with --map, GSSI .dzt, Sensors & Software .DT1 (its .HD beside it), DCA1000 .bin "
+        "with --map, GSSI .dzt, Sensors & Software .DT1 (its .HD beside it), MALÅ .rd3/.rd7 "
+        "(its .rad beside it), DCA1000 .bin "
         "(several: concatenated in order)",
     )
     sp.add_argument("-o", "--output", required=True, help="OUT.npz or OUT.h5")
@@ -125,7 +126,7 @@ def convert_opts(sp) -> None:
     )
     _gprmax_opts(sp.add_argument_group("gprMax output (--format gprmax)"))
     _arrays_opts(sp.add_argument_group("named arrays (--format arrays: .mat, .npz, .npy, .h5)"))
-    _dzt_opts(sp.add_argument_group("GSSI DZT and pulseEKKO DT1 (--format dzt, dt1)"))
+    _dzt_opts(sp.add_argument_group("GSSI DZT, pulseEKKO DT1, MALÅ rd3 (--format dzt, dt1, mala)"))
     _dca1000_opts(sp.add_argument_group("TI mmWave + DCA1000 (--format dca1000)"))
 
 
@@ -143,7 +144,7 @@ def _gprmax_opts(g) -> None:
         type=_band,
         metavar="F0:F1",
         help="frequency band kept, Hz "
-        "(e.g. 2e9:4e9); required for gprMax; dzt, dt1: default the antenna's nominal "
+        "(e.g. 2e9:4e9); required for gprMax; dzt, dt1, mala: default the antenna's nominal "
         "band",
     )
     g.add_argument(
@@ -206,13 +207,13 @@ def _arrays_opts(g) -> None:
 
 
 def _dzt_opts(g) -> None:
-    """``convert``'s options of GSSI .dzt and pulseEKKO .DT1 files (``--channel``:
-    .dzt only), on the argument group ``g``."""
+    """``convert``'s options of GSSI .dzt, pulseEKKO .DT1 and MALÅ .rd3 files
+    (``--channel``: .dzt only), on the argument group ``g``."""
     g.add_argument(
         "--dx",
         type=_bounded_float(1e-9, 1e4, "dx must be a length in m, 1e-9 .. 1e4"),
         help="dzt: scan spacing, m (default 1 / the header's scans per "
-        "metre); dt1: trace spacing, m (default the .HD's step); dca1000: the radar's "
+        "metre); dt1, mala: trace spacing, m (default the header's step); dca1000: the radar's "
         "step between frames, m",
     )
     g.add_argument(

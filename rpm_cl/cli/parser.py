@@ -126,7 +126,7 @@ def add_convert(sub) -> argparse.ArgumentParser:
         "convert",
         help="recorded or simulated data -> the input schema: "
         "gprMax output, MATLAB/NumPy/HDF5 arrays by a key mapping, GSSI .dzt, "
-        "Sensors & Software .DT1 (+ .HD), TI DCA1000 .bin",
+        "Sensors & Software .DT1 (+ .HD), MALÅ .rd3 (+ .rad), TI DCA1000 .bin",
     )
     convert_opts(sp)
     return sp

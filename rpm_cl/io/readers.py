@@ -5,15 +5,16 @@ Each reader turns its files into the frequency-domain input schema
 (``spectrum``, ``frequency``, ``x``; docs/input-format.md, "Input schema"), or for the
 ``arrays`` reader into whichever form the mapping names:
 
-=========  ==============================  ===================================
-name       inputs                          module
-=========  ==============================  ===================================
-gprmax     ``.out``, ``.h5``               :mod:`rpm_cl.io.gprmax`
-arrays     ``.mat .npz .npy .h5``          :mod:`rpm_cl.io.mapped` (``map`` given)
-dzt        ``.dzt``                        :mod:`rpm_cl.io.dzt`
-dt1        ``.dt1`` (its ``.hd`` beside)   :mod:`rpm_cl.io.dt1`
-dca1000    ``.bin``                        :mod:`rpm_cl.io.dca1000`
-=========  ==============================  ===================================
+=========  ===============================  ===================================
+name       inputs                           module
+=========  ===============================  ===================================
+gprmax     ``.out``, ``.h5``                :mod:`rpm_cl.io.gprmax`
+arrays     ``.mat .npz .npy .h5``           :mod:`rpm_cl.io.mapped` (``map`` given)
+dzt        ``.dzt``                         :mod:`rpm_cl.io.dzt`
+dt1        ``.dt1`` (its ``.hd`` beside)    :mod:`rpm_cl.io.dt1`
+mala       ``.rd3 .rd7`` (``.rad`` beside)  :mod:`rpm_cl.io.mala`
+dca1000    ``.bin``                         :mod:`rpm_cl.io.dca1000`
+=========  ===============================  ===================================
 
 :func:`convert` picks the reader from the inputs' extension (an HDF5 file
 with a ``map`` is read as arrays, without one as gprMax output) unless
@@ -66,6 +67,12 @@ FORMATS = {
         ("band", "dx", "time_zero", "subtract_mean"),
         (),
         "Sensors & Software pulseEKKO DT1 + HD (impulse GPR)",
+    ),
+    "mala": Format(
+        (".rd3", ".rd7"),
+        ("band", "dx", "time_zero", "subtract_mean"),
+        (),
+        "MALÅ RAMAC/ProEx rd3/rd7 + rad (impulse GPR)",
     ),
     "dca1000": Format(
         (".bin",),
@@ -131,7 +138,7 @@ def convert(inputs, fmt: str | None = None, **options) -> tuple:
         :class:`rpm_cl.io.gprmax.SourceWaveform`) ``, sidecar, df, rx``;
         arrays ``map`` (``"spectrum=F,..."``) ``, transpose, axes`` (``"f,x"``)
         ``, scale_x, scale_f, conjugate``; dzt ``band, dx, time_zero, channel,
-        subtract_mean``; dt1 ``band, dx, time_zero, subtract_mean``; dca1000 ``slope, adc_rate, samples, start_freq,
+        subtract_mean``; dt1 and mala ``band, dx, time_zero, subtract_mean``; dca1000 ``slope, adc_rate, samples, start_freq,
         adc_start_time, chirps, rx`` (receivers) ``, layout, dx, rx_spacing,
         receiver``.
 
@@ -230,6 +237,16 @@ def _dt1(inputs, o):
     )
 
 
+def _mala(inputs, o):
+    from .mala import convert
+
+    if len(inputs) != 1:
+        raise InputError(f"{len(inputs)} MALÅ files; convert one at a time")
+    return convert(
+        inputs[0], o.get("band"), o.get("dx"), o.get("time_zero", 0.0), bool(o.get("subtract_mean"))
+    )
+
+
 def _dca1000(inputs, o):
     from .dca1000 import Chirp, convert
 
@@ -246,7 +263,14 @@ def _dca1000(inputs, o):
     return convert(inputs, chirp, o.get("dx"), o.get("rx_spacing"), o.get("receiver", 0))
 
 
-_READ = {"gprmax": _gprmax, "arrays": _arrays, "dzt": _dzt, "dt1": _dt1, "dca1000": _dca1000}
+_READ = {
+    "gprmax": _gprmax,
+    "arrays": _arrays,
+    "dzt": _dzt,
+    "dt1": _dt1,
+    "mala": _mala,
+    "dca1000": _dca1000,
+}
 
 
 def save(path, arrays: dict, inputs=()) -> None:

@@ -1,0 +1,244 @@
+"""MALÅ (RAMAC, ProEx, GX) ``.rd3`` / ``.rd7`` + ``.rad`` (impulse GPR
+B-scans) -> the engine's frequency-domain input.
+
+Layout
+------
+The ``.rad`` header is text beside the data file (the same name): lines
+``KEY:value``, of which these are read::
+
+    SAMPLES              samples per trace
+    FREQUENCY            the sampling frequency, MHz (dt = 1 / FREQUENCY)
+    DISTANCE INTERVAL    the trace spacing, m (0: a time-triggered survey)
+    LAST TRACE           traces (checked against the data's size)
+    ANTENNAS             the antenna's name, its centre frequency first
+                         ("500_shielded", "250 MHz Shielded", "1.6GHz")
+
+The data file holds the traces one after another, the samples of each as
+little-endian signed integers: 2 bytes in ``.rd3``, 4 in ``.rd7``; no
+trace headers.  The trace count is the file's size over one trace's bytes.
+The sample interval is ``1 / FREQUENCY``, as MALÅ's and ImpDAR's readers
+take it; the header's ``TIMEWINDOW`` is not used (on a real RAMAC file,
+ImpDAR's test line ``ten_col``, it is twice ``SAMPLES / FREQUENCY``).
+
+Conversion
+----------
+As for GSSI files (:func:`rpm_cl.io.dzt.traces_to_spectrum`); time zero is
+the sample ``time_zero`` (default 0; ``rpm-cl image --time-zero auto`` puts
+it on the direct wave), positions ``i`` times the spacing, the band given or
+0.5-1.5 times the antenna's centre frequency.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .data import DataWarning, InputError, _finite_scalar
+from .dzt import MAX_SAMPLES, traces_to_spectrum
+
+__all__ = ["MalaHeader", "antenna_frequency", "convert", "read_rad", "read_traces"]
+
+#: Largest ``.rad`` read, bytes (a header is under 2 kB).
+RAD_MAX_BYTES = 1 << 16
+#: Bytes per sample by the data file's extension.
+SAMPLE_BYTES = {".rd3": 2, ".rd7": 4}
+
+
+@dataclass(frozen=True)
+class MalaHeader:
+    """What :func:`read_rad` reads of a ``.rad`` (the module docstring).
+
+    Attributes
+    ----------
+    samples : int
+    dt : float
+        Sample interval, s.
+    step : float
+        Trace spacing, m; 0 for a time-triggered survey.
+    traces : int or None
+        LAST TRACE.
+    frequency : float or None
+        The antenna's centre frequency, Hz.
+    """
+
+    samples: int
+    dt: float
+    step: float
+    traces: int | None
+    frequency: float | None
+
+
+def antenna_frequency(name: str) -> float | None:
+    """The centre frequency a MALÅ antenna name starts with, Hz: a number
+    with an optional unit (MHz when none), as in "500_shielded", "250 MHz
+    Shielded", "1.6GHz"; None where it starts with none (or a number
+    outside 1 MHz .. 100 GHz)."""
+    m = re.match(r"\s*(\d+(?:\.\d+)?)\s*(MHz|GHz)?", name or "", re.IGNORECASE)
+    if not m:
+        return None
+    f = float(m.group(1)) * (1e9 if (m.group(2) or "").lower() == "ghz" else 1e6)
+    return f if 1e6 <= f <= 1e11 else None
+
+
+def _rad_path(path: str) -> str:
+    stem = os.path.splitext(path)[0]
+    for ext in (".rad", ".RAD", ".Rad"):
+        if os.path.isfile(stem + ext):
+            return stem + ext
+    raise InputError(f"{path}: no header {os.path.basename(stem)}.rad beside it")
+
+
+def read_rad(path) -> MalaHeader:
+    """The ``.rad`` beside the data file at ``path`` (the module docstring).
+
+    Raises
+    ------
+    InputError
+        No header beside the file, a key missing or not a finite number,
+        samples below 3, a sampling frequency that is not positive, a
+        negative spacing.
+    """
+    path = os.fspath(path)
+    rad = _rad_path(path)
+    if os.path.getsize(rad) > RAD_MAX_BYTES:
+        raise InputError(f"{rad}: {os.path.getsize(rad)} bytes, no MALÅ header")
+    with open(rad, "rb") as fh:
+        text = fh.read().decode("latin-1")
+    keys = {}
+    for line in text.splitlines():
+        key, sep, value = line.partition(":")
+        if sep:
+            keys.setdefault(key.strip().upper(), value.strip())
+
+    def number(key, required=True):
+        v = keys.get(key)
+        if v is None:
+            if required:
+                raise InputError(f"{rad}: no '{key}' line")
+            return None
+        m = re.match(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?", v)
+        if not m or not math.isfinite(float(m.group(0))):
+            raise InputError(f"{rad}: {key}:{v!r} is no (finite) number")
+        return float(m.group(0))
+
+    samples = number("SAMPLES")
+    if samples != int(samples) or samples < 3:
+        raise InputError(f"{rad}: SAMPLES:{samples:g}; a trace needs 3 samples or more")
+    mhz = number("FREQUENCY")
+    if not mhz > 0:
+        raise InputError(f"{rad}: FREQUENCY:{mhz:g} MHz: the sampling frequency must be > 0")
+    step = number("DISTANCE INTERVAL", required=False) or 0.0
+    if step < 0:
+        raise InputError(f"{rad}: DISTANCE INTERVAL:{step:g} m: it must be >= 0")
+    traces = number("LAST TRACE", required=False)
+    return MalaHeader(
+        int(samples),
+        1e-6 / mhz,
+        step,
+        None if traces is None else int(traces),
+        antenna_frequency(keys.get("ANTENNAS", "")),
+    )
+
+
+def read_traces(path) -> tuple:
+    """The header and the traces of a ``.rd3`` / ``.rd7``, ``(header,
+    traces (n, samples) float64)``; sizes checked before the samples are
+    read.
+
+    Warns
+    -----
+    DataWarning
+        The file ends inside a trace (that trace is dropped), or holds
+        another number of traces than LAST TRACE says.
+    """
+    path = os.fspath(path)
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in SAMPLE_BYTES:
+        raise InputError(f"{path}: a MALÅ data file is .rd3 (16-bit) or .rd7 (32-bit)")
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: no such file")
+    hdr = read_rad(path)
+    per = SAMPLE_BYTES[ext]
+    trace_bytes = per * hdr.samples
+    n, rest = divmod(os.path.getsize(path), trace_bytes)
+    if n * hdr.samples > MAX_SAMPLES:
+        raise InputError(f"{path}: {n} traces of {hdr.samples} samples, more than {MAX_SAMPLES}")
+    if n < 2:
+        raise InputError(f"{path}: {n} traces of {trace_bytes} bytes; a B-scan needs at least 2")
+    if rest:
+        warnings.warn(
+            f"{path}: the data end {rest} bytes into trace {n + 1} (of {trace_bytes} bytes); "
+            f"that part trace is dropped",
+            DataWarning,
+            stacklevel=2,
+        )
+    if hdr.traces is not None and hdr.traces != n:
+        warnings.warn(
+            f"{path}: {n} traces, where LAST TRACE says {hdr.traces}; the file's are read",
+            DataWarning,
+            stacklevel=2,
+        )
+    with open(path, "rb") as fh:
+        buf = fh.read(n * trace_bytes)
+    if len(buf) != n * trace_bytes:
+        raise InputError(f"{path}: the file changed while read")
+    tr = np.frombuffer(buf, "<i2" if per == 2 else "<i4").reshape(n, hdr.samples)
+    return hdr, tr.astype(np.float64)
+
+
+def convert(
+    path, band=None, dx: float | None = None, time_zero: float = 0.0, subtract_mean: bool = False
+) -> dict:
+    """A MALÅ B-scan -> ``spectrum``, ``frequency``, ``x``,
+    ``record_range`` (the module docstring; the same arrays as
+    :func:`rpm_cl.io.dzt.convert`).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``.rd3`` or ``.rd7`` file, its ``.rad`` beside it.
+    band : (float, float), optional
+        Hz; default 0.5-1.5 times the antenna's centre frequency.
+    dx : float, optional
+        Trace spacing, m; default the header's (required where it is 0).
+    time_zero : float
+        The sample of time zero, may be fractional.
+    subtract_mean : bool
+        Subtract the mean trace.
+    """
+    path = os.fspath(path)
+    hdr, tr = read_traces(path)
+    if band is None:
+        if hdr.frequency is None:
+            raise InputError(
+                f"{path}: no band given and no frequency in the header's ANTENNAS: "
+                f"give --band F0:F1 (Hz)"
+            )
+        band = (0.5 * hdr.frequency, 1.5 * hdr.frequency)
+    f0, f1 = (float(v) for v in band)
+    nyq = 0.5 / hdr.dt
+    if not (math.isfinite(f0) and math.isfinite(f1) and 0 < f0 < f1 <= nyq):
+        raise InputError(
+            f"{path}: band must satisfy 0 < f0 < f1 <= {nyq:g} Hz (the Nyquist frequency of "
+            f"{hdr.dt * 1e12:g} ps samples), got {f0:g} .. {f1:g} Hz"
+        )
+    if dx is None:
+        if not hdr.step > 0:
+            raise InputError(
+                f"{path}: a time-triggered survey (DISTANCE INTERVAL 0): give the trace "
+                f"spacing (--dx M)"
+            )
+        dx = hdr.step
+    dx = _finite_scalar("dx", dx)
+    out = traces_to_spectrum(path, tr, hdr.dt, time_zero, (f0, f1), subtract_mean)
+    return {
+        "spectrum": out["spectrum"],
+        "frequency": out["frequency"],
+        "x": np.arange(tr.shape[0]) * dx,
+        "record_range": out["record_range"],
+    }
