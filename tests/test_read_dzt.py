@@ -1,7 +1,7 @@
 """GSSI DZT -> the frequency-domain input (rpm_cl.io.dzt, `rpm-cl convert IN.dzt`).
 
-The fixture tests/data/readers/scan.dzt is synthetic (no GSSI file could be
-downloaded): benchmarks/readers_fixture.py writes the 1024-byte header and
+The fixture tests/data/readers/scan.dzt is synthetic (a real GSSI line,
+without truth, is tests/test_real_files.py's): benchmarks/readers_fixture.py writes the 1024-byte header and
 16-bit samples to the layout of rpm_cl/io/dzt.py's docstring, 48 scans at 2 cm
 (50 scans per metre) of a 1.6 GHz Ricker echo from a point 0.9 m below x =
 0.47 m (in air), time zero at sample 40.5, and a direct coupling at time
