@@ -57,6 +57,52 @@ inline REALV poly_sincos(const REALV x, REALV *c)
          + x2 * ((REAL)(1.0 / 362880) + x2 * (REAL)(-1.0 / 39916800))))));
 }
 
+/* The VW lanes' terms (u' + w' f) exp(j 2 k_c dr (f - 1/2)) added to the
+ * sums: lane l's (u', w') row is row_a[l * stride + iv.sl] (stride 0: every
+ * lane on one antenna's rows, das_backproject; stride nr + 1: lane l on
+ * antenna a + l, das_points), loaded whole and transposed into the four
+ * REALV planes with swizzles (unpack/shuffle on a CPU). */
+inline void add_terms(__global const REAL4 *row_a, const long stride, const INTV iv,
+                      const REALV fr, const REAL kdr, REALV *acc_re, REALV *acc_im)
+{
+    REALV ur, ui, vr, vi;
+#if VW == 8
+    {   /* rows of lanes l and l+4 side by side, then a 4 x 8 transpose */
+        const REAL8 a0 = (REAL8)(row_a[iv.s0], row_a[4 * stride + iv.s4]);
+        const REAL8 a1 = (REAL8)(row_a[stride + iv.s1], row_a[5 * stride + iv.s5]);
+        const REAL8 a2 = (REAL8)(row_a[2 * stride + iv.s2], row_a[6 * stride + iv.s6]);
+        const REAL8 a3 = (REAL8)(row_a[3 * stride + iv.s3], row_a[7 * stride + iv.s7]);
+        const REAL16 p = (REAL16)(a0, a1), q = (REAL16)(a2, a3);
+        const REAL16 xy = (REAL16)(p.s08194C5D, q.s08194C5D);
+        const REAL16 zw = (REAL16)(p.s2A3B6E7F, q.s2A3B6E7F);
+        ur = xy.s018945CD; ui = xy.s23AB67EF;
+        vr = zw.s018945CD; vi = zw.s23AB67EF;
+    }
+#else
+    {   /* 4 x 4 transpose */
+        const REAL8 p = (REAL8)(row_a[iv.s0], row_a[stride + iv.s1]);
+        const REAL8 q = (REAL8)(row_a[2 * stride + iv.s2], row_a[3 * stride + iv.s3]);
+        ur = (REAL4)(p.s04, q.s04); ui = (REAL4)(p.s15, q.s15);
+        vr = (REAL4)(p.s26, q.s26); vi = (REAL4)(p.s37, q.s37);
+    }
+#endif
+    /* (u' + w' f) exp(j 2 k_c dr (f - 1/2)): the host's rows hold u', w' */
+    const REALV pr = ur + vr * fr;
+    const REALV pi = ui + vi * fr;
+    const REALV x = kdr * fr - (REAL)0.5 * kdr;
+    REALV c;
+#ifdef POLY
+    const REALV sn = poly_sincos(x, &c);
+#else
+    const REALV sn = sincos(x, &c);
+#endif
+    /* one contraction per statement: four FMAs */
+    *acc_re += pr * c;
+    *acc_re -= pi * sn;
+    *acc_im += pr * sn;
+    *acc_im += pi * c;
+}
+
 __kernel void das_backproject(
     __global const REAL4 *uv, const int n_ant, const int nr,
     __global const REAL *ant_x, __global const REAL *ant_z,
@@ -104,43 +150,7 @@ __kernel void das_backproject(
         t = (t < (REAL)nr) ? t : (REALV)((REAL)nr);
         const INTV iv = CAT(CAT(convert_, IDX), VW)(t);    /* t >= 0: truncation is floor */
         const REALV fr = t - CAT(convert_, REALV)(iv);
-        __global const REAL4 *row_a = uv + (long)a * (nr + 1);
-        REALV ur, ui, vr, vi;
-#if VW == 8
-        {   /* rows of lanes l and l+4 side by side, then a 4 x 8 transpose */
-            const REAL8 a0 = (REAL8)(row_a[iv.s0], row_a[iv.s4]);
-            const REAL8 a1 = (REAL8)(row_a[iv.s1], row_a[iv.s5]);
-            const REAL8 a2 = (REAL8)(row_a[iv.s2], row_a[iv.s6]);
-            const REAL8 a3 = (REAL8)(row_a[iv.s3], row_a[iv.s7]);
-            const REAL16 p = (REAL16)(a0, a1), q = (REAL16)(a2, a3);
-            const REAL16 xy = (REAL16)(p.s08194C5D, q.s08194C5D);
-            const REAL16 zw = (REAL16)(p.s2A3B6E7F, q.s2A3B6E7F);
-            ur = xy.s018945CD; ui = xy.s23AB67EF;
-            vr = zw.s018945CD; vi = zw.s23AB67EF;
-        }
-#else
-        {   /* 4 x 4 transpose */
-            const REAL8 p = (REAL8)(row_a[iv.s0], row_a[iv.s1]);
-            const REAL8 q = (REAL8)(row_a[iv.s2], row_a[iv.s3]);
-            ur = (REAL4)(p.s04, q.s04); ui = (REAL4)(p.s15, q.s15);
-            vr = (REAL4)(p.s26, q.s26); vi = (REAL4)(p.s37, q.s37);
-        }
-#endif
-        /* (u' + w' f) exp(j 2 k_c dr (f - 1/2)): the host's rows hold u', w' */
-        const REALV pr = ur + vr * fr;
-        const REALV pi = ui + vi * fr;
-        const REALV x = kdr * fr - (REAL)0.5 * kdr;
-        REALV c;
-#ifdef POLY
-        const REALV sn = poly_sincos(x, &c);
-#else
-        const REALV sn = sincos(x, &c);
-#endif
-        /* one contraction per statement: four FMAs */
-        acc_re += pr * c;
-        acc_re -= pi * sn;
-        acc_im += pr * sn;
-        acc_im += pi * c;
+        add_terms(uv + (long)a * (nr + 1), 0, iv, fr, kdr, &acc_re, &acc_im);
     }
     for (int l = 0; l < VW; ++l) {
         const int k = q * VW + l;
@@ -188,41 +198,7 @@ __kernel void das_points(
         t = (t < (REAL)nr) ? t : (REALV)((REAL)nr);
         const INTV iv = CAT(CAT(convert_, IDX), VW)(t);
         const REALV fr = t - CAT(convert_, REALV)(iv);
-        __global const REAL4 *row_a = uv + (long)a * st;
-        REALV ur, ui, vr, vi;
-#if VW == 8
-        {   /* as das_backproject: lanes l and l+4 side by side, a 4 x 8 transpose */
-            const REAL8 a0 = (REAL8)(row_a[iv.s0], row_a[4 * st + iv.s4]);
-            const REAL8 a1 = (REAL8)(row_a[st + iv.s1], row_a[5 * st + iv.s5]);
-            const REAL8 a2 = (REAL8)(row_a[2 * st + iv.s2], row_a[6 * st + iv.s6]);
-            const REAL8 a3 = (REAL8)(row_a[3 * st + iv.s3], row_a[7 * st + iv.s7]);
-            const REAL16 p0 = (REAL16)(a0, a1), q0 = (REAL16)(a2, a3);
-            const REAL16 xy = (REAL16)(p0.s08194C5D, q0.s08194C5D);
-            const REAL16 zw = (REAL16)(p0.s2A3B6E7F, q0.s2A3B6E7F);
-            ur = xy.s018945CD; ui = xy.s23AB67EF;
-            vr = zw.s018945CD; vi = zw.s23AB67EF;
-        }
-#else
-        {   /* 4 x 4 transpose */
-            const REAL8 p0 = (REAL8)(row_a[iv.s0], row_a[st + iv.s1]);
-            const REAL8 q0 = (REAL8)(row_a[2 * st + iv.s2], row_a[3 * st + iv.s3]);
-            ur = (REAL4)(p0.s04, q0.s04); ui = (REAL4)(p0.s15, q0.s15);
-            vr = (REAL4)(p0.s26, q0.s26); vi = (REAL4)(p0.s37, q0.s37);
-        }
-#endif
-        const REALV pr = ur + vr * fr;
-        const REALV pi = ui + vi * fr;
-        const REALV xx = kdr * fr - (REAL)0.5 * kdr;
-        REALV c;
-#ifdef POLY
-        const REALV sn = poly_sincos(xx, &c);
-#else
-        const REALV sn = sincos(xx, &c);
-#endif
-        acc_re += pr * c;
-        acc_re -= pi * sn;
-        acc_im += pr * sn;
-        acc_im += pi * c;
+        add_terms(uv + (long)a * st, st, iv, fr, kdr, &acc_re, &acc_im);
     }
     out[p] = (REAL2)(hsum(acc_re), hsum(acc_im));
 }

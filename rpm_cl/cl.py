@@ -34,6 +34,7 @@ __all__ = [
     "kernel_source",
     "list_devices",
     "load_pyopencl",
+    "read_only",
 ]
 
 INSTALL_HINT = (
@@ -316,3 +317,13 @@ def get_kernels(env: CLEnv, filename: str, names, defines=None) -> dict:
             if n not in cache:
                 cache[n] = cl.Kernel(program, n)
         return {n: cache[n] for n in names}
+
+
+def read_only(env: CLEnv, a, dtype):
+    """A read-only device buffer holding ``a`` as ``dtype``, contiguous
+    (one zero element where ``a`` is empty: OpenCL has no empty buffers)."""
+    cl = load_pyopencl()
+    a = np.ascontiguousarray(a, dtype)
+    if a.size == 0:
+        a = np.zeros(1, dtype)
+    return cl.Buffer(env.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a)

@@ -35,9 +35,11 @@ def _one_error(capsys, argv) -> str:
     return err
 
 
-def _echoes(arrays, window="hann", r_min=0.4, r_max=3.0):
-    """Per trace: the compressed peak between r_min and r_max, the true range,
-    the peak's phase relative to -2 k_c R_true, the gate."""
+def echoes(arrays, window="hann", r_min=0.4, r_max=3.0):
+    """Per trace of a line of the fixture's traces (this file's, and the
+    DT1 and MALÅ tests' files written from them): the compressed peak
+    between r_min and r_max, the true range, the peak's phase relative to
+    -2 k_c R_true, the gate."""
     f = arrays["frequency"]
     fc = float(f.mean())
     s, r = range_compress(arrays["spectrum"], f, fc, window)
@@ -67,14 +69,21 @@ def test_the_echo_lands_at_its_range_with_the_round_trip_phase():
     fmt, out = convert(SCAN, time_zero=T0)
     assert fmt == "dzt"
     # the antenna 51600S is GSSI's 1.6 GHz model: band 0.8 .. 2.4 GHz
-    assert out["frequency"][0] == pytest.approx(0.8e9) and out["frequency"][-1] == pytest.approx(
-        2.4e9
-    )
-    np.testing.assert_allclose(np.diff(out["frequency"]), 1 / (2 * 20e-9))
+    assert_fixture_line(out)
+
+
+def assert_fixture_line(out):
+    """The fixture's line as a reader converts it (this file's, and the DT1
+    and MALÅ tests' files written from its traces): 48 traces at 2 cm, the
+    band 0.8-2.4 GHz on the 20 ns record's grid, each echo within half a
+    gate of its range with the phase -2 k_c R (16-bit quantisation and the
+    Ricker's truncation leave a few mrad)."""
+    f = out["frequency"]
+    assert f[0] == pytest.approx(0.8e9) and f[-1] == pytest.approx(2.4e9)
+    np.testing.assert_allclose(np.diff(f), 1 / (2 * 20e-9))
     np.testing.assert_allclose(out["x"], np.arange(48) * 0.02)
-    got, true, phase, gate = _echoes(out)
+    got, true, phase, gate = echoes(out)
     assert np.max(np.abs(got - true)) <= 0.5 * gate + 1e-9
-    # 16-bit quantisation and the Ricker's truncation leave a few mrad
     assert np.max(np.abs(phase)) < 0.02
 
 
@@ -84,7 +93,7 @@ def test_8_and_32_bit_samples_and_a_second_channel(tmp_path):
         p = tmp_path / f"b{bits}.dzt"
         p.write_bytes(RF.dzt_bytes(RF.dzt_traces(), bits=bits))
         out = convert(p, time_zero=T0)[1]
-        got, true, phase, gate = _echoes(out)
+        got, true, phase, gate = echoes(out)
         assert np.max(np.abs(got - true)) <= 0.5 * gate + 1e-9
         assert np.max(np.abs(phase)) < (0.2 if bits == 8 else 0.02)
     two = tmp_path / "two.dzt"
@@ -106,7 +115,7 @@ def test_subtract_mean_removes_the_direct_coupling():
 
     assert near(clean) < 1e-3 * near(plain)
     # the echo stays, though the mean trace holds a blurred copy of its apex
-    got, true, _, gate = _echoes(clean)
+    got, true, _, gate = echoes(clean)
     assert np.max(np.abs(got - true)) <= 4 * gate
 
 

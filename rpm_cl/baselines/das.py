@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..cl import read_only
 from ..extract.backprojection import (
     BYTES_PER_TERM,
     BYTES_PER_TERM_REFRACTED,
@@ -304,14 +305,7 @@ class DeviceDAS:
     phased_pairs = staticmethod(phased_pairs)
 
     def _buf(self, a, dtype):
-        import pyopencl as cl
-
-        a = np.ascontiguousarray(a, dtype)
-        if a.size == 0:
-            a = np.zeros(1, dtype)
-        return cl.Buffer(
-            self.env.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a
-        )
+        return read_only(self.env, a, dtype)
 
     def backproject(
         self,

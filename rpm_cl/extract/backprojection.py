@@ -22,6 +22,7 @@ __all__ = [
     "antennas",
     "at_points",
     "phased_pairs",
+    "points3",
     "summed",
     "weights",
 ]
@@ -112,6 +113,17 @@ def phased_pairs(data: RadarData) -> np.ndarray:
     return out
 
 
+def points3(data: RadarData, points) -> np.ndarray:
+    """Points (M, dim) as (x, y, z), float64, shape (M, 3) (z = 0 for a
+    linear array); InputError where ``points`` is not (M, dim)."""
+    points = np.asarray(points, np.float64)
+    if points.ndim != 2 or points.shape[1] != data.array.dim:
+        raise InputError(f"points must have shape (M, {data.array.dim}), got {points.shape}")
+    p3 = np.zeros((points.shape[0], 3))
+    p3[:, : points.shape[1]] = points
+    return p3
+
+
 def summed(p3, ant, sig, r0: float, dr: float, k2: float, medium=None) -> np.ndarray:
     """I(p) at points ``p3`` (n, 3) over the antennas ``ant`` (A, 3) whose
     profiles are the rows of ``sig`` (A, nr), complex128: :func:`weights`,
@@ -149,15 +161,11 @@ def at_points(
     -------
     ndarray, complex, shape (M,)
     """
-    points = np.asarray(points, np.float64)
-    if points.ndim != 2 or points.shape[1] != data.array.dim:
-        raise InputError(f"points must have shape (M, {data.array.dim}), got {points.shape}")
+    p3 = points3(data, points)
     ant = antennas(data.array)
-    p3 = np.zeros((points.shape[0], 3))
-    p3[:, : points.shape[1]] = points
     sig = np.ascontiguousarray(data.signal.reshape(-1, data.range.size), np.complex128)
     k2 = 4 * np.pi * data.waveform.fc / C0
-    out = np.empty(points.shape[0], np.complex128)
+    out = np.empty(p3.shape[0], np.complex128)
     refr = medium if medium is not None and medium.half_space else None
     per = BYTES_PER_TERM if refr is None else BYTES_PER_TERM_REFRACTED
     for rows, cols in _chunks(p3, ant, float(data.range[-1]), memory_budget, per, refr):

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..cl import CLEnv, get_kernels
+from ..cl import CLEnv, get_kernels, read_only
 from ..io.data import C0, InputError, RadarData
-from .backprojection import POLY_KC_DR_MAX, antennas, phased_pairs
+from .backprojection import POLY_KC_DR_MAX, antennas, phased_pairs, points3
 
 __all__ = ["POINTS_PER_LAUNCH", "PointSums", "device_for"]
 
@@ -51,14 +51,7 @@ class PointSums:
         self._kept = None  # (data, kernel, arguments): the test asks twice per data
 
     def _buf(self, a, dtype):
-        import pyopencl as cl
-
-        a = np.ascontiguousarray(a, dtype)
-        if a.size == 0:
-            a = np.zeros(1, dtype)
-        return cl.Buffer(
-            self.env.context, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=a
-        )
+        return read_only(self.env, a, dtype)
 
     def at_points(self, data: RadarData, points: np.ndarray) -> np.ndarray:
         """I(p) at ``points``: :func:`rpm_cl.extract.backprojection.at_points`
@@ -80,20 +73,16 @@ class PointSums:
         """
         import pyopencl as cl
 
-        points = np.asarray(points, np.float64)
-        if points.ndim != 2 or points.shape[1] != data.array.dim:
-            raise InputError(f"points must have shape (M, {data.array.dim}), got {points.shape}")
+        p3 = points3(data, points)
         if data.range.size < 2:
             raise InputError("the sums need at least 2 range samples")
-        m = points.shape[0]
+        m = p3.shape[0]
         if m == 0:
             return np.zeros(0, np.complex128)
         ant = antennas(data.array)
         # a common origin taken off in float64, as the DAS kernel's host does
         o = np.array([np.mean(ant[:, 0]), 0.0, np.mean(ant[:, 2])])
         kernel, args = self._input(data, ant, o)
-        p3 = np.zeros((m, 3))
-        p3[:, : points.shape[1]] = points
         if data.array.planar:
             lo, hi = np.zeros(m, np.int32), np.full(m, len(ant), np.int32)
         else:  # x strictly increasing (rpm_cl.io.data.Array)

@@ -26,7 +26,7 @@ the HD's 1200 ns matches the recorded depths.
 
 Conversion
 ----------
-As for GSSI files (:func:`rpm_cl.io.dzt.traces_to_spectrum`: each trace
+As for GSSI files (:func:`rpm_cl.io.traces.traces_to_spectrum`: each trace
 less its mean, samples before time zero set to 0, the record zero-padded to
 twice its length and transformed with NumPy's sign, the band kept).  Time
 zero is the sample ``time_zero`` (default 0, the window's first sample;
@@ -40,13 +40,12 @@ from __future__ import annotations
 import math
 import os
 import re
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from .data import DataWarning, InputError, _finite_scalar
-from .dzt import MAX_SAMPLES, traces_to_spectrum
+from .data import InputError
+from .traces import header_beside, header_number, line_arrays, read_block
 
 __all__ = ["TRACE_HEADER", "UNITS", "Dt1Header", "convert", "read_hd", "read_traces"]
 
@@ -91,14 +90,6 @@ class Dt1Header:
         return self.window / self.samples
 
 
-def _hd_path(path: str) -> str:
-    stem = os.path.splitext(path)[0]
-    for ext in (".HD", ".hd", ".Hd", ".hD"):
-        if os.path.isfile(stem + ext):
-            return stem + ext
-    raise InputError(f"{path}: no header {os.path.basename(stem)}.HD beside it")
-
-
 def read_hd(path) -> Dt1Header:
     """The ``.HD`` beside the ``.DT1`` at ``path`` (the module docstring).
 
@@ -109,7 +100,7 @@ def read_hd(path) -> Dt1Header:
         3, a window that is not positive, unknown position units.
     """
     path = os.fspath(path)
-    hd = _hd_path(path)
+    hd = header_beside(path, ".HD")
     if os.path.getsize(hd) > HD_MAX_BYTES:
         raise InputError(f"{hd}: {os.path.getsize(hd)} bytes, no pulseEKKO header")
     with open(hd, "rb") as fh:
@@ -121,15 +112,7 @@ def read_hd(path) -> Dt1Header:
             keys.setdefault(m.group(1).upper(), m.group(2))
 
     def number(key, required=True):
-        v = keys.get(key)
-        if v is None:
-            if required:
-                raise InputError(f"{hd}: no '{key}' line")
-            return None
-        m = re.match(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?", v)
-        if not m or not math.isfinite(float(m.group(0))):
-            raise InputError(f"{hd}: {key} = {v!r} is no (finite) number")
-        return float(m.group(0))
+        return header_number(keys, key, hd, "{key} = {value}", required)
 
     samples = number("NUMBER OF PTS/TRC")
     if samples != int(samples) or samples < 3:
@@ -180,28 +163,7 @@ def read_traces(path) -> tuple:
             f"not a DT1 of this header"
         )
     trace_bytes = TRACE_HEADER + per * hdr.samples
-    n, rest = divmod(size, trace_bytes)
-    if n * hdr.samples > MAX_SAMPLES:
-        raise InputError(f"{path}: {n} traces of {hdr.samples} samples, more than {MAX_SAMPLES}")
-    if n < 2:
-        raise InputError(f"{path}: {n} traces of {trace_bytes} bytes; a B-scan needs at least 2")
-    if rest:
-        warnings.warn(
-            f"{path}: the data end {rest} bytes into trace {n + 1} (of {trace_bytes} bytes); "
-            f"that part trace is dropped",
-            DataWarning,
-            stacklevel=2,
-        )
-    if hdr.traces is not None and hdr.traces != n:
-        warnings.warn(
-            f"{path}: {n} traces, where the HD says {hdr.traces}; the file's are read",
-            DataWarning,
-            stacklevel=2,
-        )
-    with open(path, "rb") as fh:
-        buf = fh.read(n * trace_bytes)
-    if len(buf) != n * trace_bytes:
-        raise InputError(f"{path}: the file changed while read")
+    n, buf = read_block(path, size, 0, trace_bytes, hdr.samples, (hdr.traces, "the HD says"))
     raw = np.frombuffer(buf, np.uint8).reshape(n, trace_bytes)
     heads = raw[:, :TRACE_HEADER].copy().view("<f4")
     if not np.all(heads[:, 2] == hdr.samples):
@@ -247,24 +209,14 @@ def convert(
                 f"{path}: no band given and no NOMINAL FREQUENCY: give --band F0:F1 (Hz)"
             )
         band = (0.5 * hdr.frequency, 1.5 * hdr.frequency)
-    f0, f1 = (float(v) for v in band)
-    nyq = 0.5 / hdr.dt
-    if not (math.isfinite(f0) and math.isfinite(f1) and 0 < f0 < f1 <= nyq):
-        raise InputError(
-            f"{path}: band must satisfy 0 < f0 < f1 <= {nyq:g} Hz (the Nyquist frequency of "
-            f"{hdr.dt * 1e12:g} ps samples), got {f0:g} .. {f1:g} Hz"
-        )
-    if dx is None:
+
+    def spacing():
         if hdr.step is None or not hdr.step > 0:
             raise InputError(
                 f"{path}: the HD gives no STEP SIZE USED: give the trace spacing (--dx M)"
             )
-        dx = hdr.step
-    dx = _finite_scalar("dx", dx)
-    out = traces_to_spectrum(path, tr, hdr.dt, time_zero, (f0, f1), subtract_mean)
-    return {
-        "spectrum": out["spectrum"],
-        "frequency": out["frequency"],
-        "x": np.arange(tr.shape[0]) * dx,
-        "record_range": out["record_range"],
-    }
+        return hdr.step
+
+    return line_arrays(
+        path, tr, hdr.dt, band, spacing if dx is None else dx, time_zero, subtract_mean
+    )

@@ -76,8 +76,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .data import DataWarning, InputError, _finite_scalar
-from .model import C0
+from .data import DataWarning, InputError
+from .traces import MAX_SAMPLES, line_arrays
 
 __all__ = [
     "ANTENNA_MHZ",
@@ -88,13 +88,10 @@ __all__ = [
     "nominal_band",
     "read_header",
     "read_traces",
-    "traces_to_spectrum",
 ]
 
 #: Bytes of one channel's header.
 HEADER_SIZE = 1024
-#: Most samples read (scans x channels x samples per scan).
-MAX_SAMPLES = 1 << 27
 #: Most channels a file may declare.
 MAX_CHANNELS = 16
 #: Centre frequencies of GSSI antenna models, MHz, by the model number that
@@ -385,7 +382,6 @@ def convert(
     """
     path = os.fspath(path)
     hdr, tr = read_traces(path, channel)
-    n_scans = tr.shape[0]
     antenna = hdr.antennas[channel]
     if band is None:
         band = nominal_band(antenna)
@@ -394,14 +390,8 @@ def convert(
                 f"{path}: no band given and none known for antenna "
                 f"{antenna or '(unnamed)'!r}: give --band F0:F1 (Hz)"
             )
-    f0, f1 = (float(v) for v in band)
-    nyq = 0.5 / hdr.dt
-    if not (math.isfinite(f0) and math.isfinite(f1) and 0 < f0 < f1 <= nyq):
-        raise InputError(
-            f"{path}: band must satisfy 0 < f0 < f1 <= {nyq:g} Hz (the Nyquist "
-            f"frequency of {hdr.dt * 1e12:g} ps samples), got {f0:g} .. {f1:g} Hz"
-        )
-    if dx is None:
+
+    def spacing():
         if hdr.scans_per_metre == 0:
             raise InputError(
                 f"{path}: a time-triggered survey (0 scans per metre): give the "
@@ -413,57 +403,8 @@ def convert(
                 f"{1.0 / hdr.scans_per_metre:.3g} m trace spacing) is no survey's: give the "
                 f"scan spacing (--dx M)"
             )
-        dx = 1.0 / hdr.scans_per_metre
-    dx = _finite_scalar("dx", dx)
-    out = traces_to_spectrum(path, tr, hdr.dt, time_zero, (f0, f1), subtract_mean)
-    return {
-        "spectrum": out["spectrum"],
-        "frequency": out["frequency"],
-        "x": np.arange(n_scans) * dx,
-        "record_range": out["record_range"],
-    }
+        return 1.0 / hdr.scans_per_metre
 
-
-def traces_to_spectrum(path, tr, dt: float, time_zero, band, subtract_mean: bool) -> dict:
-    """Real traces -> ``spectrum``, ``frequency``, ``record_range`` (the
-    module docstring's conversion; shared with :mod:`rpm_cl.io.dt1`).
-
-    Parameters
-    ----------
-    path : str
-        The file, for the messages.
-    tr : ndarray, float64, shape (traces, N)
-    dt : float
-        Sample interval, s.
-    time_zero : float
-        The sample of time zero, 0 .. N - 2, may be fractional.
-    band : (float, float)
-        Hz, checked against the Nyquist frequency by the caller.
-    subtract_mean : bool
-        Subtract the mean trace.
-    """
-    n = tr.shape[1]
-    f0, f1 = band
-    n0 = _finite_scalar("time zero", time_zero, positive=False)
-    if not 0 <= n0 <= n - 2:
-        raise InputError(f"{path}: time zero at sample {n0:g}, outside the trace's 0 .. {n - 2}")
-    tr = tr - tr.mean(axis=1, keepdims=True)
-    if subtract_mean:
-        tr -= tr.mean(axis=0, keepdims=True)
-    tr[:, : math.ceil(n0)] = 0.0
-    df = 1.0 / (2 * n * dt)
-    k = np.arange(math.ceil(f0 / df - 1e-9), math.floor(f1 / df + 1e-9) + 1)
-    if k.size < 2:
-        raise InputError(
-            f"{path}: the band {f0:g} .. {f1:g} Hz holds {k.size} frequency "
-            f"samples at {df:g} Hz; widen it"
-        )
-    freq = k * df
-    spec = np.fft.rfft(tr, n=2 * n, axis=1)[:, k] * dt
-    spec *= np.exp(2j * np.pi * freq * n0 * dt)  # t_n = (n - n0) dt
-    return {
-        "spectrum": spec,
-        "frequency": freq,
-        # the record after time zero: the padded half's gates hold nothing
-        "record_range": (n - n0) * dt * C0 / 2.0,
-    }
+    return line_arrays(
+        path, tr, hdr.dt, band, spacing if dx is None else dx, time_zero, subtract_mean
+    )

@@ -22,7 +22,7 @@ ImpDAR's test line ``ten_col``, it is twice ``SAMPLES / FREQUENCY``).
 
 Conversion
 ----------
-As for GSSI files (:func:`rpm_cl.io.dzt.traces_to_spectrum`); time zero is
+As for GSSI files (:func:`rpm_cl.io.traces.traces_to_spectrum`); time zero is
 the sample ``time_zero`` (default 0; ``rpm-cl image --time-zero auto`` puts
 it on the direct wave), positions ``i`` times the spacing, the band given or
 0.5-1.5 times the antenna's centre frequency.
@@ -30,16 +30,14 @@ it on the direct wave), positions ``i`` times the spacing, the band given or
 
 from __future__ import annotations
 
-import math
 import os
 import re
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from .data import DataWarning, InputError, _finite_scalar
-from .dzt import MAX_SAMPLES, traces_to_spectrum
+from .data import InputError
+from .traces import header_beside, header_number, line_arrays, read_block
 
 __all__ = ["MalaHeader", "antenna_frequency", "convert", "read_rad", "read_traces"]
 
@@ -85,14 +83,6 @@ def antenna_frequency(name: str) -> float | None:
     return f if 1e6 <= f <= 1e11 else None
 
 
-def _rad_path(path: str) -> str:
-    stem = os.path.splitext(path)[0]
-    for ext in (".rad", ".RAD", ".Rad"):
-        if os.path.isfile(stem + ext):
-            return stem + ext
-    raise InputError(f"{path}: no header {os.path.basename(stem)}.rad beside it")
-
-
 def read_rad(path) -> MalaHeader:
     """The ``.rad`` beside the data file at ``path`` (the module docstring).
 
@@ -104,7 +94,7 @@ def read_rad(path) -> MalaHeader:
         negative spacing.
     """
     path = os.fspath(path)
-    rad = _rad_path(path)
+    rad = header_beside(path, ".rad")
     if os.path.getsize(rad) > RAD_MAX_BYTES:
         raise InputError(f"{rad}: {os.path.getsize(rad)} bytes, no MALÅ header")
     with open(rad, "rb") as fh:
@@ -116,15 +106,7 @@ def read_rad(path) -> MalaHeader:
             keys.setdefault(key.strip().upper(), value.strip())
 
     def number(key, required=True):
-        v = keys.get(key)
-        if v is None:
-            if required:
-                raise InputError(f"{rad}: no '{key}' line")
-            return None
-        m = re.match(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?", v)
-        if not m or not math.isfinite(float(m.group(0))):
-            raise InputError(f"{rad}: {key}:{v!r} is no (finite) number")
-        return float(m.group(0))
+        return header_number(keys, key, rad, "{key}:{value}", required)
 
     samples = number("SAMPLES")
     if samples != int(samples) or samples < 3:
@@ -165,28 +147,8 @@ def read_traces(path) -> tuple:
     hdr = read_rad(path)
     per = SAMPLE_BYTES[ext]
     trace_bytes = per * hdr.samples
-    n, rest = divmod(os.path.getsize(path), trace_bytes)
-    if n * hdr.samples > MAX_SAMPLES:
-        raise InputError(f"{path}: {n} traces of {hdr.samples} samples, more than {MAX_SAMPLES}")
-    if n < 2:
-        raise InputError(f"{path}: {n} traces of {trace_bytes} bytes; a B-scan needs at least 2")
-    if rest:
-        warnings.warn(
-            f"{path}: the data end {rest} bytes into trace {n + 1} (of {trace_bytes} bytes); "
-            f"that part trace is dropped",
-            DataWarning,
-            stacklevel=2,
-        )
-    if hdr.traces is not None and hdr.traces != n:
-        warnings.warn(
-            f"{path}: {n} traces, where LAST TRACE says {hdr.traces}; the file's are read",
-            DataWarning,
-            stacklevel=2,
-        )
-    with open(path, "rb") as fh:
-        buf = fh.read(n * trace_bytes)
-    if len(buf) != n * trace_bytes:
-        raise InputError(f"{path}: the file changed while read")
+    size = os.path.getsize(path)
+    n, buf = read_block(path, size, 0, trace_bytes, hdr.samples, (hdr.traces, "LAST TRACE says"))
     tr = np.frombuffer(buf, "<i2" if per == 2 else "<i4").reshape(n, hdr.samples)
     return hdr, tr.astype(np.float64)
 
@@ -220,25 +182,15 @@ def convert(
                 f"give --band F0:F1 (Hz)"
             )
         band = (0.5 * hdr.frequency, 1.5 * hdr.frequency)
-    f0, f1 = (float(v) for v in band)
-    nyq = 0.5 / hdr.dt
-    if not (math.isfinite(f0) and math.isfinite(f1) and 0 < f0 < f1 <= nyq):
-        raise InputError(
-            f"{path}: band must satisfy 0 < f0 < f1 <= {nyq:g} Hz (the Nyquist frequency of "
-            f"{hdr.dt * 1e12:g} ps samples), got {f0:g} .. {f1:g} Hz"
-        )
-    if dx is None:
+
+    def spacing():
         if not hdr.step > 0:
             raise InputError(
                 f"{path}: a time-triggered survey (DISTANCE INTERVAL 0): give the trace "
                 f"spacing (--dx M)"
             )
-        dx = hdr.step
-    dx = _finite_scalar("dx", dx)
-    out = traces_to_spectrum(path, tr, hdr.dt, time_zero, (f0, f1), subtract_mean)
-    return {
-        "spectrum": out["spectrum"],
-        "frequency": out["frequency"],
-        "x": np.arange(tr.shape[0]) * dx,
-        "record_range": out["record_range"],
-    }
+        return hdr.step
+
+    return line_arrays(
+        path, tr, hdr.dt, band, spacing if dx is None else dx, time_zero, subtract_mean
+    )
