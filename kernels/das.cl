@@ -162,7 +162,9 @@ __kernel void das_backproject(
 /* The delay-and-sum value I(p) at scattered points (the coherence test of
  * rpm_cl.rpm.coherence): one work-item per point, the antennas a_lo[p] ..
  * a_hi[p] - 1 summed VW at a time (one lane per antenna, the lanes added at
- * the end), on das_backproject's rows (uv) and with its maths.  Antennas at
+ * the end), on das_backproject's rows (uv) and with its maths (the host
+ * builds it without POLY: in float64 the polynomial's truncation would
+ * show).  Antennas at
  * (ant_x, 0, ant_z), points (px, py, pz), both less the same origin.  The
  * host pads uv with VW antennas of zero rows and ant_x, ant_z with VW
  * copies of the last antenna, so that the lanes past a_hi[p] read inside

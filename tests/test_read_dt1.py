@@ -9,6 +9,7 @@ Ricker echo from a point 0.9 m below x = 0.47 m, time zero at sample 40.5,
 """
 
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -89,7 +90,7 @@ def test_the_cli_converts_by_extension_and_refuses_a_dzt_option(tmp_path, capsys
 @pytest.mark.parametrize(
     "hd, data, message",
     [
-        (_hd(units="furlong"), None, "POSITION UNITS 'furlong'"),
+        (_hd(units="furlong"), None, "POSITION UNITS 'furlong'; known: .* or give the trace"),
         (_hd(drop=("NUMBER OF PTS/TRC",)), None, "no 'NUMBER OF PTS/TRC' line"),
         (_hd(window=0), None, "TOTAL TIME WINDOW = 0 ns"),
         (_hd(samples=500), None, "first trace says 512 samples, the HD 500"),
@@ -98,7 +99,10 @@ def test_the_cli_converts_by_extension_and_refuses_a_dzt_option(tmp_path, capsys
         (None, b"\0" * 100, "shorter than a trace header"),
         (_hd().replace("= 512", "= lots"), None, "is no \\(finite\\) number"),
         (_hd().replace("= 512", "= 1e400"), None, "is no \\(finite\\) number"),
-        (_hd(samples=2**40), None, "first trace says 512 samples"),
+        (_hd(samples=2**40), None, "samples per trace must be a whole number, 3 .. 1048576"),
+        (_hd(samples=100.5), None, "samples per trace must be a whole number"),
+        (_hd(window="50,5"), None, "TOTAL TIME WINDOW = '50,5' is no"),
+        (_hd(step=1e30), None, "gives a 1e\\+28 m trace spacing, no survey's"),
     ],
 )
 def test_header_errors_are_one_line(tmp_path, hd, data, message):
@@ -142,3 +146,32 @@ def test_time_zero_outside_the_trace_and_a_band_past_nyquist(tmp_path):
     with pytest.raises(InputError, match="Nyquist"):
         convert(p, band=(1e9, 20e9))
     assert D.read_hd(p).time_zero == 40.5
+
+
+def test_a_strangers_header(tmp_path):
+    """Keys with doubled blanks and units spelt out are read; a unit the
+    reader does not know is no matter when --dx is given; a header that is
+    no regular file, or too long, is refused in one line; a trace of
+    another length midway is refused before anything is read or warned."""
+    hd = _hd(units="metres", step=0.02).replace("NUMBER OF PTS/TRC", "NUMBER OF  PTS/TRC")
+    np.testing.assert_allclose(convert(_write(tmp_path, hd=hd), time_zero=T0)[1]["x"][1], 0.02)
+    other = tmp_path / "o"
+    other.mkdir()
+    p = _write(other, hd=_hd(units="furlong"))
+    assert convert(p, time_zero=T0, dx=0.03)[1]["x"][1] == pytest.approx(0.03)
+    odd = tmp_path / "odd"
+    odd.mkdir()
+    (odd / "L.DT1").write_bytes(_dt1(RF.dzt_traces()))
+    (odd / "L.HD").symlink_to("/dev/zero")
+    with pytest.raises(InputError, match="must be a regular file"):
+        convert(odd / "L.DT1")
+    (odd / "L.HD").unlink()
+    (odd / "L.HD").write_text(_hd() + "X = 1\n" * 20000)
+    with pytest.raises(InputError, match="no GPR header"):
+        convert(odd / "L.DT1")
+    raw = bytearray(_dt1(RF.dzt_traces()))
+    raw[30 * (128 + 1024) + 8 : 30 * (128 + 1024) + 12] = np.float32(7).tobytes()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InputError, match="trace 31 says 7 samples"):
+            convert(_write(tmp_path, data=bytes(raw)[:-100]), time_zero=T0)

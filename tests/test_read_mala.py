@@ -90,12 +90,14 @@ def test_the_cli_and_a_time_triggered_survey(tmp_path, capsys):
     [
         (_rad(drop=("SAMPLES",)), None, "no 'SAMPLES' line"),
         (_rad(mhz=0), None, "FREQUENCY:0 MHz"),
-        (_rad(samples=2), None, "SAMPLES:2; a trace needs 3"),
+        (_rad(samples=2), None, "SAMPLES:2: samples per trace must be a whole number"),
+        (_rad(mhz="2000,5"), None, "FREQUENCY:'2000,5' is no"),
+        (_rad(step=1e30), None, "gives a 1e\\+30 m trace spacing, no survey's"),
         (_rad(antenna="custom"), None, "no frequency in the header's ANTENNAS"),
         (_rad().replace("SAMPLES:512", "SAMPLES:1e999"), None, "no \\(finite\\) number"),
         (_rad(step=-1), None, "DISTANCE INTERVAL:-1 m"),
         (None, b"\0" * 1500, "1 traces of 1024 bytes"),
-        (_rad(samples=1 << 40), None, "0 traces of"),
+        (_rad(samples=1 << 40), None, "samples per trace must be a whole number, 3 .. 1048576"),
     ],
 )
 def test_header_errors_are_one_line(tmp_path, rad, data, message):

@@ -18,7 +18,7 @@ import pytest
 from rpm_cl.extract.preprocess import common_echo
 from rpm_cl.imaging import run_method
 from rpm_cl.io.data import DataWarning
-from rpm_cl.io.dt1 import read_hd
+from rpm_cl.io.dt1 import metres, read_hd
 from rpm_cl.io.dzt import read_header
 from rpm_cl.io.load import load_data
 from rpm_cl.io.readers import convert, save
@@ -79,7 +79,7 @@ def test_the_pulse_ekko_line(tmp_path):
     word 6 says 800 ns); the file holds 100 of the HD's 531 traces."""
     h = read_hd(DT1)
     assert (h.traces, h.samples, h.time_zero) == (531, 1500, 3.18)
-    assert h.window == pytest.approx(1200e-9) and h.step == pytest.approx(2 * 0.3048)
+    assert h.window == pytest.approx(1200e-9) and metres(h, str(DT1)) == pytest.approx(2 * 0.3048)
     assert h.frequency == pytest.approx(50e6)
     words = np.frombuffer(DT1.read_bytes()[:128], "<f4")
     assert words[6] == 800.0

@@ -118,8 +118,8 @@ COUPLING_MIN_FREQUENCIES = 8
 
 def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
     """Whether a B-scan's strongest echo is the antennas' own coupling: an
-    echo within one range resolution of time zero, at the same range at
-    (nearly) every antenna and the same there (module notes, step 2).
+    echo within one range resolution of time zero, the same at the antennas
+    (:func:`common_echo`; module notes, step 2).
 
     Parameters
     ----------
@@ -145,8 +145,8 @@ def coupling_dominates(data: RadarData, time_zero: float = 0.0) -> bool:
 
 
 def common_echo(data: RadarData, time_zero: float = 0.0) -> float | None:
-    """The range from ``time_zero`` of a B-scan's strongest echo where it is
-    the same at (nearly) every antenna, m; None where it is not.
+    """The range from ``time_zero`` of a B-scan's strongest echo common to
+    its antennas, m; None where there is none.
 
     That echo is the median over the antennas of each one's strongest gate
     (round a periodic axis: ranges past half its period from time zero

@@ -9,9 +9,11 @@ The ``.HD`` header is text beside the ``.DT1`` (the same name, extension
     NUMBER OF TRACES     traces (checked against the .DT1's size)
     NUMBER OF PTS/TRC    samples per trace
     TOTAL TIME WINDOW    the trace's window, ns
-    TIMEZERO AT POINT    the recorder's time zero, sample (reported only)
+    TIMEZERO AT POINT    the recorder's time zero, sample (kept in the header
+                         object, not applied: ``--time-zero`` sets it)
     STEP SIZE USED       the trace spacing, in POSITION UNITS
-    POSITION UNITS       m, cm, mm, ft or in
+    POSITION UNITS       m, cm, mm, ft or in (or spelt out), read only where
+                         the step is used
     NOMINAL FREQUENCY    the antenna's centre frequency, MHz
 
 The ``.DT1`` holds the traces one after another, each a 128-byte header of
@@ -37,7 +39,6 @@ metres.  Band: given, else 0.5-1.5 times the nominal frequency.
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from dataclasses import dataclass
@@ -45,16 +46,35 @@ from dataclasses import dataclass
 import numpy as np
 
 from .data import InputError
-from .traces import header_beside, header_number, line_arrays, read_block
+from .traces import (
+    header_beside,
+    header_keys,
+    header_number,
+    line_arrays,
+    plausible_spacing,
+    read_block,
+    trace_count,
+    trace_samples,
+)
 
 __all__ = ["TRACE_HEADER", "UNITS", "Dt1Header", "convert", "read_hd", "read_traces"]
 
 #: Bytes of each trace's header in a DT1.
 TRACE_HEADER = 128
-#: Metres per POSITION UNITS.
+#: Metres per POSITION UNITS (also spelt out, singular or plural).
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048, "in": 0.0254}
-#: Largest HD file read, bytes (a header is under 2 kB).
-HD_MAX_BYTES = 1 << 16
+_SPELT = {
+    "metre": "m",
+    "meter": "m",
+    "centimetre": "cm",
+    "centimeter": "cm",
+    "millimetre": "mm",
+    "millimeter": "mm",
+    "foot": "ft",
+    "feet": "ft",
+    "inch": "in",
+    "inches": "in",
+}
 
 
 @dataclass(frozen=True)
@@ -72,7 +92,9 @@ class Dt1Header:
     time_zero : float or None
         The recorder's time zero, sample.
     step : float or None
-        Trace spacing, m.
+        STEP SIZE USED, in ``units``.
+    units : str
+        POSITION UNITS as written (:func:`metres` reads them).
     frequency : float or None
         The antenna's nominal frequency, Hz.
     """
@@ -82,6 +104,7 @@ class Dt1Header:
     window: float
     time_zero: float | None
     step: float | None
+    units: str
     frequency: float | None
 
     @property
@@ -101,39 +124,52 @@ def read_hd(path) -> Dt1Header:
     """
     path = os.fspath(path)
     hd = header_beside(path, ".HD")
-    if os.path.getsize(hd) > HD_MAX_BYTES:
-        raise InputError(f"{hd}: {os.path.getsize(hd)} bytes, no pulseEKKO header")
-    with open(hd, "rb") as fh:
-        text = fh.read().decode("latin-1")
-    keys = {}
-    for line in text.splitlines():
-        m = re.match(r"\s*([A-Za-z][A-Za-z0-9 /()#_.-]*?)\s*=\s*(.*?)\s*$", line)
-        if m:
-            keys.setdefault(m.group(1).upper(), m.group(2))
+    keys = header_keys(hd, _key_value)
 
     def number(key, required=True):
         return header_number(keys, key, hd, "{key} = {value}", required)
 
-    samples = number("NUMBER OF PTS/TRC")
-    if samples != int(samples) or samples < 3:
-        raise InputError(f"{hd}: NUMBER OF PTS/TRC = {samples:g}; a trace needs 3 samples or more")
+    pts = number("NUMBER OF PTS/TRC")
+    samples = trace_samples(pts, hd, f"NUMBER OF PTS/TRC = {pts:g}")
     window = number("TOTAL TIME WINDOW")
-    if not (math.isfinite(window) and window > 0):
+    if not window > 0:
         raise InputError(f"{hd}: TOTAL TIME WINDOW = {window:g} ns: it must be > 0")
-    unit = keys.get("POSITION UNITS", "m").strip().lower()
-    if unit not in UNITS:
-        raise InputError(f"{hd}: POSITION UNITS {unit!r}; known: {', '.join(UNITS)}")
-    step = number("STEP SIZE USED", required=False)
     traces = number("NUMBER OF TRACES", required=False)
     mhz = number("NOMINAL FREQUENCY", required=False)
     return Dt1Header(
-        None if traces is None else int(traces),
-        int(samples),
+        None if traces is None or not 0 <= traces <= 1 << 40 else int(traces),
+        samples,
         window * 1e-9,
         number("TIMEZERO AT POINT", required=False),
-        None if step is None else step * UNITS[unit],
+        number("STEP SIZE USED", required=False),
+        keys.get("POSITION UNITS", "m"),
         None if mhz is None or not mhz > 0 else mhz * 1e6,
     )
+
+
+def _key_value(line: str):
+    m = re.match(r"\s*([A-Za-z][A-Za-z0-9 /()#_.-]*?)\s*=\s*(.*?)\s*$", line)
+    return None if m is None else (m.group(1), m.group(2))
+
+
+def metres(hdr: Dt1Header, hd: str) -> float:
+    """The HD's STEP SIZE USED in metres.
+
+    Raises
+    ------
+    InputError
+        No step, or unknown POSITION UNITS.
+    """
+    unit = hdr.units.strip().lower()
+    unit = _SPELT.get(unit.rstrip("s") if unit.rstrip("s") in _SPELT else unit, unit)
+    if unit not in UNITS:
+        raise InputError(
+            f"{hd}: POSITION UNITS {hdr.units!r}; known: {', '.join(UNITS)}: or give the trace "
+            f"spacing (--dx M)"
+        )
+    if hdr.step is None:
+        raise InputError(f"{hd}: no STEP SIZE USED: give the trace spacing (--dx M)")
+    return hdr.step * UNITS[unit]
 
 
 def read_traces(path) -> tuple:
@@ -163,14 +199,20 @@ def read_traces(path) -> tuple:
             f"not a DT1 of this header"
         )
     trace_bytes = TRACE_HEADER + per * hdr.samples
-    n, buf = read_block(path, size, 0, trace_bytes, hdr.samples, (hdr.traces, "the HD says"))
-    raw = np.frombuffer(buf, np.uint8).reshape(n, trace_bytes)
-    heads = raw[:, :TRACE_HEADER].copy().view("<f4")
-    if not np.all(heads[:, 2] == hdr.samples):
-        bad = int(np.flatnonzero(heads[:, 2] != hdr.samples)[0])
+    n = trace_count(path, size, 0, trace_bytes, hdr.samples)
+    # every trace's own sample count, read in place before the samples are
+    # (a file of another layout is refused, not read whole)
+    mm = np.memmap(path, np.uint8, "r", shape=(n * trace_bytes,))
+    counts = np.ndarray((n,), "<f4", buffer=mm, offset=8, strides=(trace_bytes,))
+    bad = np.flatnonzero(counts != hdr.samples)
+    if bad.size:
         raise InputError(
-            f"{path}: trace {bad + 1} says {heads[bad, 2]:g} samples, the HD {hdr.samples}"
+            f"{path}: trace {bad[0] + 1} says {counts[bad[0]]:g} samples, the HD {hdr.samples}: "
+            f"not a DT1 of this header"
         )
+    del counts, mm
+    buf = read_block(path, size, 0, trace_bytes, n, (hdr.traces, "the HD says"))
+    raw = np.frombuffer(buf, np.uint8).reshape(n, trace_bytes)
     tr = raw[:, TRACE_HEADER:].copy().view("<i2" if per == 2 else "<i4").astype(np.float64)
     return hdr, tr
 
@@ -211,11 +253,7 @@ def convert(
         band = (0.5 * hdr.frequency, 1.5 * hdr.frequency)
 
     def spacing():
-        if hdr.step is None or not hdr.step > 0:
-            raise InputError(
-                f"{path}: the HD gives no STEP SIZE USED: give the trace spacing (--dx M)"
-            )
-        return hdr.step
+        return plausible_spacing(path, metres(hdr, path), "the HD's STEP SIZE USED")
 
     return line_arrays(
         path, tr, hdr.dt, band, spacing if dx is None else dx, time_zero, subtract_mean

@@ -37,7 +37,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from .data import InputError
-from .traces import header_beside, header_number, line_arrays, read_block
+from .traces import (
+    header_beside,
+    header_keys,
+    header_number,
+    line_arrays,
+    plausible_spacing,
+    read_block,
+    trace_count,
+    trace_samples,
+)
 
 __all__ = ["MalaHeader", "antenna_frequency", "convert", "read_rad", "read_traces"]
 
@@ -95,22 +104,13 @@ def read_rad(path) -> MalaHeader:
     """
     path = os.fspath(path)
     rad = header_beside(path, ".rad")
-    if os.path.getsize(rad) > RAD_MAX_BYTES:
-        raise InputError(f"{rad}: {os.path.getsize(rad)} bytes, no MALÅ header")
-    with open(rad, "rb") as fh:
-        text = fh.read().decode("latin-1")
-    keys = {}
-    for line in text.splitlines():
-        key, sep, value = line.partition(":")
-        if sep:
-            keys.setdefault(key.strip().upper(), value.strip())
+    keys = header_keys(rad, _key_value)
 
     def number(key, required=True):
         return header_number(keys, key, rad, "{key}:{value}", required)
 
-    samples = number("SAMPLES")
-    if samples != int(samples) or samples < 3:
-        raise InputError(f"{rad}: SAMPLES:{samples:g}; a trace needs 3 samples or more")
+    value = number("SAMPLES")
+    samples = trace_samples(value, rad, f"SAMPLES:{value:g}")
     mhz = number("FREQUENCY")
     if not mhz > 0:
         raise InputError(f"{rad}: FREQUENCY:{mhz:g} MHz: the sampling frequency must be > 0")
@@ -119,12 +119,17 @@ def read_rad(path) -> MalaHeader:
         raise InputError(f"{rad}: DISTANCE INTERVAL:{step:g} m: it must be >= 0")
     traces = number("LAST TRACE", required=False)
     return MalaHeader(
-        int(samples),
+        samples,
         1e-6 / mhz,
         step,
-        None if traces is None else int(traces),
+        None if traces is None or not 0 <= traces <= 1 << 40 else int(traces),
         antenna_frequency(keys.get("ANTENNAS", "")),
     )
+
+
+def _key_value(line: str):
+    key, sep, value = line.partition(":")
+    return (key, value) if sep else None
 
 
 def read_traces(path) -> tuple:
@@ -148,7 +153,8 @@ def read_traces(path) -> tuple:
     per = SAMPLE_BYTES[ext]
     trace_bytes = per * hdr.samples
     size = os.path.getsize(path)
-    n, buf = read_block(path, size, 0, trace_bytes, hdr.samples, (hdr.traces, "LAST TRACE says"))
+    n = trace_count(path, size, 0, trace_bytes, hdr.samples)
+    buf = read_block(path, size, 0, trace_bytes, n, (hdr.traces, "LAST TRACE says"))
     tr = np.frombuffer(buf, "<i2" if per == 2 else "<i4").reshape(n, hdr.samples)
     return hdr, tr.astype(np.float64)
 
@@ -189,7 +195,7 @@ def convert(
                 f"{path}: a time-triggered survey (DISTANCE INTERVAL 0): give the trace "
                 f"spacing (--dx M)"
             )
-        return hdr.step
+        return plausible_spacing(path, hdr.step, "the header's DISTANCE INTERVAL")
 
     return line_arrays(
         path, tr, hdr.dt, band, spacing if dx is None else dx, time_zero, subtract_mean

@@ -18,47 +18,91 @@ from .data import C0, DataWarning, InputError, _finite_scalar
 
 __all__ = [
     "MAX_SAMPLES",
+    "MAX_TRACE_SAMPLES",
     "header_beside",
+    "header_keys",
     "header_number",
     "line_arrays",
+    "plausible_spacing",
     "read_block",
+    "trace_count",
+    "trace_samples",
     "traces_to_spectrum",
 ]
 
 #: Most samples a reader reads (traces x channels x samples per trace).
 MAX_SAMPLES = 1 << 27
+#: Most bytes a reader reads (samples and trace headers).
+MAX_BYTES = 1 << 30
+#: Most samples of one trace a text header may declare.
+MAX_TRACE_SAMPLES = 1 << 20
+#: Largest text header read, bytes (a GPR header is under 2 kB).
+HEADER_MAX_BYTES = 1 << 16
+#: Trace spacings a header may give, m (as GSSI's scans per metre allow):
+#: outside them it is no survey's and ``--dx`` is asked for.
+SPACING_MIN, SPACING_MAX = 1e-5, 100.0
 
-_NUMBER = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
+# a number, then at most a unit word (letters) and blanks: "1200.000",
+# "50 ns"; "50,5" is refused rather than read as 50
+_NUMBER = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*[A-Za-z]*\s*$")
 
 
 def header_beside(path: str, extension: str) -> str:
     """The header file beside ``path``: its name with ``extension`` (".HD",
-    ".rad") in any case.
+    ".rad") in any case, a regular file.
 
     Raises
     ------
     InputError
-        None is there.
+        None is there, or it is no regular file.
     """
+    from .guard import regular_file
+
     stem = os.path.splitext(path)[0]
     folder = os.path.dirname(stem) or "."
     want = (os.path.basename(stem) + extension).lower()
-    found = sorted(n for n in os.listdir(folder) if n.lower() == want)
-    for name in found:
-        full = os.path.join(folder, name)
-        if os.path.isfile(full):
-            return full
-    raise InputError(f"{path}: no header {os.path.basename(stem)}{extension} beside it")
+    try:
+        found = sorted(n for n in os.listdir(folder) if n.lower() == want)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot list its folder ({exc.strerror or exc})") from None
+    if not found:
+        raise InputError(f"{path}: no header {os.path.basename(stem)}{extension} beside it")
+    return regular_file(os.path.join(folder, found[0]), "header")
+
+
+def header_keys(path: str, split) -> dict:
+    """The ``KEY value`` pairs of a text header, read to at most
+    :data:`HEADER_MAX_BYTES`: keys upper case with single blanks, the first
+    of each kept; ``split(line)`` gives ``(key, value)`` or None.
+
+    Raises
+    ------
+    InputError
+        A longer file, or one that cannot be read.
+    """
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read(HEADER_MAX_BYTES + 1)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the header ({exc.strerror or exc})") from None
+    if len(raw) > HEADER_MAX_BYTES:
+        raise InputError(f"{path}: over {HEADER_MAX_BYTES} bytes, no GPR header")
+    keys = {}
+    for line in raw.decode("latin-1").splitlines():
+        kv = split(line)
+        if kv is not None:
+            keys.setdefault(" ".join(kv[0].split()).upper(), kv[1].strip())
+    return keys
 
 
 def header_number(keys: dict, key: str, where: str, line: str, required: bool = True):
-    """The number a text header's ``key`` starts with, float; None where
-    the key is missing and not ``required``.
+    """The number a text header gives for ``key`` (a unit word may follow
+    it), float; None where the key is missing and not ``required``.
 
     Parameters
     ----------
     keys : dict
-        The header's keys (upper case) and values (text).
+        :func:`header_keys`.
     key : str
     where : str
         The header file, for the messages.
@@ -69,7 +113,7 @@ def header_number(keys: dict, key: str, where: str, line: str, required: bool = 
     Raises
     ------
     InputError
-        A required key missing, or a value that starts with no finite number.
+        A required key missing, or a value that is no finite number.
     """
     v = keys.get(key)
     if v is None:
@@ -77,39 +121,56 @@ def header_number(keys: dict, key: str, where: str, line: str, required: bool = 
             raise InputError(f"{where}: no '{key}' line")
         return None
     m = _NUMBER.match(v)
-    if not m or not math.isfinite(float(m.group(0))):
+    if not m or not math.isfinite(float(m.group(1))):
         shown = line.format(key=key, value=repr(v))
         raise InputError(f"{where}: {shown} is no (finite) number")
-    return float(m.group(0))
+    return float(m.group(1))
 
 
-def read_block(path: str, size: int, offset: int, trace_bytes: int, samples: int, declared=None):
-    """The whole traces of a file, as bytes, after their count is checked.
+def trace_samples(value: float, where: str, shown: str) -> int:
+    """A header's samples per trace, a whole number 3 .. :data:`MAX_TRACE_SAMPLES`."""
+    if value != int(value) or not 3 <= value <= MAX_TRACE_SAMPLES:
+        raise InputError(
+            f"{where}: {shown}: samples per trace must be a whole number, 3 .. {MAX_TRACE_SAMPLES}"
+        )
+    return int(value)
+
+
+def plausible_spacing(path: str, dx: float, source: str) -> float:
+    """A trace spacing from a header, m, within :data:`SPACING_MIN` ..
+    :data:`SPACING_MAX`; else InputError asking for ``--dx``."""
+    if not SPACING_MIN <= dx <= SPACING_MAX:
+        raise InputError(
+            f"{path}: {source} gives a {dx:.3g} m trace spacing, no survey's: give the "
+            f"trace spacing (--dx M)"
+        )
+    return dx
+
+
+def trace_count(path: str, size: int, offset: int, trace_bytes: int, samples: int) -> int:
+    """The whole traces of ``trace_bytes`` after ``offset`` in a file of
+    ``size`` bytes, checked: at least 2, at most :data:`MAX_SAMPLES` samples
+    and :data:`MAX_BYTES` bytes."""
+    n = (size - offset) // trace_bytes
+    if n * samples > MAX_SAMPLES or n * trace_bytes > MAX_BYTES:
+        raise InputError(
+            f"{path}: {n} traces of {samples} samples ({trace_bytes} bytes each), more than "
+            f"{MAX_SAMPLES} samples or {MAX_BYTES} bytes"
+        )
+    if n < 2:
+        raise InputError(f"{path}: {n} traces of {trace_bytes} bytes; a B-scan needs at least 2")
+    return n
+
+
+def read_block(path: str, size: int, offset: int, trace_bytes: int, n: int, declared=None):
+    """The bytes of the ``n`` whole traces (:func:`trace_count`) after
+    ``offset``, with the warnings of a part trace at the end and of another
+    count than a header's.
 
     Parameters
     ----------
-    path : str
-    size : int
-        The file's bytes.
-    offset : int
-        Where the traces start, bytes.
-    trace_bytes : int
-        Bytes of one trace (its header included).
-    samples : int
-        Samples per trace (the bound :data:`MAX_SAMPLES`).
     declared : (int or None, str), optional
         The trace count a header gives and how to name it ("the HD says").
-
-    Returns
-    -------
-    (int, bytes)
-        The traces and their bytes.
-
-    Raises
-    ------
-    InputError
-        More than :data:`MAX_SAMPLES` samples, fewer than 2 traces, a file
-        that changes while read.
 
     Warns
     -----
@@ -117,11 +178,7 @@ def read_block(path: str, size: int, offset: int, trace_bytes: int, samples: int
         The file ends inside a trace (it is dropped), or holds another count
         than ``declared``.
     """
-    n, rest = divmod(size - offset, trace_bytes)
-    if n * samples > MAX_SAMPLES:
-        raise InputError(f"{path}: {n} traces of {samples} samples, more than {MAX_SAMPLES}")
-    if n < 2:
-        raise InputError(f"{path}: {n} traces of {trace_bytes} bytes; a B-scan needs at least 2")
+    rest = size - offset - n * trace_bytes
     if rest:
         warnings.warn(
             f"{path}: the data end {rest} bytes into trace {n + 1} (of {trace_bytes} bytes); "
@@ -140,7 +197,7 @@ def read_block(path: str, size: int, offset: int, trace_bytes: int, samples: int
         buf = fh.read(n * trace_bytes)
     if len(buf) != n * trace_bytes:
         raise InputError(f"{path}: the file changed while read")
-    return n, buf
+    return buf
 
 
 def line_arrays(path, tr, dt: float, band, dx, time_zero, subtract_mean: bool) -> dict:

@@ -119,7 +119,15 @@ def crossrange_resolution(
     x = np.asarray(x, np.float64)
     points = np.asarray(points, np.float64)
     c = np.sin(np.radians(min(reach_deg, 90.0)))
-    if not (points.shape[0] and x.size > 1 and np.all(np.diff(x) > 0) and np.all(points[:, 1] > 0)):
+    # the bisection wants sines that grow with x: an increasing line, and
+    # points a millionth of a spacing or more in front (nearer, the sines
+    # round to +-1 and may step back by an ulp)
+    if not (
+        points.shape[0]
+        and x.size > 1
+        and np.all(np.diff(x) > 0)
+        and np.all(points[:, 1] > 1e-6 * np.min(np.diff(x)))
+    ):
         hi, lo = _sine_span(x, points, c, seen)
     else:
         hi, lo = _sine_span_sorted(x, points, c, reach_deg, seen)
