@@ -217,9 +217,11 @@ def _env():
     return env
 
 
-def _heavy_modules_after(code: str, names) -> list:
+def _heavy_modules_after(code: str, names, cwd=None) -> list:
     """Which of the modules ``names`` (and their submodules) a fresh
-    interpreter holds after running ``code``."""
+    interpreter holds after running ``code`` (in the folder ``cwd``: one
+    without a checkout's ``rpm_cl``, whose kernels an installed copy keeps
+    elsewhere, where the code builds programs)."""
     probe = (
         f"{code}; import json, sys; print(json.dumps(sorted(m for m in sys.modules "
         f"if m.split('.')[0] in {tuple(names)!r})))"
@@ -231,6 +233,7 @@ def _heavy_modules_after(code: str, names) -> list:
         text=True,
         env=_env(),
         timeout=60,
+        cwd=cwd,
     )
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout)
@@ -273,7 +276,7 @@ def test_imaging_a_gpr_line_imports_no_scipy(tmp_path):
         "from rpm_cl.cli import main; "
         f"assert main(['image', {str(path)!r}, '-o', {str(out)!r}, '-q']) == 0"
     )
-    assert _heavy_modules_after(code, ("scipy",)) == []
+    assert _heavy_modules_after(code, ("scipy",), cwd=tmp_path) == []
     assert np.load(out)["points"].shape[0] > 100
 
 
