@@ -93,6 +93,7 @@ def test_the_cli_converts_by_extension_and_refuses_a_dzt_option(tmp_path, capsys
         (_hd(units="furlong"), None, "POSITION UNITS 'furlong'; known: .* or give the trace"),
         (_hd(drop=("NUMBER OF PTS/TRC",)), None, "no 'NUMBER OF PTS/TRC' line"),
         (_hd(window=0), None, "TOTAL TIME WINDOW = 0 ns"),
+        (_hd(window=1e30), None, "a sample interval of 1.95e\\+18 s \\(from TOTAL TIME WINDOW"),
         (_hd(samples=500), None, "first trace says 512 samples, the HD 500"),
         (_hd(drop=("STEP SIZE USED",)), None, "no STEP SIZE USED: give the trace spacing"),
         (_hd(drop=("NOMINAL FREQUENCY",)), None, "no NOMINAL FREQUENCY: give --band"),

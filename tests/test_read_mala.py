@@ -90,6 +90,7 @@ def test_the_cli_and_a_time_triggered_survey(tmp_path, capsys):
     [
         (_rad(drop=("SAMPLES",)), None, "no 'SAMPLES' line"),
         (_rad(mhz=0), None, "FREQUENCY:0 MHz"),
+        (_rad(mhz=1e300), None, "a sample interval of 1e-306 s \\(from FREQUENCY\\) is no GPR's"),
         (_rad(samples=2), None, "SAMPLES:2: samples per trace must be a whole number"),
         (_rad(mhz="2000,5"), None, "FREQUENCY:'2000,5' is no"),
         (_rad(step=1e30), None, "gives a 1e\\+30 m trace spacing, no survey's"),

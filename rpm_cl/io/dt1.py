@@ -51,6 +51,7 @@ from .traces import (
     header_keys,
     header_number,
     line_arrays,
+    plausible_dt,
     plausible_spacing,
     read_block,
     trace_count,
@@ -136,6 +137,7 @@ def read_hd(path) -> Dt1Header:
         raise InputError(f"{hd}: TOTAL TIME WINDOW = {window:g} ns: it must be > 0")
     traces = number("NUMBER OF TRACES", required=False)
     mhz = number("NOMINAL FREQUENCY", required=False)
+    plausible_dt(hd, window * 1e-9 / samples, "TOTAL TIME WINDOW and NUMBER OF PTS/TRC")
     return Dt1Header(
         None if traces is None or not 0 <= traces <= 1 << 40 else int(traces),
         samples,

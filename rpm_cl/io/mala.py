@@ -42,6 +42,7 @@ from .traces import (
     header_keys,
     header_number,
     line_arrays,
+    plausible_dt,
     plausible_spacing,
     read_block,
     trace_count,
@@ -118,6 +119,7 @@ def read_rad(path) -> MalaHeader:
     if step < 0:
         raise InputError(f"{rad}: DISTANCE INTERVAL:{step:g} m: it must be >= 0")
     traces = number("LAST TRACE", required=False)
+    plausible_dt(rad, 1e-6 / mhz, "FREQUENCY")
     return MalaHeader(
         samples,
         1e-6 / mhz,

@@ -23,6 +23,7 @@ __all__ = [
     "header_keys",
     "header_number",
     "line_arrays",
+    "plausible_dt",
     "plausible_spacing",
     "read_block",
     "trace_count",
@@ -38,6 +39,9 @@ MAX_BYTES = 1 << 30
 MAX_TRACE_SAMPLES = 1 << 20
 #: Largest text header read, bytes (a GPR header is under 2 kB).
 HEADER_MAX_BYTES = 1 << 16
+#: Sample intervals a header may give, s: a 10 GHz antenna's record is
+#: sampled at tens of ps, a 10 MHz one's at nanoseconds.
+DT_MIN, DT_MAX = 1e-13, 1e-7
 #: Trace spacings a header may give, m (as GSSI's scans per metre allow):
 #: outside them it is no survey's and ``--dx`` is asked for.
 SPACING_MIN, SPACING_MAX = 1e-5, 100.0
@@ -134,6 +138,17 @@ def trace_samples(value: float, where: str, shown: str) -> int:
             f"{where}: {shown}: samples per trace must be a whole number, 3 .. {MAX_TRACE_SAMPLES}"
         )
     return int(value)
+
+
+def plausible_dt(where: str, dt: float, shown: str) -> float:
+    """A header's sample interval, s, within :data:`DT_MIN` .. :data:`DT_MAX`;
+    else InputError naming the fields ``shown`` that gave it."""
+    if not DT_MIN <= dt <= DT_MAX:
+        raise InputError(
+            f"{where}: a sample interval of {dt:.3g} s (from {shown}) is no GPR's "
+            f"({DT_MIN:g} .. {DT_MAX:g} s)"
+        )
+    return dt
 
 
 def plausible_spacing(path: str, dx: float, source: str) -> float:
