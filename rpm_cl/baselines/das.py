@@ -40,7 +40,6 @@ from ..cl import read_only
 from ..extract.backprojection import (
     BYTES_PER_TERM,
     BYTES_PER_TERM_REFRACTED,
-    POLY_KC_DR_MAX,
     antennas,
     phased_pairs,
     summed,
@@ -63,6 +62,11 @@ __all__ = [
     "write_image",
 ]
 
+#: The DAS kernel evaluates the phasor between two range gates by a Taylor
+#: polynomial (-DPOLY) where k_c times the gate spacing is at most this, rad
+#: (its truncation error there is below 1e-7, under float32 rounding), else
+#: by sincos (kernels/das.cl).
+POLY_KC_DR_MAX = 1.1
 #: Default bound on the memory a DAS run may hold (temporaries, tables), bytes.
 MEMORY_BUDGET_DEFAULT = 2_000_000_000
 

@@ -18,7 +18,6 @@ from ..io.data import C0, InputError, RadarData
 __all__ = [
     "BYTES_PER_TERM",
     "BYTES_PER_TERM_REFRACTED",
-    "POLY_KC_DR_MAX",
     "antennas",
     "at_points",
     "phased_pairs",
@@ -33,11 +32,6 @@ __all__ = [
 #: more).
 BYTES_PER_TERM = 160
 BYTES_PER_TERM_REFRACTED = 400
-#: The OpenCL sums (kernels/das.cl) evaluate the phasor between two range
-#: gates by a Taylor polynomial (-DPOLY) where k_c times the gate spacing is
-#: at most this, rad (its truncation error there is below 1e-7, under
-#: float32 rounding; 5e-11 in float64), else by sincos.
-POLY_KC_DR_MAX = 1.1
 
 
 def weights(p: np.ndarray, ant: np.ndarray, r0: float, dr: float, nr: int, k2: float, medium=None):

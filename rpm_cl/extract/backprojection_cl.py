@@ -18,7 +18,7 @@ from ..cl import CLEnv, get_kernels, read_only
 from ..io.data import C0, InputError, RadarData
 from .backprojection import antennas, phased_pairs, points3
 
-__all__ = ["POINTS_PER_LAUNCH", "PointSums", "device_for"]
+__all__ = ["POINTS_PER_LAUNCH", "PointSums", "device_for", "sums_on"]
 
 #: Most points of one ``das_points`` launch.
 POINTS_PER_LAUNCH = 1 << 18
@@ -33,6 +33,14 @@ def device_for(env: CLEnv | None) -> PointSums | None:
     if env is None or not env.has_double:
         return None
     return PointSums(env)
+
+
+def sums_on(env: CLEnv | None):
+    """``sums(data, points)`` on ``env``'s device (:meth:`PointSums.at_points`),
+    or None where :func:`device_for` gives none (the callers then sum in
+    NumPy)."""
+    dev = device_for(env)
+    return None if dev is None else dev.at_points
 
 
 class PointSums:

@@ -481,11 +481,9 @@ def _decompose(data: RadarData, params: KSpaceParams, env=None) -> Decomposition
         idx = above_leakage(idx, mag, span.start, data)
     if wants_coherent_centres(data, params):
         rel = 10.0 ** (params.peak_threshold_db / 20.0)
-        from .backprojection_cl import device_for
+        from .backprojection_cl import sums_on
 
-        dev = device_for(env)
-        sums = None if dev is None else dev.at_points
-        extra = coherent_centres(data, idx, runs, k_axes[0], rel, periods[0], gate, sums)
+        extra = coherent_centres(data, idx, runs, k_axes[0], rel, periods[0], gate, sums_on(env))
         idx = np.concatenate([idx, extra]) if extra.size else idx
     if not idx.size:
         return Decomposition(k_axes, mag, (), gate0=span.start)

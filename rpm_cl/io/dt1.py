@@ -28,7 +28,7 @@ the HD's 1200 ns matches the recorded depths.
 
 Conversion
 ----------
-As for GSSI files (:func:`rpm_cl.io.traces.traces_to_spectrum`: each trace
+As for GSSI files (:func:`rpm_cl.io.traces.line_arrays`: each trace
 less its mean, samples before time zero set to 0, the record zero-padded to
 twice its length and transformed with NumPy's sign, the band kept).  Time
 zero is the sample ``time_zero`` (default 0, the window's first sample;

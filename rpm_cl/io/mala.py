@@ -22,7 +22,7 @@ ImpDAR's test line ``ten_col``, it is twice ``SAMPLES / FREQUENCY``).
 
 Conversion
 ----------
-As for GSSI files (:func:`rpm_cl.io.traces.traces_to_spectrum`); time zero is
+As for GSSI files (:func:`rpm_cl.io.traces.line_arrays`); time zero is
 the sample ``time_zero`` (default 0; ``rpm-cl image --time-zero auto`` puts
 it on the direct wave), positions ``i`` times the spacing, the band given or
 0.5-1.5 times the antenna's centre frequency.

@@ -138,9 +138,9 @@ def convert(inputs, fmt: str | None = None, **options) -> tuple:
         :class:`rpm_cl.io.gprmax.SourceWaveform`) ``, sidecar, df, rx``;
         arrays ``map`` (``"spectrum=F,..."``) ``, transpose, axes`` (``"f,x"``)
         ``, scale_x, scale_f, conjugate``; dzt ``band, dx, time_zero, channel,
-        subtract_mean``; dt1 and mala ``band, dx, time_zero, subtract_mean``; dca1000 ``slope, adc_rate, samples, start_freq,
-        adc_start_time, chirps, rx`` (receivers) ``, layout, dx, rx_spacing,
-        receiver``.
+        subtract_mean``; dt1 and mala ``band, dx, time_zero, subtract_mean``;
+        dca1000 ``slope, adc_rate, samples, start_freq, adc_start_time,
+        chirps, rx`` (receivers) ``, layout, dx, rx_spacing, receiver``.
 
     Returns
     -------
@@ -227,24 +227,26 @@ def _dzt(inputs, o):
     )
 
 
-def _dt1(inputs, o):
-    from .dt1 import convert
-
+def _line(convert, name: str, inputs, o):
+    """A one-file impulse-GPR reader's ``convert(path, band, dx, time_zero,
+    subtract_mean)`` on ``inputs``."""
     if len(inputs) != 1:
-        raise InputError(f"{len(inputs)} DT1 files; convert one at a time")
+        raise InputError(f"{len(inputs)} {name} files; convert one at a time")
     return convert(
         inputs[0], o.get("band"), o.get("dx"), o.get("time_zero", 0.0), bool(o.get("subtract_mean"))
     )
+
+
+def _dt1(inputs, o):
+    from .dt1 import convert
+
+    return _line(convert, "DT1", inputs, o)
 
 
 def _mala(inputs, o):
     from .mala import convert
 
-    if len(inputs) != 1:
-        raise InputError(f"{len(inputs)} MALÅ files; convert one at a time")
-    return convert(
-        inputs[0], o.get("band"), o.get("dx"), o.get("time_zero", 0.0), bool(o.get("subtract_mean"))
-    )
+    return _line(convert, "MALÅ", inputs, o)
 
 
 def _dca1000(inputs, o):

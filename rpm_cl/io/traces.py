@@ -28,7 +28,6 @@ __all__ = [
     "read_block",
     "trace_count",
     "trace_samples",
-    "traces_to_spectrum",
 ]
 
 #: Most samples a reader reads (traces x channels x samples per trace).
@@ -216,12 +215,14 @@ def read_block(path: str, size: int, offset: int, trace_bytes: int, n: int, decl
 
 
 def line_arrays(path, tr, dt: float, band, dx, time_zero, subtract_mean: bool) -> dict:
-    """The schema's arrays of a line of real traces: ``spectrum``,
-    ``frequency``, ``x`` (trace ``i`` at ``i dx``), ``record_range``.
+    """Real traces -> the schema's arrays: ``spectrum``, ``frequency``,
+    ``x`` (trace ``i`` at ``i dx``), ``record_range`` (:mod:`rpm_cl.io.dzt`'s
+    notes, "Conversion").
 
     Parameters
     ----------
     path : str
+        The file, for the messages.
     tr : ndarray, float64, shape (traces, N)
     dt : float
         Sample interval, s.
@@ -230,14 +231,17 @@ def line_arrays(path, tr, dt: float, band, dx, time_zero, subtract_mean: bool) -
     dx : float or callable
         Trace spacing, m, or a function of no arguments that gives it (or
         raises), called after the band is checked.
-    time_zero, subtract_mean
-        :func:`traces_to_spectrum`'s.
+    time_zero : float
+        The sample of time zero, 0 .. N - 2, may be fractional.
+    subtract_mean : bool
+        Subtract the mean trace.
 
     Raises
     ------
     InputError
-        A band beyond the Nyquist frequency, a spacing that is no finite
-        positive length, and :func:`traces_to_spectrum`'s.
+        A band beyond the Nyquist frequency or holding fewer than 2
+        samples, a spacing that is no finite positive length, a time zero
+        outside the trace.
     """
     f0, f1 = (float(v) for v in band)
     nyq = 0.5 / dt
@@ -247,35 +251,7 @@ def line_arrays(path, tr, dt: float, band, dx, time_zero, subtract_mean: bool) -
             f"frequency of {dt * 1e12:g} ps samples), got {f0:g} .. {f1:g} Hz"
         )
     dx = _finite_scalar("dx", dx() if callable(dx) else dx)
-    out = traces_to_spectrum(path, tr, dt, time_zero, (f0, f1), subtract_mean)
-    return {
-        "spectrum": out["spectrum"],
-        "frequency": out["frequency"],
-        "x": np.arange(tr.shape[0]) * dx,
-        "record_range": out["record_range"],
-    }
-
-
-def traces_to_spectrum(path, tr, dt: float, time_zero, band, subtract_mean: bool) -> dict:
-    """Real traces -> ``spectrum``, ``frequency``, ``record_range``
-    (:mod:`rpm_cl.io.dzt`'s notes, "Conversion").
-
-    Parameters
-    ----------
-    path : str
-        The file, for the messages.
-    tr : ndarray, float64, shape (traces, N)
-    dt : float
-        Sample interval, s.
-    time_zero : float
-        The sample of time zero, 0 .. N - 2, may be fractional.
-    band : (float, float)
-        Hz, within the Nyquist frequency.
-    subtract_mean : bool
-        Subtract the mean trace.
-    """
     n = tr.shape[1]
-    f0, f1 = band
     n0 = _finite_scalar("time zero", time_zero, positive=False)
     if not 0 <= n0 <= n - 2:
         raise InputError(f"{path}: time zero at sample {n0:g}, outside the trace's 0 .. {n - 2}")
@@ -296,6 +272,7 @@ def traces_to_spectrum(path, tr, dt: float, time_zero, band, subtract_mean: bool
     return {
         "spectrum": spec,
         "frequency": freq,
+        "x": np.arange(tr.shape[0]) * dx,
         # the record after time zero: the padded half's gates hold nothing
         "record_range": (n - n0) * dt * C0 / 2.0,
     }
